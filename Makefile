@@ -1,0 +1,32 @@
+# stance: two commands on a fresh Debian bookworm machine.
+#   make demo   install dependencies if missing, build (Release), run the main job
+#   make test   install dependencies if missing, build, run ctest
+BUILD ?= build
+JOBS ?= $(shell nproc)
+STANCE = $(BUILD)/stance
+
+.PHONY: demo test build deps bench clean format
+
+deps:
+	@bash scripts/install-deps.sh
+
+$(BUILD)/CMakeCache.txt:
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release
+
+build: deps $(BUILD)/CMakeCache.txt
+	cmake --build $(BUILD) -j$(JOBS)
+
+test: build
+	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) --timeout 900
+
+demo: build
+	@bash scripts/demo.sh $(STANCE)
+
+bench: build
+	@bash bench/report.sh $(BUILD)
+
+format:
+	clang-format -i $$(git ls-files '*.cc' '*.h')
+
+clean:
+	rm -rf $(BUILD)

@@ -1,0 +1,129 @@
+#include "app/commands.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <iostream>
+
+#include "control/controller.h"
+#include "core/error.h"
+#include "engine/engine.h"
+#include "engine/world_spec.h"
+#include "model/skel_to_mjcf.h"
+#include "scenario/runner.h"
+#include "scenario/scenario.h"
+
+namespace stance {
+
+namespace {
+// every error becomes one line on stderr and exit code 2
+template <class F>
+int guarded(F&& body) {
+  try {
+    return body();
+  } catch (const InputError& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const YAML::Exception& e) {
+    std::cerr << "error: YAML: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::invalid_argument& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kExitBadInput;
+  } catch (const std::exception& e) {
+    std::cerr << "error: " << e.what() << "\n";
+    return kExitBadInput;
+  }
+}
+}  // namespace
+
+int run_command(const RunCommand& cmd) {
+  return guarded([&] {
+    LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
+    if (loaded.scenario.name.empty())
+      loaded.scenario.name = std::filesystem::path(cmd.scenario).stem().string();
+    RunOptions opt;
+    opt.engine = cmd.engine;
+    opt.duration = cmd.duration;
+    opt.out_dir = cmd.out_dir;
+    opt.quiet = cmd.quiet;
+    for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
+    ScenarioRun run(loaded, opt);
+    RunResult r = run.run();
+    if (!cmd.quiet) {
+      std::cout << fmt::format("{} on {}: {:.3f} s simulated in {:.3f} s wall ({:.1f}x real time)\n",
+                               r.scenario, r.engine, r.sim_time, r.wall_time_s,
+                               r.wall_time_s > 0 ? r.sim_time / r.wall_time_s : 0.0);
+      if (r.diverged)
+        std::cout << "  DIVERGED: " << r.divergence << "\n";
+      else if (r.fell)
+        std::cout << fmt::format("  fell at t={:.3f} s: {}\n", *r.fall_time, r.fall_reason);
+      else
+        std::cout << "  did not fall\n";
+      for (auto it = r.metrics.begin(); it != r.metrics.end(); ++it)
+        std::cout << "  " << it.key() << ": " << it.value().dump() << "\n";
+      if (!cmd.out_dir.empty())
+        std::cout << "  wrote " << (std::filesystem::path(cmd.out_dir) / "summary.json").string()
+                  << " and log.csv\n";
+    }
+    if (r.diverged) {
+      std::cerr << "error: simulation diverged: " << r.divergence << "\n";
+      return kExitDiverged;
+    }
+    return kExitOk;
+  });
+}
+
+int info_command(const InfoCommand& cmd) {
+  return guarded([&] {
+    WorldSpec spec;
+    spec.models.push_back({cmd.model, Eigen::Vector3d::Zero()});
+    std::unique_ptr<Engine> e = make_engine(cmd.engine, spec);
+    nlohmann::json j;
+    j["nbody"] = e->nbody();
+    j["nq"] = e->nq();
+    j["nv"] = e->nv();
+    j["nu"] = e->nu();
+    j["mass"] = e->total_mass();
+    if (cmd.json) {
+      std::cout << j.dump() << "\n";
+    } else {
+      std::cout << fmt::format("{} on {}: {} mobile bodies, nq {}, nv {}, nu {}, mass {:.6f} kg\n",
+                               cmd.model, cmd.engine, e->nbody(), e->nq(), e->nv(), e->nu(),
+                               e->total_mass());
+      std::cout << "dofs:";
+      for (int i = 0; i < e->nv(); ++i) std::cout << ' ' << e->dof_name(i);
+      std::cout << "\nbodies:";
+      for (int i = 0; i < e->nbody(); ++i) std::cout << ' ' << e->body_name(i);
+      std::cout << "\n";
+    }
+    return kExitOk;
+  });
+}
+
+int convert_command(const std::string& in_path, const std::string& out_path) {
+  return guarded([&] {
+    write_mjcf_file(in_path, out_path);
+    std::cout << "wrote " << out_path << "\n";
+    return kExitOk;
+  });
+}
+
+int list_command(const std::string& scenario_dir) {
+  return guarded([&] {
+    std::cout << "controllers:\n";
+    for (const auto& t : controller_registry())
+      std::cout << fmt::format("  {:<16} {}\n", t.name, t.summary);
+    std::cout << "scenarios in " << scenario_dir << ":\n";
+    std::vector<std::string> files;
+    if (std::filesystem::is_directory(scenario_dir))
+      for (const auto& f : std::filesystem::directory_iterator(scenario_dir))
+        if (f.path().extension() == ".yaml") files.push_back(f.path().string());
+    std::sort(files.begin(), files.end());
+    for (const auto& f : files) std::cout << "  " << f << "\n";
+    return kExitOk;
+  });
+}
+
+}  // namespace stance

@@ -1,0 +1,101 @@
+// Controllers: the runtime face of the Model/Data split.
+//
+// A concrete controller keeps immutable Params and a Model (indices, gains, K) built once from
+// the engine, and a State (FSM state, previous offsets, work vectors) made by reset(). compute()
+// reads the engine and *adds* its outputs, so controllers compose by summing; it must not
+// allocate.
+#pragma once
+
+#include <nlohmann/json.hpp>
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Core>
+#include <functional>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "params/yaml_params.h"
+
+namespace stance {
+
+class Engine;
+
+// what the controllers produce for one step; sized once per run
+struct ControlOutput {
+  Eigen::VectorXd tau;   // generalised forces, dim nv; summed over controllers
+  Eigen::VectorXd ctrl;  // actuator controls, dim nu; summed over controllers
+  bool ctrl_used = false;
+
+  void resize(int nv, int nu) {
+    tau = Eigen::VectorXd::Zero(nv);
+    ctrl = Eigen::VectorXd::Zero(nu);
+  }
+  void clear() {
+    tau.setZero();
+    ctrl.setZero();
+    ctrl_used = false;
+  }
+};
+
+class Controller {
+ public:
+  virtual ~Controller() = default;
+  virtual std::string_view type() const = 0;
+
+  // fresh per-run state; called before the first compute() and on replay
+  virtual void reset(const Engine& engine) = 0;
+  // add this step's outputs; engine.forward() has been called. No allocation.
+  virtual void compute(const Engine& engine, ControlOutput& out) = 0;
+
+  // key signals for log.csv: names fixed after construction, values filled per log row
+  virtual void signal_names(std::vector<std::string>& names) const {}
+  virtual void signals(std::vector<double>& values) const {}
+  // end-of-run metrics, merged into summary.json "metrics"
+  virtual void add_metrics(nlohmann::json& metrics) const {}
+  // the parameters as YAML (for saving a tuned scenario)
+  virtual YAML::Node params_yaml() const = 0;
+};
+
+// the registry: one line per controller type (see control/registry.cc)
+struct ControllerContext {
+  YamlSource source;  // scenario file, for messages
+  std::string path;   // "controllers[1]"
+};
+
+using ControllerFactory = std::function<std::unique_ptr<Controller>(
+    const YAML::Node& params, const ControllerContext& ctx, const Engine& engine)>;
+
+struct ControllerType {
+  std::string name;
+  std::string summary;
+  ControllerFactory make;
+};
+
+const std::vector<ControllerType>& controller_registry();
+// throws InputError naming the nearest type when `name` is unknown
+const ControllerType& find_controller_type(const std::string& name);
+
+// read Params from the YAML mapping `node`, minus the keys in `skip` (e.g. "type")
+template <class Params>
+Params read_params(const YAML::Node& node, const ControllerContext& ctx,
+                   const std::vector<std::string>& skip = {"type"}) {
+  Params p{};
+  YamlParamReader reader(node, ctx.source, ctx.path);
+  for (const auto& k : skip) reader.claim(k);
+  reader.read(p);
+  return p;
+}
+
+template <class Params>
+YAML::Node params_to_yaml(const Params& p, std::string_view type) {
+  YAML::Node out(YAML::NodeType::Map);
+  out["type"] = std::string(type);
+  Params copy = p;
+  YamlParamWriter w(out);
+  w.write(copy);
+  return out;
+}
+
+}  // namespace stance

@@ -1,0 +1,56 @@
+// Hold a pose with joint-space PD: tau = -kp (q (-) q_target) - kd v on the chosen dofs.
+// The first user of the engine interface; positions are differenced by the engine, so ball
+// and free joints work.
+#pragma once
+
+#include "control/controller.h"
+#include "engine/engine.h"
+
+namespace stance {
+
+struct HoldPosePdParams {
+  double kp = 100;  // N m/rad
+  double kd = 10;   // N m s/rad
+  std::vector<std::string> dofs;  // empty: every non-root dof
+  NamedValues target;             // dof -> value; unnamed dofs hold their initial value
+  double max_torque = 1e9;        // N m, symmetric clamp
+
+  template <class V>
+  void visit(V& v) {
+    v("kp", kp, {.unit = "N m/rad", .min = 0, .help = "position gain"});
+    v("kd", kd, {.unit = "N m s/rad", .min = 0, .help = "velocity gain"});
+    v("dofs", dofs, {.help = "dofs to hold; empty = all non-root dofs"});
+    v("target", target, {.unit = "rad or m", .help = "target per dof; default: initial pose"});
+    v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "torque clamp"});
+  }
+};
+
+class HoldPosePd final : public Controller {
+ public:
+  // model: gains and dof indices, fixed after construction
+  struct Model {
+    HoldPosePdParams params;
+    std::vector<int> dofs;
+  };
+  // data: the target pose captured at reset, and work vectors
+  struct State {
+    Eigen::VectorXd q_target, q, v, dq;
+  };
+
+  HoldPosePd(const HoldPosePdParams& params, const Engine& engine);
+  std::string_view type() const override { return "hold_pose_pd"; }
+  void reset(const Engine& engine) override;
+  void compute(const Engine& engine, ControlOutput& out) override;
+  void signal_names(std::vector<std::string>& names) const override;
+  void signals(std::vector<double>& values) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+
+  static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
+
+ private:
+  Model model_;
+  State state_;
+  double last_error_norm_ = 0;
+};
+
+}  // namespace stance

@@ -1,0 +1,177 @@
+// The one engine interface. Controllers and scenarios see physics only through this class;
+// no controller includes a MuJoCo or DART header.
+//
+// Conventions shared by both backends:
+//  - generalised positions q (dim nq) and velocities v (dim nv). nq != nv when a model has free
+//    or ball joints (MuJoCo stores quaternions). Never subtract positions directly: use
+//    difference_positions / integrate_positions.
+//  - every "dof" has a name. Single-dof joints use the joint name; multi-dof joints use the
+//    DART suffixes: free "<j>_rot_x.._rot_z", "<j>_pos_x.._pos_z"; ball "<j>_x.._z"; euler
+//    "<j>_<axis>"; universal "<j>_1", "<j>_2". Dof order inside q/v is the backend's own: look
+//    indices up by name.
+//  - forces: M(q) v' + bias(q, v) = tau_applied + tau_constraint + J^T f_ext.
+//  - all vectors and points are in the world frame unless the name says otherwise.
+//  - per-step inputs (generalised forces, external body forces) are consumed by the next step()
+//    and then cleared; actuator controls persist until changed.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <memory>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace stance {
+
+enum class JointType { kFree, kBall, kHinge, kSlide };
+
+struct JointInfo {
+  std::string name;
+  JointType type = JointType::kHinge;
+  int body = -1;      // child body index
+  int qpos_adr = -1;  // first index in q
+  int dof_adr = -1;   // first index in v
+  int nq = 0;
+  int nv = 0;
+  bool has_limits = false;
+  double lower = 0, upper = 0;  // hinge/slide only
+};
+
+struct BodyPose {
+  Eigen::Vector3d pos = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond quat = Eigen::Quaterniond::Identity();
+};
+
+struct Contact {
+  int body1 = -1;  // -1: the world or an immobile body
+  int body2 = -1;
+  Eigen::Vector3d pos = Eigen::Vector3d::Zero();
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();  // from body1 to body2
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();   // on body2, world frame
+};
+
+// full simulation state, restorable bit-exactly on the same engine.
+struct EngineState {
+  double time = 0;
+  Eigen::VectorXd q, v, act, ctrl;
+  std::vector<double> extra;  // backend-specific warm-start data
+};
+
+class Engine {
+ public:
+  virtual ~Engine() = default;
+
+  virtual std::string_view engine_name() const = 0;  // "mujoco" or "dart"
+
+  // sizes. Bodies exclude the world and immobile bodies.
+  virtual int nq() const = 0;
+  virtual int nv() const = 0;
+  virtual int nu() const = 0;
+  virtual int nbody() const = 0;
+  virtual int njoint() const = 0;
+  virtual double total_mass() const = 0;  // of the mobile bodies, kg
+
+  // names and lookup; lookups return -1 when absent (see require_* below for errors).
+  virtual int body_index(std::string_view name) const = 0;
+  virtual int joint_index(std::string_view name) const = 0;
+  virtual int dof_index(std::string_view name) const = 0;  // index into v
+  virtual int actuator_index(std::string_view name) const = 0;
+  virtual const std::string& body_name(int body) const = 0;
+  virtual const std::string& dof_name(int dof) const = 0;
+  virtual const std::string& actuator_name(int actuator) const = 0;
+  virtual const JointInfo& joint(int joint) const = 0;
+  virtual int dof_joint(int dof) const = 0;  // joint owning dof
+  virtual double body_mass(int body) const = 0;
+
+  // state
+  virtual double time() const = 0;
+  virtual double timestep() const = 0;
+  virtual void set_timestep(double dt) = 0;
+  virtual Eigen::Vector3d gravity() const = 0;
+  virtual void set_gravity(const Eigen::Vector3d& g) = 0;
+  virtual void get_positions(Eigen::Ref<Eigen::VectorXd> q) const = 0;   // dim nq
+  virtual void get_velocities(Eigen::Ref<Eigen::VectorXd> v) const = 0;  // dim nv
+  virtual void set_positions(const Eigen::Ref<const Eigen::VectorXd>& q) = 0;
+  virtual void set_velocities(const Eigen::Ref<const Eigen::VectorXd>& v) = 0;
+  virtual double dof_position(int dof) const = 0;  // hinge/slide dofs only
+  virtual double dof_velocity(int dof) const = 0;
+  // set one named coordinate. For free/ball rotation dofs the three values are a rotation
+  // vector (exponential coordinates, as DART stores them); backends convert.
+  virtual void set_dof_position(int dof, double value) = 0;
+
+  // position algebra: v = q1 (-) q0, such that integrate(q0, v, 1) == q1. dims nq, nq -> nv.
+  virtual void difference_positions(const Eigen::Ref<const Eigen::VectorXd>& q0,
+                                    const Eigen::Ref<const Eigen::VectorXd>& q1,
+                                    Eigen::Ref<Eigen::VectorXd> v) const = 0;
+  // q_out = q (+) v*dt. dims nq, nv -> nq.
+  virtual void integrate_positions(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                   const Eigen::Ref<const Eigen::VectorXd>& v, double dt,
+                                   Eigen::Ref<Eigen::VectorXd> q_out) const = 0;
+
+  // dynamics, valid after forward(). Mass matrix M is nv x nv.
+  virtual void forward() = 0;
+  virtual void mass_matrix(Eigen::Ref<Eigen::MatrixXd> m) const = 0;
+  // x <- M^-1 x using the engine's own factorisation. dim nv.
+  virtual void solve_mass(Eigen::Ref<Eigen::VectorXd> x) const = 0;
+  virtual void bias_forces(Eigen::Ref<Eigen::VectorXd> c) const = 0;        // Coriolis + gravity
+  virtual void constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const = 0;  // last step's
+
+  // kinematics, valid after forward().
+  virtual Eigen::Vector3d com() const = 0;           // of the mobile bodies
+  virtual Eigen::Vector3d com_velocity() const = 0;  // of the mobile bodies
+  virtual BodyPose body_pose(int body) const = 0;
+  virtual Eigen::Vector3d body_com(int body) const = 0;  // world position of body's COM
+  // spatial velocity of the body frame origin: (angular, linear), world frame.
+  virtual Eigen::Matrix<double, 6, 1> body_velocity(int body) const = 0;
+  // Jacobians w.r.t. v. jac_pos is 3 x nv (point fixed to body, given in world coordinates),
+  // jac_rot is 3 x nv. Either may be empty (0 columns) to skip.
+  virtual void point_jacobian(int body, const Eigen::Vector3d& point_world,
+                              Eigen::Ref<Eigen::MatrixXd> jac_pos,
+                              Eigen::Ref<Eigen::MatrixXd> jac_rot) const = 0;
+  // Jacobian of the COM of all mobile bodies, 3 x nv.
+  virtual void com_jacobian(Eigen::Ref<Eigen::MatrixXd> jac) const = 0;
+
+  // contacts, valid after step() (forces) or forward() (geometry)
+  virtual int num_contacts() const = 0;
+  virtual Contact contact(int i) const = 0;
+  // true when body touches anything (the ground, another body)
+  bool body_in_contact(int body) const;
+  // true when body touches the world or an immobile body
+  bool body_touches_ground(int body) const;
+
+  // inputs for the next step
+  virtual void set_generalized_forces(const Eigen::Ref<const Eigen::VectorXd>& tau) = 0;
+  virtual void set_controls(const Eigen::Ref<const Eigen::VectorXd>& ctrl) = 0;  // dim nu
+  virtual void get_controls(Eigen::Ref<Eigen::VectorXd> ctrl) const = 0;
+  // force (N, world) at a world point fixed to the body.
+  virtual void apply_external_force(int body, const Eigen::Vector3d& force_world,
+                                    const Eigen::Vector3d& point_world) = 0;
+  // velocity servo on a hinge/slide dof (e.g. skateboard wheels); NaN disables it.
+  virtual void set_dof_velocity_command(int dof, double velocity) = 0;
+
+  // state save/restore (finite differences, replay)
+  virtual void save_state(EngineState& s) const = 0;
+  virtual void restore_state(const EngineState& s) = 0;
+
+  // advance one timestep, consuming the per-step inputs.
+  virtual void step() = 0;
+
+  // checks after a step: false when the state has a NaN/Inf or the engine reported instability
+  virtual bool state_is_finite() const = 0;
+  virtual std::string last_warning() const { return {}; }
+
+  // lookups that throw std::invalid_argument naming the missing item and suggesting the nearest
+  int require_body(std::string_view name) const;
+  int require_dof(std::string_view name) const;
+  int require_joint(std::string_view name) const;
+  int require_actuator(std::string_view name) const;
+  std::vector<std::string> body_names() const;
+  std::vector<std::string> dof_names() const;
+  std::vector<std::string> actuator_names() const;
+
+  // the joints with a free/root role (dofs a PD on joints should leave alone)
+  bool dof_is_root(int dof) const;
+};
+
+}  // namespace stance

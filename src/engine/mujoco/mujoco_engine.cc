@@ -1,0 +1,467 @@
+#include "engine/mujoco/mujoco_engine.h"
+
+#include <fmt/format.h>
+
+#include <cmath>
+#include <cstring>
+#include <memory>
+
+#include "core/error.h"
+#include "model/model_path.h"
+#include "model/skel_to_mjcf.h"
+
+namespace stance {
+
+namespace {
+
+// MuJoCo reports warnings through a global hook; keep the latest per thread.
+thread_local std::string g_last_mujoco_warning;
+void record_warning(const char* msg) { g_last_mujoco_warning = msg ? msg : ""; }
+
+struct WarningHookInstaller {
+  WarningHookInstaller() { mju_user_warning = record_warning; }
+};
+WarningHookInstaller g_install_hook;
+
+std::string name_of(const mjModel* m, int type, int id, const std::string& fallback) {
+  const char* n = mj_id2name(m, type, id);
+  return (n && *n) ? std::string(n) : fallback;
+}
+
+// MuJoCo's compiler errors contain "line = N" for XML problems; reshape them as file:line.
+std::string mujoco_load_message(const std::string& file, const char* err) {
+  std::string msg = err;
+  while (!msg.empty() && (msg.back() == '\n' || msg.back() == ' ')) msg.pop_back();
+  for (auto& c : msg)
+    if (c == '\n') c = ' ';
+  int line = 0;
+  auto pos = msg.find("line ");
+  if (pos != std::string::npos) line = std::atoi(msg.c_str() + pos + 5);
+  auto eq = msg.find("line = ");
+  if (eq != std::string::npos) line = std::atoi(msg.c_str() + eq + 7);
+  return located(file, line, msg);
+}
+
+mjModel* load_from_text(const std::string& text, const std::string& source) {
+  auto vfs = std::make_unique<mjVFS>();
+  mj_defaultVFS(vfs.get());
+  const char* vname = "stance_model.xml";
+  if (mj_makeEmptyFileVFS(vfs.get(), vname, static_cast<int>(text.size())) != 0)
+    throw InputError(source + ": cannot create a MuJoCo virtual file");
+  int id = mj_findFileVFS(vfs.get(), vname);
+  std::memcpy(vfs->filedata[id], text.data(), text.size());
+  char err[1024] = "";
+  mjModel* m = mj_loadXML(vname, vfs.get(), err, sizeof(err));
+  mj_deleteVFS(vfs.get());
+  if (!m) throw InputError(mujoco_load_message(source + " (translated to MJCF)", err));
+  return m;
+}
+
+}  // namespace
+
+mjModel* load_mujoco_model(const WorldSpec& spec) {
+  if (spec.models.empty()) throw InputError("no model given");
+  std::vector<SkelInput> skel_inputs;
+  for (const auto& mf : spec.models) {
+    std::string path = resolve_model_path(mf.path);
+    if (model_format(path) == ModelFormat::kSkel) skel_inputs.push_back({path, mf.offset});
+  }
+  mjModel* m = nullptr;
+  if (!skel_inputs.empty()) {
+    if (skel_inputs.size() != spec.models.size())
+      throw InputError(
+          "composing SKEL files with MJCF/URDF files is not supported on MuJoCo; "
+          "convert the SKEL files first with `stance convert`");
+    SkelTranslation t = skel_to_mjcf(skel_inputs);
+    m = load_from_text(t.mjcf, spec.models.front().path);
+  } else {
+    if (spec.models.size() != 1)
+      throw InputError("MuJoCo loads one MJCF/URDF file per world; use <include> to compose");
+    std::string path = resolve_model_path(spec.models.front().path);
+    char err[1024] = "";
+    m = mj_loadXML(path.c_str(), nullptr, err, sizeof(err));
+    if (!m) throw InputError(mujoco_load_message(path, err));
+    // a translation of the whole model: shift the top-level bodies and free-joint origins
+    const Eigen::Vector3d& off = spec.models.front().offset;
+    if (off.squaredNorm() > 0) {
+      for (int b = 1; b < m->nbody; ++b) {
+        if (m->body_parentid[b] != 0) continue;
+        for (int k = 0; k < 3; ++k) m->body_pos[3 * b + k] += off[k];
+      }
+      for (int j = 0; j < m->njnt; ++j)
+        if (m->jnt_type[j] == mjJNT_FREE && m->body_parentid[m->jnt_bodyid[j]] == 0)
+          for (int k = 0; k < 3; ++k) m->qpos0[m->jnt_qposadr[j] + k] += off[k];
+    }
+  }
+  if (spec.timestep) m->opt.timestep = *spec.timestep;
+  if (spec.gravity)
+    for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*spec.gravity)[k];
+  return m;
+}
+
+std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
+  mjModel* m = load_mujoco_model(spec);
+  return std::make_unique<MujocoEngine>(m, spec.models.front().path);
+}
+
+MujocoEngine::MujocoEngine(mjModel* model, std::string source)
+    : m_(model), source_(std::move(source)) {
+  d_ = mj_makeData(m_);
+  if (!d_) throw InputError(source_ + ": MuJoCo could not allocate data");
+  build_tables();
+  pending_tau_ = Eigen::VectorXd::Zero(m_->nv);
+  velocity_command_ = Eigen::VectorXd::Constant(m_->nv, std::nan(""));
+  jac_scratch_.resize(3, m_->nv);
+  jac_scratch2_.resize(3, m_->nv);
+  vec_scratch_.resize(std::max(1, m_->nv));
+  mj_forward(m_, d_);
+  warnings_seen_ = d_->warning[mjWARN_BADQACC].number + d_->warning[mjWARN_BADQPOS].number +
+                   d_->warning[mjWARN_BADQVEL].number;
+}
+
+MujocoEngine::~MujocoEngine() {
+  if (d_) mj_deleteData(d_);
+  if (m_) mj_deleteModel(m_);
+}
+
+void MujocoEngine::build_tables() {
+  // bodies welded to the world (static) are not part of the mobile system
+  mj_to_body_.assign(m_->nbody, -1);
+  for (int b = 1; b < m_->nbody; ++b) {
+    if (m_->body_weldid[b] == 0) continue;
+    mj_to_body_[b] = static_cast<int>(mobile_bodies_.size());
+    mobile_bodies_.push_back(b);
+    body_names_.push_back(name_of(m_, mjOBJ_BODY, b, fmt::format("body{}", b)));
+    total_mass_ += m_->body_mass[b];
+  }
+  // joints and the DART-style names of their dofs
+  dof_names_.assign(m_->nv, "");
+  for (int j = 0; j < m_->njnt; ++j) {
+    JointInfo info;
+    info.name = name_of(m_, mjOBJ_JOINT, j, fmt::format("joint{}", j));
+    info.body = mj_to_body_[m_->jnt_bodyid[j]];
+    info.qpos_adr = m_->jnt_qposadr[j];
+    info.dof_adr = m_->jnt_dofadr[j];
+    info.has_limits = m_->jnt_limited[j];
+    info.lower = m_->jnt_range[2 * j];
+    info.upper = m_->jnt_range[2 * j + 1];
+    int a = info.dof_adr;
+    switch (m_->jnt_type[j]) {
+      case mjJNT_FREE:
+        info.type = JointType::kFree;
+        info.nq = 7;
+        info.nv = 6;
+        // MuJoCo's free velocity is (linear in world, angular in body frame)
+        dof_names_[a + 0] = info.name + "_pos_x";
+        dof_names_[a + 1] = info.name + "_pos_y";
+        dof_names_[a + 2] = info.name + "_pos_z";
+        dof_names_[a + 3] = info.name + "_rot_x";
+        dof_names_[a + 4] = info.name + "_rot_y";
+        dof_names_[a + 5] = info.name + "_rot_z";
+        break;
+      case mjJNT_BALL:
+        info.type = JointType::kBall;
+        info.nq = 4;
+        info.nv = 3;
+        dof_names_[a + 0] = info.name + "_x";
+        dof_names_[a + 1] = info.name + "_y";
+        dof_names_[a + 2] = info.name + "_z";
+        break;
+      case mjJNT_SLIDE:
+        info.type = JointType::kSlide;
+        info.nq = info.nv = 1;
+        dof_names_[a] = info.name;
+        break;
+      default:
+        info.type = JointType::kHinge;
+        info.nq = info.nv = 1;
+        dof_names_[a] = info.name;
+        break;
+    }
+    joints_.push_back(std::move(info));
+  }
+  for (int i = 0; i < m_->nu; ++i)
+    actuator_names_.push_back(name_of(m_, mjOBJ_ACTUATOR, i, fmt::format("actuator{}", i)));
+}
+
+int MujocoEngine::body_index(std::string_view name) const {
+  for (size_t i = 0; i < body_names_.size(); ++i)
+    if (body_names_[i] == name) return static_cast<int>(i);
+  return -1;
+}
+int MujocoEngine::joint_index(std::string_view name) const {
+  for (size_t i = 0; i < joints_.size(); ++i)
+    if (joints_[i].name == name) return static_cast<int>(i);
+  return -1;
+}
+int MujocoEngine::dof_index(std::string_view name) const {
+  for (size_t i = 0; i < dof_names_.size(); ++i)
+    if (dof_names_[i] == name) return static_cast<int>(i);
+  return -1;
+}
+int MujocoEngine::actuator_index(std::string_view name) const {
+  for (size_t i = 0; i < actuator_names_.size(); ++i)
+    if (actuator_names_[i] == name) return static_cast<int>(i);
+  return -1;
+}
+
+Eigen::Vector3d MujocoEngine::gravity() const {
+  return Eigen::Vector3d(m_->opt.gravity[0], m_->opt.gravity[1], m_->opt.gravity[2]);
+}
+void MujocoEngine::set_gravity(const Eigen::Vector3d& g) {
+  for (int k = 0; k < 3; ++k) m_->opt.gravity[k] = g[k];
+  forwarded_ = false;
+}
+
+void MujocoEngine::get_positions(Eigen::Ref<Eigen::VectorXd> q) const {
+  q = Eigen::Map<const Eigen::VectorXd>(d_->qpos, m_->nq);
+}
+void MujocoEngine::get_velocities(Eigen::Ref<Eigen::VectorXd> v) const {
+  v = Eigen::Map<const Eigen::VectorXd>(d_->qvel, m_->nv);
+}
+void MujocoEngine::set_positions(const Eigen::Ref<const Eigen::VectorXd>& q) {
+  Eigen::Map<Eigen::VectorXd>(d_->qpos, m_->nq) = q;
+  forwarded_ = false;
+}
+void MujocoEngine::set_velocities(const Eigen::Ref<const Eigen::VectorXd>& v) {
+  Eigen::Map<Eigen::VectorXd>(d_->qvel, m_->nv) = v;
+  forwarded_ = false;
+}
+
+double MujocoEngine::dof_position(int dof) const {
+  const JointInfo& j = joints_[m_->dof_jntid[dof]];
+  if (j.type == JointType::kHinge || j.type == JointType::kSlide) return d_->qpos[j.qpos_adr];
+  if (j.type == JointType::kFree && dof - j.dof_adr < 3)
+    return d_->qpos[j.qpos_adr + (dof - j.dof_adr)];
+  // rotation dofs: the rotation vector component, as DART reports it
+  const double* qq = d_->qpos + j.qpos_adr + (j.type == JointType::kFree ? 3 : 0);
+  Eigen::Quaterniond quat(qq[0], qq[1], qq[2], qq[3]);
+  Eigen::AngleAxisd aa(quat.normalized());
+  Eigen::Vector3d rv = aa.angle() * aa.axis();
+  int k = dof - j.dof_adr - (j.type == JointType::kFree ? 3 : 0);
+  return rv[k];
+}
+
+void MujocoEngine::set_dof_position(int dof, double value) {
+  const JointInfo& j = joints_[m_->dof_jntid[dof]];
+  forwarded_ = false;
+  if (j.type == JointType::kHinge || j.type == JointType::kSlide) {
+    d_->qpos[j.qpos_adr] = value;
+    return;
+  }
+  if (j.type == JointType::kFree && dof - j.dof_adr < 3) {
+    d_->qpos[j.qpos_adr + (dof - j.dof_adr)] = value;
+    return;
+  }
+  // rotation dofs hold a rotation vector: replace one component, convert back to a quaternion
+  double* qq = d_->qpos + j.qpos_adr + (j.type == JointType::kFree ? 3 : 0);
+  Eigen::Quaterniond quat(qq[0], qq[1], qq[2], qq[3]);
+  Eigen::AngleAxisd aa(quat.normalized());
+  Eigen::Vector3d rv = aa.angle() * aa.axis();
+  rv[dof - j.dof_adr - (j.type == JointType::kFree ? 3 : 0)] = value;
+  double angle = rv.norm();
+  Eigen::Quaterniond out = angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, rv / angle))
+                                     : Eigen::Quaterniond::Identity();
+  qq[0] = out.w();
+  qq[1] = out.x();
+  qq[2] = out.y();
+  qq[3] = out.z();
+}
+
+void MujocoEngine::difference_positions(const Eigen::Ref<const Eigen::VectorXd>& q0,
+                                        const Eigen::Ref<const Eigen::VectorXd>& q1,
+                                        Eigen::Ref<Eigen::VectorXd> v) const {
+  mj_differentiatePos(m_, v.data(), 1.0, q0.data(), q1.data());
+}
+
+void MujocoEngine::integrate_positions(const Eigen::Ref<const Eigen::VectorXd>& q,
+                                       const Eigen::Ref<const Eigen::VectorXd>& v, double dt,
+                                       Eigen::Ref<Eigen::VectorXd> q_out) const {
+  if (q_out.data() != q.data()) q_out = q;
+  mj_integratePos(m_, q_out.data(), v.data(), dt);
+}
+
+void MujocoEngine::forward() {
+  if (forwarded_) return;
+  // step1 computes everything that depends on positions and velocities; step2 finishes the step
+  mj_step1(m_, d_);
+  forwarded_ = true;
+}
+
+void MujocoEngine::mass_matrix(Eigen::Ref<Eigen::MatrixXd> mm) const {
+  // symmetric, so MuJoCo's row-major dense matrix reads the same column-major
+  mj_fullM(m_, mm.data(), d_->qM);
+}
+
+void MujocoEngine::solve_mass(Eigen::Ref<Eigen::VectorXd> x) const {
+  std::memcpy(vec_scratch_.data(), x.data(), sizeof(double) * m_->nv);
+  mj_solveM(m_, d_, x.data(), vec_scratch_.data(), 1);
+}
+
+void MujocoEngine::bias_forces(Eigen::Ref<Eigen::VectorXd> c) const {
+  c = Eigen::Map<const Eigen::VectorXd>(d_->qfrc_bias, m_->nv);
+}
+void MujocoEngine::constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const {
+  f = Eigen::Map<const Eigen::VectorXd>(d_->qfrc_constraint, m_->nv);
+}
+
+Eigen::Vector3d MujocoEngine::com() const {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (int b : mobile_bodies_) c += m_->body_mass[b] * Eigen::Map<const Eigen::Vector3d>(d_->xipos + 3 * b);
+  return total_mass_ > 0 ? Eigen::Vector3d(c / total_mass_) : c;
+}
+
+Eigen::Vector3d MujocoEngine::com_velocity() const {
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  double res[6];
+  for (int b : mobile_bodies_) {
+    // velocity of the body's COM: (angular, linear) at xipos, world orientation
+    mj_objectVelocity(m_, d_, mjOBJ_BODY, b, res, 0);
+    c += m_->body_mass[b] * Eigen::Vector3d(res[3], res[4], res[5]);
+  }
+  return total_mass_ > 0 ? Eigen::Vector3d(c / total_mass_) : c;
+}
+
+BodyPose MujocoEngine::body_pose(int body) const {
+  int b = mobile_bodies_[body];
+  BodyPose p;
+  p.pos = Eigen::Map<const Eigen::Vector3d>(d_->xpos + 3 * b);
+  p.quat = Eigen::Quaterniond(d_->xquat[4 * b], d_->xquat[4 * b + 1], d_->xquat[4 * b + 2],
+                              d_->xquat[4 * b + 3]);
+  return p;
+}
+
+Eigen::Vector3d MujocoEngine::body_com(int body) const {
+  return Eigen::Map<const Eigen::Vector3d>(d_->xipos + 3 * mobile_bodies_[body]);
+}
+
+Eigen::Matrix<double, 6, 1> MujocoEngine::body_velocity(int body) const {
+  double res[6];
+  mj_objectVelocity(m_, d_, mjOBJ_XBODY, mobile_bodies_[body], res, 0);
+  Eigen::Matrix<double, 6, 1> out;
+  for (int k = 0; k < 6; ++k) out[k] = res[k];
+  return out;
+}
+
+void MujocoEngine::point_jacobian(int body, const Eigen::Vector3d& point_world,
+                                  Eigen::Ref<Eigen::MatrixXd> jac_pos,
+                                  Eigen::Ref<Eigen::MatrixXd> jac_rot) const {
+  mj_jac(m_, d_, jac_scratch_.data(), jac_scratch2_.data(), point_world.data(),
+         mobile_bodies_[body]);
+  if (jac_pos.cols() > 0) jac_pos = jac_scratch_;
+  if (jac_rot.cols() > 0) jac_rot = jac_scratch2_;
+}
+
+void MujocoEngine::com_jacobian(Eigen::Ref<Eigen::MatrixXd> jac) const {
+  jac.setZero();
+  for (int b : mobile_bodies_) {
+    mj_jac(m_, d_, jac_scratch_.data(), nullptr, d_->xipos + 3 * b, b);
+    jac += (m_->body_mass[b] / total_mass_) * jac_scratch_;
+  }
+}
+
+Contact MujocoEngine::contact(int i) const {
+  const mjContact& c = d_->contact[i];
+  Contact out;
+  out.body1 = mj_to_body_[m_->geom_bodyid[c.geom1]];
+  out.body2 = mj_to_body_[m_->geom_bodyid[c.geom2]];
+  out.pos = Eigen::Map<const Eigen::Vector3d>(c.pos);
+  out.normal = Eigen::Map<const Eigen::Vector3d>(c.frame);
+  double f[6];
+  mj_contactForce(m_, d_, i, f);
+  // contact-frame force -> world; the frame's rows are its axes, normal from geom1 to geom2
+  Eigen::Map<const Eigen::Matrix<double, 3, 3, Eigen::RowMajor>> frame(c.frame);
+  out.force = frame.transpose() * Eigen::Vector3d(f[0], f[1], f[2]);
+  return out;
+}
+
+void MujocoEngine::set_generalized_forces(const Eigen::Ref<const Eigen::VectorXd>& tau) {
+  pending_tau_ = tau;
+}
+void MujocoEngine::set_controls(const Eigen::Ref<const Eigen::VectorXd>& ctrl) {
+  Eigen::Map<Eigen::VectorXd>(d_->ctrl, m_->nu) = ctrl;
+}
+void MujocoEngine::get_controls(Eigen::Ref<Eigen::VectorXd> ctrl) const {
+  ctrl = Eigen::Map<const Eigen::VectorXd>(d_->ctrl, m_->nu);
+}
+
+void MujocoEngine::apply_external_force(int body, const Eigen::Vector3d& force_world,
+                                        const Eigen::Vector3d& point_world) {
+  // xfrc_applied is a (force, torque) pair acting at the body's COM
+  int b = mobile_bodies_[body];
+  Eigen::Map<Eigen::Vector3d> f(d_->xfrc_applied + 6 * b);
+  Eigen::Map<Eigen::Vector3d> t(d_->xfrc_applied + 6 * b + 3);
+  Eigen::Vector3d arm = point_world - Eigen::Map<const Eigen::Vector3d>(d_->xipos + 3 * b);
+  f += force_world;
+  t += arm.cross(force_world);
+}
+
+void MujocoEngine::set_dof_velocity_command(int dof, double velocity) {
+  velocity_command_[dof] = velocity;
+  has_velocity_commands_ = !velocity_command_.array().isNaN().all();
+}
+
+void MujocoEngine::save_state(EngineState& s) const {
+  s.time = d_->time;
+  s.q = Eigen::Map<const Eigen::VectorXd>(d_->qpos, m_->nq);
+  s.v = Eigen::Map<const Eigen::VectorXd>(d_->qvel, m_->nv);
+  s.act = Eigen::Map<const Eigen::VectorXd>(d_->act, m_->na);
+  s.ctrl = Eigen::Map<const Eigen::VectorXd>(d_->ctrl, m_->nu);
+  s.extra.assign(d_->qacc_warmstart, d_->qacc_warmstart + m_->nv);
+}
+
+void MujocoEngine::restore_state(const EngineState& s) {
+  d_->time = s.time;
+  Eigen::Map<Eigen::VectorXd>(d_->qpos, m_->nq) = s.q;
+  Eigen::Map<Eigen::VectorXd>(d_->qvel, m_->nv) = s.v;
+  if (m_->na) Eigen::Map<Eigen::VectorXd>(d_->act, m_->na) = s.act;
+  if (m_->nu) Eigen::Map<Eigen::VectorXd>(d_->ctrl, m_->nu) = s.ctrl;
+  if (static_cast<int>(s.extra.size()) == m_->nv)
+    std::copy(s.extra.begin(), s.extra.end(), d_->qacc_warmstart);
+  mju_zero(d_->xfrc_applied, 6 * m_->nbody);
+  pending_tau_.setZero();
+  forwarded_ = false;
+  diverged_ = false;
+}
+
+void MujocoEngine::step() {
+  forward();
+  double t_before = d_->time;
+  Eigen::Map<Eigen::VectorXd> applied(d_->qfrc_applied, m_->nv);
+  applied = pending_tau_;
+  if (has_velocity_commands_) {
+    // one-step velocity servo: the force that reaches the commanded speed this step,
+    // ignoring coupling through the mass matrix (DART's VELOCITY actuators behave alike)
+    for (int i = 0; i < m_->nv; ++i) {
+      double vd = velocity_command_[i];
+      if (std::isnan(vd)) continue;
+      double mii = d_->qM[m_->dof_Madr[i]];
+      applied[i] += mii * (vd - d_->qvel[i]) / m_->opt.timestep + d_->qfrc_bias[i];
+    }
+  }
+  mj_step2(m_, d_);
+  applied.setZero();
+  pending_tau_.setZero();
+  mju_zero(d_->xfrc_applied, 6 * m_->nbody);
+  forwarded_ = false;
+  // MuJoCo resets the data on a bad acceleration and counts a warning: that is a divergence
+  int seen = d_->warning[mjWARN_BADQACC].number + d_->warning[mjWARN_BADQPOS].number +
+             d_->warning[mjWARN_BADQVEL].number;
+  if (seen != warnings_seen_) {
+    warnings_seen_ = seen;
+    diverged_ = true;
+    last_warning_ = fmt::format("MuJoCo instability at t={:.6f} s: {}", t_before,
+                                g_last_mujoco_warning.empty() ? "bad state" : g_last_mujoco_warning);
+  }
+}
+
+bool MujocoEngine::state_is_finite() const {
+  if (diverged_) return false;
+  for (int i = 0; i < m_->nq; ++i)
+    if (!std::isfinite(d_->qpos[i])) return false;
+  for (int i = 0; i < m_->nv; ++i)
+    if (!std::isfinite(d_->qvel[i])) return false;
+  return true;
+}
+
+}  // namespace stance

@@ -1,0 +1,215 @@
+#include "params/yaml_params.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace stance {
+
+namespace {
+// a copy without source positions, so that messages about it say "--set"
+YAML::Node without_marks(const YAML::Node& n) {
+  if (n.IsScalar()) return YAML::Node(n.Scalar());
+  if (n.IsSequence()) {
+    YAML::Node out(YAML::NodeType::Sequence);
+    for (const auto& item : n) out.push_back(without_marks(item));
+    return out;
+  }
+  if (n.IsMap()) {
+    YAML::Node out(YAML::NodeType::Map);
+    for (const auto& kv : n) out[kv.first.Scalar()] = without_marks(kv.second);
+    return out;
+  }
+  return YAML::Node();
+}
+
+int line_of(const YAML::Node& n) {
+  const YAML::Mark m = n.Mark();
+  return m.line >= 0 ? m.line + 1 : 0;
+}
+std::string describe(const YAML::Node& n) {
+  if (n.IsScalar()) return "'" + n.Scalar() + "'";
+  if (n.IsSequence()) return "a list";
+  if (n.IsMap()) return "a mapping";
+  return "nothing";
+}
+}  // namespace
+
+void YamlParamReader::fail(const YAML::Node& at, const std::string& message) const {
+  // nodes made by --set carry no position
+  int line = line_of(at);
+  if (line == 0) throw InputError(located(source_.file, 0, "(from --set) " + message));
+  throw InputError(located(source_.file, line, message));
+}
+
+void YamlParamReader::check_unknown_keys() const {
+  if (!node_ || !node_.IsMap()) return;
+  std::vector<std::string> known(claimed_.begin(), claimed_.end());
+  for (const auto& kv : node_) {
+    std::string key = kv.first.as<std::string>();
+    if (claimed_.count(key)) continue;
+    std::string path = join(key);
+    fail(kv.first, fmt::format("unknown parameter '{}'{}", path, did_you_mean(key, known)));
+  }
+}
+
+double YamlParamReader::read_number(const YAML::Node& n, const std::string& path,
+                                    const ParamMeta& m) const {
+  if (!n.IsScalar())
+    fail(n, fmt::format("parameter '{}': expected a number, found {}", path, describe(n)));
+  double v = 0;
+  const std::string& s = n.Scalar();
+  // YAML spellings of non-finite numbers are rejected explicitly below
+  std::string lower;
+  for (char c : s) lower += static_cast<char>(std::tolower(c));
+  if (lower == ".nan" || lower == "nan" || lower == ".inf" || lower == "-.inf" || lower == "inf" ||
+      lower == "-inf" || lower == "+.inf")
+    fail(n, fmt::format("parameter '{}': must be a finite number, found '{}'", path, s));
+  try {
+    size_t used = 0;
+    v = std::stod(s, &used);
+    if (used != s.size()) throw std::invalid_argument("trailing");
+  } catch (const std::exception&) {
+    fail(n, fmt::format("parameter '{}': expected a number, found '{}'", path, s));
+  }
+  if (!std::isfinite(v))
+    fail(n, fmt::format("parameter '{}': must be a finite number, found '{}'", path, s));
+  if (v < m.min || v > m.max)
+    fail(n, fmt::format("parameter '{}': {} is outside [{}, {}]", path, s, m.min, m.max));
+  return v;
+}
+
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, double& v,
+                                 const ParamMeta& m) {
+  v = read_number(n, path, m);
+}
+
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, int& v,
+                                 const ParamMeta& m) {
+  double d = read_number(n, path, m);
+  if (d != std::floor(d) || std::abs(d) > 2e9)
+    fail(n, fmt::format("parameter '{}': expected an integer, found '{}'", path, n.Scalar()));
+  v = static_cast<int>(d);
+}
+
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, bool& v,
+                                 const ParamMeta&) {
+  bool ok = n.IsScalar();
+  if (ok) {
+    const std::string& s = n.Scalar();
+    if (s == "true" || s == "True" || s == "yes" || s == "on") v = true;
+    else if (s == "false" || s == "False" || s == "no" || s == "off") v = false;
+    else ok = false;
+  }
+  if (!ok) fail(n, fmt::format("parameter '{}': expected true or false, found {}", path, describe(n)));
+}
+
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, std::string& v,
+                                 const ParamMeta&) {
+  if (!n.IsScalar())
+    fail(n, fmt::format("parameter '{}': expected a string, found {}", path, describe(n)));
+  v = n.Scalar();
+}
+
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path,
+                                 Eigen::Vector3d& v, const ParamMeta& m) {
+  if (!n.IsSequence() || n.size() != 3)
+    fail(n, fmt::format("parameter '{}': expected a list of 3 numbers, found {}", path,
+                        describe(n)));
+  for (int i = 0; i < 3; ++i) v[i] = read_number(n[i], fmt::format("{}[{}]", path, i), m);
+}
+
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path,
+                                 std::vector<double>& v, const ParamMeta& m) {
+  if (!n.IsSequence())
+    fail(n, fmt::format("parameter '{}': expected a list of numbers, found {}", path, describe(n)));
+  v.clear();
+  for (size_t i = 0; i < n.size(); ++i)
+    v.push_back(read_number(n[i], fmt::format("{}[{}]", path, i), m));
+}
+
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path,
+                                 std::vector<std::string>& v, const ParamMeta&) {
+  if (!n.IsSequence())
+    fail(n, fmt::format("parameter '{}': expected a list of names, found {}", path, describe(n)));
+  v.clear();
+  for (size_t i = 0; i < n.size(); ++i) {
+    if (!n[i].IsScalar())
+      fail(n[i], fmt::format("parameter '{}[{}]': expected a name", path, i));
+    v.push_back(n[i].Scalar());
+  }
+}
+
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, NamedValues& v,
+                                 const ParamMeta& m) {
+  if (!n.IsMap())
+    fail(n, fmt::format("parameter '{}': expected a mapping of name: value, found {}", path,
+                        describe(n)));
+  v.clear();
+  for (const auto& kv : n) {
+    std::string key = kv.first.as<std::string>();
+    v[key] = read_number(kv.second, path + "." + key, m);
+  }
+}
+
+YAML::Node load_yaml_file(const std::string& path) {
+  if (!std::filesystem::exists(path)) throw InputError(path + ": no such file");
+  std::ifstream in(path);
+  if (!in) throw InputError(path + ": cannot open");
+  try {
+    return YAML::Load(in);
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("{}:{}:{}: malformed YAML: {}", path, e.mark.line + 1,
+                                 e.mark.column + 1, e.msg));
+  }
+}
+
+void apply_yaml_override(YAML::Node& root, const std::string& assignment) {
+  auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw InputError(fmt::format("--set {}: expected key=value", assignment));
+  std::string key = assignment.substr(0, eq);
+  std::string text = assignment.substr(eq + 1);
+  YAML::Node value;
+  try {
+    value = YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(fmt::format("--set {}: malformed value: {}", assignment, e.msg));
+  }
+  // clear the marks so that errors on this value say "--set" rather than a line
+  std::vector<std::string> parts;
+  std::stringstream ss(key);
+  for (std::string part; std::getline(ss, part, '.');) parts.push_back(part);
+  // walk with a chain of nodes: yaml-cpp nodes are handles, so assignments reach the root
+  std::vector<YAML::Node> chain{root};
+  for (size_t i = 0; i + 1 < parts.size(); ++i) {
+    YAML::Node cur = chain.back();
+    const std::string& p = parts[i];
+    YAML::Node next;
+    if (cur.IsSequence()) {
+      char* end = nullptr;
+      long idx = std::strtol(p.c_str(), &end, 10);
+      if (*end || idx < 0 || idx >= static_cast<long>(cur.size()))
+        throw InputError(fmt::format("--set {}: '{}' is not an index of a list of {}",
+                                     assignment, p, cur.size()));
+      next = cur[idx];
+    } else {
+      if (!cur[p]) cur[p] = YAML::Node(YAML::NodeType::Map);
+      next = cur[p];
+    }
+    chain.push_back(next);
+  }
+  YAML::Node leaf = chain.back();
+  if (leaf.IsSequence()) {
+    char* end = nullptr;
+    long idx = std::strtol(parts.back().c_str(), &end, 10);
+    if (*end || idx < 0 || idx >= static_cast<long>(leaf.size()))
+      throw InputError(fmt::format("--set {}: bad list index '{}'", assignment, parts.back()));
+    leaf[idx] = without_marks(value);
+  } else {
+    leaf[parts.back()] = without_marks(value);
+  }
+}
+
+}  // namespace stance

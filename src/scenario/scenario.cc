@@ -1,0 +1,74 @@
+#include "scenario/scenario.h"
+
+#include <filesystem>
+
+#include "control/controller.h"
+#include "core/error.h"
+#include "params/yaml_params.h"
+
+namespace stance {
+
+LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& source,
+                              const std::string& base_dir) {
+  YAML::Node doc = doc_in;
+  if (!doc || !doc.IsMap()) throw InputError(source + ": a scenario must be a YAML mapping");
+  // shorthand: "model: file.xml"
+  if (doc["model"] && doc["model"].IsScalar()) {
+    YAML::Node list(YAML::NodeType::Sequence);
+    YAML::Node entry(YAML::NodeType::Map);
+    entry["file"] = doc["model"];
+    list.push_back(entry);
+    doc["model"] = list;
+  }
+  LoadedScenario out;
+  out.source = source;
+  out.document = doc;
+  YamlParamReader reader(doc, {source});
+  reader.claim("controllers");
+  reader.read(out.scenario);
+  Scenario& s = out.scenario;
+  if (s.model.empty()) throw InputError(located(source, 0, "no model given (key 'model')"));
+  for (auto& m : s.model) {
+    if (m.file.empty()) throw InputError(located(source, 0, "a model entry has no 'file'"));
+    if (m.file.rfind("dart://", 0) != 0 && !std::filesystem::path(m.file).is_absolute() &&
+        !base_dir.empty()) {
+      auto candidate = std::filesystem::path(base_dir) / m.file;
+      // paths relative to the YAML's folder, falling back to the working directory
+      if (std::filesystem::exists(candidate) || !std::filesystem::exists(m.file))
+        m.file = candidate.lexically_normal().string();
+    }
+  }
+  if (!s.gravity.empty() && s.gravity.size() != 3)
+    throw InputError(located(source, doc["gravity"].Mark().line + 1,
+                             "parameter 'gravity': expected 3 numbers"));
+  if (s.engine != "mujoco" && s.engine != "dart")
+    throw InputError(located(source, doc["engine"] ? doc["engine"].Mark().line + 1 : 0,
+                             "parameter 'engine': expected mujoco or dart, found '" + s.engine +
+                                 "'"));
+  if (YAML::Node c = doc["controllers"]) {
+    if (!c.IsSequence())
+      throw InputError(located(source, c.Mark().line + 1, "'controllers' must be a list"));
+    for (size_t i = 0; i < c.size(); ++i) {
+      YAML::Node entry = c[i];
+      if (!entry.IsMap() || !entry["type"] || !entry["type"].IsScalar())
+        throw InputError(located(source, entry.Mark().line + 1,
+                                 fmt::format("controllers[{}]: needs a 'type'", i)));
+      try {
+        find_controller_type(entry["type"].Scalar());
+      } catch (const InputError& e) {
+        throw InputError(located(source, entry["type"].Mark().line + 1, e.what()));
+      }
+      out.controllers.push_back(entry);
+    }
+  }
+  return out;
+}
+
+LoadedScenario load_scenario(const std::string& path, const std::vector<std::string>& overrides) {
+  YAML::Node doc = load_yaml_file(path);
+  for (const auto& o : overrides) apply_yaml_override(doc, o);
+  std::string base = std::filesystem::path(path).parent_path().string();
+  return parse_scenario(doc, path, base);
+}
+
+}  // namespace stance

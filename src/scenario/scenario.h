@@ -1,0 +1,116 @@
+// A scenario: model(s), engine, timestep, gravity, initial pose, controllers, timed pushes,
+// duration and fall criterion. Loaded from YAML through the parameter visit.
+#pragma once
+
+#include <yaml-cpp/yaml.h>
+
+#include <Eigen/Core>
+#include <string>
+#include <vector>
+
+#include "params/params.h"
+
+namespace stance {
+
+struct ModelEntry {
+  std::string file;  // MJCF/URDF/SKEL path; "dart://sample/..." allowed; relative to the YAML
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+
+  template <class V>
+  void visit(V& v) {
+    v("file", file, {.help = "model file"});
+    v("offset", offset, {.unit = "m", .help = "translation of the whole file"});
+  }
+};
+
+// a force on a body for a while (the seed's pushes)
+struct Perturbation {
+  std::string body;
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();  // N, world frame
+  double start = 0;                                 // s
+  double duration = 0.1;                            // s
+
+  template <class V>
+  void visit(V& v) {
+    v("body", body, {.help = "body to push"});
+    v("force", force, {.unit = "N", .help = "force in the world frame"});
+    v("start", start, {.unit = "s", .min = 0});
+    v("duration", duration, {.unit = "s", .min = 0});
+  }
+  bool active_at(double t) const { return t >= start && t < start + duration; }
+};
+
+struct FallCriterion {
+  bool enabled = true;
+  // fell when the COM height above ground_height drops below this fraction of its start
+  double com_height_fraction = 0.5;
+  double ground_height = 0;  // m, along the up axis (-gravity)
+  // bodies allowed to touch the ground; any other body touching it is a fall. Empty: no check.
+  std::vector<std::string> allowed_contacts;
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled);
+    v("com_height_fraction", com_height_fraction, {.min = 0, .max = 1});
+    v("ground_height", ground_height, {.unit = "m"});
+    v("allowed_contacts", allowed_contacts, {.help = "bodies that may touch the ground"});
+  }
+};
+
+struct LogOptions {
+  double rate_hz = 100;
+
+  template <class V>
+  void visit(V& v) {
+    v("rate_hz", rate_hz, {.unit = "Hz", .min = 0.001, .max = 1e6});
+  }
+};
+
+struct Scenario {
+  std::string name;
+  std::string engine = "mujoco";
+  std::vector<ModelEntry> model;
+  double timestep = 0;           // s; 0: the model file's own
+  std::vector<double> gravity;   // m/s^2; empty: the model file's own
+  NamedValues initial_pose;      // dof -> value
+  std::string keyframe;          // MuJoCo keyframe name (MuJoCo only)
+  double duration = 10;          // s
+  int seed = 0;
+  double torque_scale = 1;       // multiplies the summed controller torques (seed: 0.8)
+  std::vector<Perturbation> perturbations;
+  FallCriterion fall;
+  LogOptions log;
+
+  template <class V>
+  void visit(V& v) {
+    v("name", name);
+    v("engine", engine, {.help = "mujoco or dart"});
+    v("model", model, {.help = "model file(s)"});
+    v("timestep", timestep, {.unit = "s", .min = 0, .max = 1});
+    v("gravity", gravity, {.unit = "m/s^2"});
+    v("initial_pose", initial_pose, {.help = "dof name: value"});
+    v("keyframe", keyframe, {.help = "MuJoCo keyframe to start from"});
+    v("duration", duration, {.unit = "s", .min = 0});
+    v("seed", seed, {.min = 0});
+    v("torque_scale", torque_scale, {.min = 0, .max = 10});
+    v("perturbations", perturbations);
+    v("fall", fall);
+    v("log", log);
+  }
+};
+
+// a scenario with its controller blocks, as loaded
+struct LoadedScenario {
+  Scenario scenario;
+  std::vector<YAML::Node> controllers;  // each a mapping with "type"
+  std::string source;                   // file name for messages
+  YAML::Node document;                  // the whole YAML (after overrides), for saving
+};
+
+// load and validate (types, ranges, unknown keys, finite numbers). Overrides are "a.b=value".
+// Relative model paths are resolved against the YAML file's folder.
+LoadedScenario load_scenario(const std::string& path, const std::vector<std::string>& overrides = {});
+LoadedScenario parse_scenario(const YAML::Node& doc, const std::string& source,
+                              const std::string& base_dir);
+
+}  // namespace stance
