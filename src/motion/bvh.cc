@@ -1,0 +1,746 @@
+#include "motion/bvh.h"
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+
+namespace stance {
+
+namespace {
+
+constexpr double kDegToRad = std::numbers::pi / 180.0;
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+
+constexpr std::array<std::string_view, 6> kChannelNames = {
+    "Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"};
+
+bool is_rotation(BvhChannel c) { return c >= BvhChannel::kXrotation; }
+int channel_axis(BvhChannel c) { return static_cast<int>(c) % 3; }
+
+bool iequals(std::string_view a, std::string_view b) {
+  if (a.size() != b.size()) return false;
+  for (size_t i = 0; i < a.size(); ++i) {
+    if (std::tolower(static_cast<unsigned char>(a[i])) !=
+        std::tolower(static_cast<unsigned char>(b[i])))
+      return false;
+  }
+  return true;
+}
+
+bool is_hspace(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f'; }
+
+// a quoted token for messages, shortened when huge
+std::string quoted(std::string_view token) {
+  if (token.size() > 40) return fmt::format("'{}...'", token.substr(0, 40));
+  return fmt::format("'{}'", token);
+}
+
+// std::from_chars for a whole token, also accepting a leading '+'; false when the token is not
+// exactly one finite number
+bool parse_double(std::string_view token, double& out) {
+  const char* b = token.data();
+  const char* e = b + token.size();
+  if (b != e && *b == '+') ++b;
+  auto [p, ec] = std::from_chars(b, e, out);
+  return ec == std::errc() && p == e && b != e && std::isfinite(out);
+}
+
+// Cursor over the whole text. Lines end at LF, CRLF or a lone CR; `line` is 1-based.
+class Scanner {
+ public:
+  Scanner(std::string_view text, const std::string& name) : text_(text), name_(name) {}
+
+  [[noreturn]] void fail(int line, std::string_view message) const {
+    throw InputError(located(name_, line, message));
+  }
+  [[noreturn]] void fail(std::string_view message) const { fail(line_, message); }
+
+  int line() const { return line_; }
+  bool at_end() const { return pos_ >= text_.size(); }
+
+  // skips all whitespace, newlines included
+  void skip_space() {
+    while (pos_ < text_.size()) {
+      char c = text_[pos_];
+      if (c == '\n') {
+        ++line_;
+      } else if (c == '\r') {
+        if (pos_ + 1 >= text_.size() || text_[pos_ + 1] != '\n') ++line_;
+      } else if (!is_hspace(c)) {
+        return;
+      }
+      ++pos_;
+    }
+  }
+
+  // skips spaces and tabs (and the CR of a CRLF) but stops at the end of the line
+  void skip_hspace() {
+    while (pos_ < text_.size()) {
+      char c = text_[pos_];
+      if (is_hspace(c) || (c == '\r' && pos_ + 1 < text_.size() && text_[pos_ + 1] == '\n')) {
+        ++pos_;
+      } else {
+        return;
+      }
+    }
+  }
+
+  bool at_line_end() const {
+    return pos_ >= text_.size() || text_[pos_] == '\n' || text_[pos_] == '\r';
+  }
+
+  // next whitespace-separated token, on any line; braces are tokens of their own. "" at the end.
+  std::string_view token() {
+    skip_space();
+    return token_on_this_line();
+  }
+
+  // next token if it is on the current line, else ""
+  std::string_view token_on_this_line() {
+    skip_hspace();
+    size_t start = pos_;
+    if (at_line_end()) return {};
+    if (text_[pos_] == '{' || text_[pos_] == '}') return text_.substr(pos_++, 1);
+    while (pos_ < text_.size()) {
+      char c = text_[pos_];
+      if (is_hspace(c) || c == '\n' || c == '\r' || c == '{' || c == '}') break;
+      ++pos_;
+    }
+    return text_.substr(start, pos_ - start);
+  }
+
+  // the rest of the current line without surrounding whitespace
+  std::string_view rest_of_line() {
+    skip_hspace();
+    size_t start = pos_;
+    while (!at_line_end()) ++pos_;
+    std::string_view s = text_.substr(start, pos_ - start);
+    while (!s.empty() && (is_hspace(s.back()) || s.back() == '\r')) s.remove_suffix(1);
+    return s;
+  }
+
+  double number(std::string_view what) {
+    int l = line_;
+    std::string_view t = token();
+    if (t.empty()) fail(l, fmt::format("expected {}, found the end of the file", what));
+    double v;
+    if (!parse_double(t, v)) fail(fmt::format("bad number {} for {}", quoted(t), what));
+    return v;
+  }
+
+  // "Frames:" / "Frame Time:" style labels: words separated by spaces or tabs, then ':'
+  bool label(std::initializer_list<std::string_view> words) {
+    skip_space();
+    size_t save = pos_;
+    for (std::string_view w : words) {
+      skip_hspace();
+      if (text_.size() - pos_ < w.size() || !iequals(text_.substr(pos_, w.size()), w)) {
+        pos_ = save;
+        return false;
+      }
+      pos_ += w.size();
+    }
+    skip_hspace();
+    if (pos_ < text_.size() && text_[pos_] == ':') {
+      ++pos_;
+      return true;
+    }
+    pos_ = save;
+    return false;
+  }
+
+  // parses one motion row of exactly `count` numbers on the current line into out[0..count)
+  void motion_row(double* out, int count) {
+    const int row_line = line_;
+    const char* const end = text_.data() + text_.size();
+    int found = 0;
+    while (true) {
+      skip_hspace();
+      if (at_line_end()) break;
+      const char* b = text_.data() + pos_;
+      const char* num = (*b == '+') ? b + 1 : b;
+      double v;
+      auto [p, ec] = std::from_chars(num, end, v);
+      // the number must end at whitespace, and be finite
+      bool ok = ec == std::errc() && (p == end || is_hspace(*p) || *p == '\n' || *p == '\r') &&
+                std::isfinite(v);
+      if (!ok) {
+        std::string_view t = token_on_this_line();
+        fail(row_line, fmt::format("bad number {} (value {} of the motion row)", quoted(t),
+                                   found + 1));
+      }
+      if (found < count) out[found] = v;
+      ++found;
+      pos_ = static_cast<size_t>(p - text_.data());
+    }
+    if (found != count) {
+      fail(row_line, fmt::format("wrong channel count in motion row: expected {} values, found {}",
+                                 count, found));
+    }
+  }
+
+ private:
+  std::string_view text_;
+  const std::string& name_;
+  size_t pos_ = 0;
+  int line_ = 1;
+};
+
+// one open '{' block of the hierarchy
+struct OpenBlock {
+  int joint;      // joint index
+  bool end_site;  // an End Site block of that joint
+  int line;       // of the '{'
+};
+
+void parse_channels(Scanner& in, BvhJoint& joint, const std::vector<std::string>& all_names) {
+  const int line = in.line();
+  std::string_view count_token = in.token_on_this_line();
+  int count = -1;
+  auto [p, ec] = std::from_chars(count_token.data(), count_token.data() + count_token.size(),
+                                 count);
+  if (ec != std::errc() || p != count_token.data() + count_token.size() || count < 0 ||
+      count > 6) {
+    in.fail(line, fmt::format("bad channel count {} for joint '{}' (expected 0..6)",
+                              quoted(count_token), joint.name));
+  }
+  if (!joint.channels.empty()) in.fail(line, fmt::format("joint '{}' has two CHANNELS", joint.name));
+  for (int i = 0; i < count; ++i) {
+    std::string_view t = in.token_on_this_line();
+    if (t.empty()) {
+      in.fail(line, fmt::format("CHANNELS {} for joint '{}' lists only {} channel names", count,
+                                joint.name, i));
+    }
+    int found = -1;
+    for (int c = 0; c < 6; ++c) {
+      if (iequals(t, kChannelNames[c])) found = c;
+    }
+    if (found < 0) {
+      in.fail(line, fmt::format("unknown channel name {}{}", quoted(t),
+                                did_you_mean(t, all_names)));
+    }
+    auto ch = static_cast<BvhChannel>(found);
+    if (std::find(joint.channels.begin(), joint.channels.end(), ch) != joint.channels.end()) {
+      in.fail(line, fmt::format("channel '{}' listed twice for joint '{}'", kChannelNames[found],
+                                joint.name));
+    }
+    joint.channels.push_back(ch);
+  }
+  std::string_view extra = in.token_on_this_line();
+  if (!extra.empty()) {
+    in.fail(line, fmt::format("CHANNELS {} for joint '{}' is followed by {}", count, joint.name,
+                              quoted(extra)));
+  }
+
+  // rotation order: listed rotation axes, then the unlisted ones in x, y, z order
+  std::array<int, 3> axes{};
+  int n = 0;
+  for (BvhChannel c : joint.channels) {
+    if (is_rotation(c)) axes[n++] = channel_axis(c);
+    else joint.has_position = true;
+  }
+  joint.rotation_channel_count = n;
+  for (int a = 0; a < 3 && n < 3; ++a) {
+    if (std::find(axes.begin(), axes.begin() + n, a) == axes.begin() + n) axes[n++] = a;
+  }
+  joint.order = *rotation_order_from_axes(axes[0], axes[1], axes[2]);
+}
+
+void parse_hierarchy(Scanner& in, BvhClip& clip) {
+  const std::vector<std::string> channel_names(kChannelNames.begin(), kChannelNames.end());
+  std::string_view first = in.token();
+  if (!iequals(first, "HIERARCHY")) {
+    in.fail(fmt::format("expected HIERARCHY at the start of a BVH file, found {}",
+                        first.empty() ? std::string("nothing") : quoted(first)));
+  }
+  std::vector<OpenBlock> open;
+  while (true) {
+    std::string_view t = in.token();
+    const int line = in.line();
+    if (t.empty()) {
+      if (!open.empty()) {
+        const OpenBlock& b = open.back();
+        in.fail(line, fmt::format("unbalanced braces: end of file inside the block of '{}' opened "
+                                  "at line {}",
+                                  clip.joints[b.joint].name, b.line));
+      }
+      in.fail(line, "missing MOTION section after the hierarchy");
+    }
+    bool root = iequals(t, "ROOT");
+    if (root || iequals(t, "JOINT")) {
+      if (root && !open.empty()) in.fail(line, "ROOT inside another joint's block");
+      if (!root && open.empty()) in.fail(line, "JOINT outside any ROOT block");
+      if (!open.empty() && open.back().end_site) in.fail(line, "JOINT inside an End Site block");
+      std::string_view name = in.rest_of_line();
+      bool brace_on_line = !name.empty() && name.back() == '{';
+      if (brace_on_line) {
+        name.remove_suffix(1);
+        while (!name.empty() && is_hspace(name.back())) name.remove_suffix(1);
+      }
+      if (name.empty()) in.fail(line, fmt::format("{} without a name", t));
+      BvhJoint j;
+      j.name = std::string(name);
+      j.parent = open.empty() ? -1 : open.back().joint;
+      j.line = line;
+      clip.joints.push_back(std::move(j));
+      if (!brace_on_line) {
+        std::string_view brace = in.token();
+        if (brace != "{") {
+          in.fail(fmt::format("expected '{{' after {} {}, found {}", t, name, quoted(brace)));
+        }
+      }
+      open.push_back({clip.joint_count() - 1, false, in.line()});
+    } else if (iequals(t, "End")) {
+      std::string_view site = in.token_on_this_line();
+      if (!iequals(site, "Site")) in.fail(line, fmt::format("expected 'End Site', found 'End {}'", site));
+      if (open.empty() || open.back().end_site) in.fail(line, "End Site outside a joint block");
+      BvhJoint& parent = clip.joints[open.back().joint];
+      if (parent.has_end_site) {
+        in.fail(line, fmt::format("joint '{}' has a second End Site", parent.name));
+      }
+      parent.has_end_site = true;
+      std::string_view brace = in.token();
+      if (brace != "{") in.fail(fmt::format("expected '{{' after End Site, found {}", quoted(brace)));
+      open.push_back({open.back().joint, true, in.line()});
+    } else if (iequals(t, "OFFSET")) {
+      if (open.empty()) in.fail(line, "OFFSET outside a joint block");
+      Eigen::Vector3d v;
+      for (int i = 0; i < 3; ++i) v[i] = in.number("an OFFSET value");
+      BvhJoint& j = clip.joints[open.back().joint];
+      (open.back().end_site ? j.end_site_offset : j.offset) = v;
+    } else if (iequals(t, "CHANNELS")) {
+      if (open.empty() || open.back().end_site) in.fail(line, "CHANNELS outside a joint block");
+      parse_channels(in, clip.joints[open.back().joint], channel_names);
+    } else if (t == "}") {
+      if (open.empty()) in.fail(line, "unbalanced braces: '}' without a matching '{'");
+      open.pop_back();
+    } else if (iequals(t, "MOTION")) {
+      if (!open.empty()) {
+        const OpenBlock& b = open.back();
+        in.fail(line, fmt::format("unbalanced braces: MOTION inside the block of '{}' opened at "
+                                  "line {}",
+                                  clip.joints[b.joint].name, b.line));
+      }
+      break;
+    } else {
+      in.fail(line, fmt::format("unexpected {} in the hierarchy", quoted(t)));
+    }
+  }
+  if (clip.joints.empty()) in.fail("no ROOT joint before MOTION");
+}
+
+void parse_motion(Scanner& in, BvhClip& clip) {
+  // Frames: N
+  if (!in.label({"Frames"})) {
+    std::string_view found = in.rest_of_line();
+    in.fail(fmt::format("missing 'Frames:' after MOTION, found {}", quoted(found)));
+  }
+  const int frames_line = in.line();
+  std::string_view t = in.token_on_this_line();
+  int frames = -1;
+  auto [p, ec] = std::from_chars(t.data(), t.data() + t.size(), frames);
+  if (t.empty() || ec != std::errc() || p != t.data() + t.size() || frames < 0) {
+    in.fail(frames_line, fmt::format("bad frame count {} after 'Frames:'", quoted(t)));
+  }
+  // Frame Time: dt
+  if (!in.label({"Frame", "Time"})) {
+    std::string_view found = in.rest_of_line();
+    in.fail(fmt::format("missing 'Frame Time:' after 'Frames:', found {}", quoted(found)));
+  }
+  t = in.token_on_this_line();
+  double dt = 0.0;
+  if (!parse_double(t, dt) || dt <= 0.0) {
+    in.fail(fmt::format("bad frame time {} (expected seconds > 0)", quoted(t)));
+  }
+  clip.frame_count = frames;
+  clip.frame_time_s = dt;
+
+  // rows: parsed row-major into one buffer, then stored
+  const int cols = clip.channel_count;
+  std::vector<double> rows(static_cast<size_t>(frames) * cols);
+  for (int f = 0; f < frames; ++f) {
+    in.skip_space();
+    if (in.at_end()) {
+      in.fail(fmt::format("truncated data: 'Frames: {}' (line {}) but only {} motion rows",
+                          frames, frames_line, f));
+    }
+    in.motion_row(rows.data() + static_cast<size_t>(f) * cols, cols);
+  }
+  in.skip_space();
+  if (!in.at_end()) {
+    in.fail(fmt::format("more motion rows than 'Frames: {}' (line {})", frames, frames_line));
+  }
+  clip.raw = Eigen::Map<Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>>(
+      rows.data(), frames, cols);
+}
+
+// per joint: motion-row column of each rotation angle (listed order) and position axis, or -1
+struct JointColumns {
+  std::array<int, 3> rotation{-1, -1, -1};
+  std::array<int, 3> position{-1, -1, -1};
+};
+
+std::vector<JointColumns> joint_columns(const BvhClip& clip) {
+  std::vector<JointColumns> out(clip.joints.size());
+  for (size_t j = 0; j < clip.joints.size(); ++j) {
+    const BvhJoint& joint = clip.joints[j];
+    auto axes = rotation_axes(joint.order);
+    for (size_t c = 0; c < joint.channels.size(); ++c) {
+      BvhChannel ch = joint.channels[c];
+      int col = joint.first_column + static_cast<int>(c);
+      if (is_rotation(ch)) {
+        int slot = static_cast<int>(std::find(axes.begin(), axes.end(), channel_axis(ch)) -
+                                    axes.begin());
+        out[j].rotation[slot] = col;
+      } else {
+        out[j].position[channel_axis(ch)] = col;
+      }
+    }
+  }
+  return out;
+}
+
+// quaternions and positions from the raw rows, once
+void convert_motion(BvhClip& clip) {
+  const auto columns = joint_columns(clip);
+  const size_t nj = clip.joints.size();
+  clip.rotations.assign(static_cast<size_t>(clip.frame_count) * nj, Eigen::Quaterniond::Identity());
+  clip.positions.assign(static_cast<size_t>(clip.frame_count) * clip.position_joint_count,
+                        Eigen::Vector3d::Zero());
+  for (int f = 0; f < clip.frame_count; ++f) {
+    for (size_t j = 0; j < nj; ++j) {
+      const BvhJoint& joint = clip.joints[j];
+      const JointColumns& col = columns[j];
+      if (joint.rotation_channel_count > 0) {
+        Eigen::Vector3d angles;
+        for (int k = 0; k < 3; ++k) angles[k] = col.rotation[k] < 0 ? 0.0 : clip.raw(f, col.rotation[k]);
+        clip.rotation(f, static_cast<int>(j)) = euler_to_quaternion(angles * kDegToRad, joint.order);
+      }
+      if (joint.position_slot >= 0) {
+        Eigen::Vector3d p = joint.offset;
+        for (int k = 0; k < 3; ++k) {
+          if (col.position[k] >= 0) p[k] = clip.raw(f, col.position[k]);
+        }
+        clip.positions[static_cast<size_t>(f) * clip.position_joint_count + joint.position_slot] = p;
+      }
+    }
+  }
+}
+
+// shortest text that reads back as exactly v ("-0" written as "0")
+void append_number(std::string& out, double v) {
+  if (v == 0.0) v = 0.0;
+  char buf[32];
+  auto [p, ec] = std::to_chars(buf, buf + sizeof(buf), v);
+  out.append(buf, p);
+}
+
+// angles (deg) to write for one joint, continuous with `previous` after the first frame. Joints
+// with fewer than three rotation channels take the branch in which the unlisted angles are 0.
+Eigen::Vector3d joint_angles_deg(const Eigen::Quaterniond& q, const BvhJoint& joint,
+                                 const Eigen::Vector3d& previous_deg, bool first_frame) {
+  const Eigen::Vector3d canonical = quaternion_to_euler(q, joint.order);
+  if (joint.rotation_channel_count == 3) {
+    if (first_frame) return canonical * kRadToDeg;
+    return quaternion_to_euler_near(q, joint.order, previous_deg * kDegToRad) * kRadToDeg;
+  }
+  const double pi = std::numbers::pi;
+  const Eigen::Vector3d other(canonical[0] + pi, pi - canonical[1], canonical[2] + pi);
+  // how far the unlisted angles are from a multiple of 2 pi
+  auto unlisted_error = [&](const Eigen::Vector3d& e) {
+    double err = 0.0;
+    for (int k = joint.rotation_channel_count; k < 3; ++k) {
+      err += std::abs(std::remainder(e[k], 2.0 * pi));
+    }
+    return err;
+  };
+  Eigen::Vector3d best = unlisted_error(other) < unlisted_error(canonical) ? other : canonical;
+  Eigen::Vector3d deg = best * kRadToDeg;
+  for (int k = 0; k < 3; ++k) {
+    if (k >= joint.rotation_channel_count) deg[k] = 0.0;
+    else if (!first_frame) deg[k] += 360.0 * std::round((previous_deg[k] - deg[k]) / 360.0);
+  }
+  return deg;
+}
+
+void format_joint(const BvhClip& clip, const std::vector<std::vector<int>>& children, int j,
+                  int depth, std::string& out) {
+  const BvhJoint& joint = clip.joints[j];
+  const std::string indent(depth, '\t');
+  out += indent;
+  out += joint.parent < 0 ? "ROOT " : "JOINT ";
+  out += joint.name;
+  out += '\n';
+  out += indent + "{\n";
+  out += indent + "\tOFFSET";
+  for (int k = 0; k < 3; ++k) {
+    out += ' ';
+    append_number(out, joint.offset[k]);
+  }
+  out += '\n';
+  out += indent + fmt::format("\tCHANNELS {}", joint.channels.size());
+  for (BvhChannel c : joint.channels) {
+    out += ' ';
+    out += bvh_channel_name(c);
+  }
+  out += '\n';
+  for (int child : children[j]) format_joint(clip, children, child, depth + 1, out);
+  if (joint.has_end_site) {
+    out += indent + "\tEnd Site\n" + indent + "\t{\n" + indent + "\t\tOFFSET";
+    for (int k = 0; k < 3; ++k) {
+      out += ' ';
+      append_number(out, joint.end_site_offset[k]);
+    }
+    out += '\n' + indent + "\t}\n";
+  }
+  out += indent + "}\n";
+}
+
+struct UnitGuess {
+  double scale_to_meters;
+  std::string units;
+};
+
+UnitGuess guess_units(const BvhClip& clip) {
+  if (clip.joints.empty()) return {1.0, "unknown"};
+  // rest-pose positions relative to the first root; leaves are end sites and childless joints
+  std::vector<Eigen::Vector3d> pos(clip.joints.size(), Eigen::Vector3d::Zero());
+  std::vector<bool> has_child(clip.joints.size(), false);
+  std::vector<bool> in_first_tree(clip.joints.size(), false);
+  in_first_tree[0] = true;
+  for (size_t j = 1; j < clip.joints.size(); ++j) {
+    int p = clip.joints[j].parent;
+    if (p < 0) continue;
+    pos[j] = pos[p] + clip.joints[j].offset;
+    has_child[p] = true;
+    in_first_tree[j] = in_first_tree[p];
+  }
+  double drop_y = 0.0, drop_z = 0.0;
+  for (size_t j = 0; j < clip.joints.size(); ++j) {
+    if (!in_first_tree[j]) continue;
+    const BvhJoint& joint = clip.joints[j];
+    std::vector<Eigen::Vector3d> leaves;
+    if (joint.has_end_site) leaves.push_back(pos[j] + joint.end_site_offset);
+    if (!has_child[j]) leaves.push_back(pos[j]);
+    for (const auto& p : leaves) {
+      drop_y = std::max(drop_y, -p.y());
+      drop_z = std::max(drop_z, -p.z());
+    }
+  }
+  // the legs are the longest drop below the root: along y (the BVH norm) or z
+  const double leg = std::max(drop_y, drop_z);
+  if (!(leg > 0.0)) return {1.0, "unknown"};
+
+  struct Unit {
+    double scale;
+    const char* name;
+  };
+  static constexpr Unit kUnits[] = {{1.0, "meters"},    {0.01, "centimeters"},
+                                    {0.001, "millimeters"}, {0.0254, "inches"},
+                                    {0.3048, "feet"},   {0.056444, "cmu"}};
+  constexpr double kTypicalLegM = 0.9;
+  const Unit* best = nullptr;
+  double best_err = INFINITY;
+  for (const Unit& u : kUnits) {
+    double leg_m = leg * u.scale;
+    if (leg_m < 0.45 || leg_m > 1.5) continue;
+    double err = std::abs(std::log(leg_m / kTypicalLegM));
+    if (err < best_err) {
+      best_err = err;
+      best = &u;
+    }
+  }
+  if (best) return {best->scale, best->name};
+  return {kTypicalLegM / leg, "unknown"};
+}
+
+}  // namespace
+
+std::string_view bvh_channel_name(BvhChannel channel) {
+  return kChannelNames[static_cast<int>(channel)];
+}
+
+int BvhClip::find_joint(std::string_view name) const {
+  for (size_t j = 0; j < joints.size(); ++j) {
+    if (joints[j].name == name) return static_cast<int>(j);
+  }
+  return -1;
+}
+
+BvhClip parse_bvh(std::string_view text, const std::string& name_for_errors) {
+  BvhClip clip;
+  clip.source = name_for_errors;
+  Scanner in(text, name_for_errors);
+  parse_hierarchy(in, clip);
+
+  // motion-row columns and position slots
+  int column = 0;
+  for (BvhJoint& j : clip.joints) {
+    j.first_column = column;
+    column += static_cast<int>(j.channels.size());
+    if (j.has_position) j.position_slot = clip.position_joint_count++;
+  }
+  clip.channel_count = column;
+
+  parse_motion(in, clip);
+  convert_motion(clip);
+  return clip;
+}
+
+BvhClip read_bvh(const std::string& path) {
+  std::FILE* f = std::fopen(path.c_str(), "rb");
+  if (!f) {
+    throw InputError(
+        located(path, 0, fmt::format("cannot open BVH file ({})", std::strerror(errno))));
+  }
+  std::string text;
+  std::fseek(f, 0, SEEK_END);
+  long size = std::ftell(f);
+  std::fseek(f, 0, SEEK_SET);
+  if (size > 0) {
+    text.resize(static_cast<size_t>(size));
+    size_t got = std::fread(text.data(), 1, text.size(), f);
+    text.resize(got);
+  }
+  bool failed = std::ferror(f) != 0;
+  std::fclose(f);
+  if (failed) throw InputError(located(path, 0, "cannot read BVH file"));
+  return parse_bvh(text, path);
+}
+
+std::string format_bvh(const BvhClip& clip) {
+  std::vector<std::vector<int>> children(clip.joints.size());
+  for (size_t j = 0; j < clip.joints.size(); ++j) {
+    if (clip.joints[j].parent >= 0) children[clip.joints[j].parent].push_back(static_cast<int>(j));
+  }
+  std::string out = "HIERARCHY\n";
+  for (size_t j = 0; j < clip.joints.size(); ++j) {
+    if (clip.joints[j].parent < 0) format_joint(clip, children, static_cast<int>(j), 0, out);
+  }
+  out += "MOTION\n";
+  out += fmt::format("Frames: {}\n", clip.frame_count);
+  out += "Frame Time: ";
+  append_number(out, clip.frame_time_s);
+  out += '\n';
+
+  const auto columns = joint_columns(clip);
+  std::vector<Eigen::Vector3d> previous(clip.joints.size(), Eigen::Vector3d::Zero());
+  std::vector<double> row(clip.channel_count);
+  out.reserve(out.size() + static_cast<size_t>(clip.frame_count) * clip.channel_count * 12);
+  for (int f = 0; f < clip.frame_count; ++f) {
+    for (size_t j = 0; j < clip.joints.size(); ++j) {
+      const BvhJoint& joint = clip.joints[j];
+      const JointColumns& col = columns[j];
+      if (joint.rotation_channel_count > 0) {
+        Eigen::Vector3d deg =
+            joint_angles_deg(clip.rotation(f, static_cast<int>(j)), joint, previous[j], f == 0);
+        previous[j] = deg;
+        for (int k = 0; k < 3; ++k) {
+          // 1e-9 deg is far below the 1e-9 rad round-trip promise and keeps "12.34" short
+          if (col.rotation[k] >= 0) row[col.rotation[k]] = std::round(deg[k] * 1e9) / 1e9;
+        }
+      }
+      if (joint.position_slot >= 0) {
+        Eigen::Vector3d p = clip.translation(f, static_cast<int>(j));
+        for (int k = 0; k < 3; ++k) {
+          if (col.position[k] >= 0) row[col.position[k]] = p[k];
+        }
+      }
+    }
+    for (int c = 0; c < clip.channel_count; ++c) {
+      if (c > 0) out += ' ';
+      append_number(out, row[c]);
+    }
+    out += '\n';
+  }
+  return out;
+}
+
+void write_bvh(const BvhClip& clip, const std::string& path) {
+  std::string text = format_bvh(clip);
+  std::ofstream file(path, std::ios::binary);
+  if (!file) {
+    throw InputError(
+        located(path, 0, fmt::format("cannot write BVH file ({})", std::strerror(errno))));
+  }
+  file.write(text.data(), static_cast<std::streamsize>(text.size()));
+  file.close();
+  if (!file) throw InputError(located(path, 0, "cannot write BVH file"));
+}
+
+double detect_bvh_scale_to_meters(const BvhClip& clip) { return guess_units(clip).scale_to_meters; }
+
+std::string detect_bvh_units(const BvhClip& clip) { return guess_units(clip).units; }
+
+nlohmann::json bvh_info_json(const BvhClip& clip) {
+  UnitGuess units = guess_units(clip);
+  nlohmann::json orders = nlohmann::json::object();
+  int end_sites = 0;
+  for (const BvhJoint& j : clip.joints) {
+    if (j.has_end_site) ++end_sites;
+    if (j.rotation_channel_count > 0) orders[j.name] = rotation_order_name(j.order);
+  }
+  return {
+      {"file", clip.source},
+      {"frames", clip.frame_count},
+      {"frame_time", clip.frame_time_s},
+      {"joints", clip.joint_count()},
+      {"end_sites", end_sites},
+      {"channels", clip.channel_count},
+      {"duration_s", clip.frame_count * clip.frame_time_s},
+      {"rotation_orders", orders},
+      {"units", units.units},
+      {"scale_to_meters", units.scale_to_meters},
+  };
+}
+
+std::string bvh_info_text(const BvhClip& clip) {
+  UnitGuess units = guess_units(clip);
+  int end_sites = 0;
+  std::map<std::string_view, int> order_counts;
+  for (const BvhJoint& j : clip.joints) {
+    if (j.has_end_site) ++end_sites;
+    if (j.rotation_channel_count > 0) ++order_counts[rotation_order_name(j.order)];
+  }
+  std::string out;
+  out += fmt::format("file:        {}\n", clip.source);
+  out += fmt::format("frames:      {}\n", clip.frame_count);
+  out += fmt::format("frame time:  {} s ({:.4g} fps)\n", clip.frame_time_s,
+                     1.0 / clip.frame_time_s);
+  out += fmt::format("duration:    {:.4g} s\n", clip.frame_count * clip.frame_time_s);
+  out += fmt::format("joints:      {} (+{} End Sites)\n", clip.joint_count(), end_sites);
+  out += fmt::format("channels:    {} per frame\n", clip.channel_count);
+  out += fmt::format("units:       {} ({:.6g} m per file unit)\n", units.units,
+                     units.scale_to_meters);
+  std::string orders;
+  for (const auto& [name, count] : order_counts) {
+    orders += fmt::format("{}{} x{}", orders.empty() ? "" : ", ", name, count);
+  }
+  out += fmt::format("rotations:   {}\n", orders.empty() ? "none" : orders);
+  out += "joint tree (order, channels):\n";
+  std::vector<int> depth(clip.joints.size(), 0);
+  for (size_t j = 0; j < clip.joints.size(); ++j) {
+    const BvhJoint& joint = clip.joints[j];
+    if (joint.parent >= 0) depth[j] = depth[joint.parent] + 1;
+    std::string order = joint.rotation_channel_count > 0
+                            ? std::string(rotation_order_name(joint.order))
+                            : std::string("-");
+    out += fmt::format("  {}{}  {}  {}{}{}\n", std::string(2 * depth[j], ' '), joint.name, order,
+                       joint.channels.size(), joint.has_position ? " +position" : "",
+                       joint.has_end_site ? "  [End Site]" : "");
+  }
+  return out;
+}
+
+}  // namespace stance

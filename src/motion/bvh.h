@@ -1,0 +1,115 @@
+// BVH motion capture: reader, writer, unit detection and a summary for `stance bvh info`.
+//
+// The reader converts each joint's Euler channels, in that joint's own listed order, to a
+// quaternion once at load (see math/rotations.h for the convention: "Zrotation Xrotation
+// Yrotation" means R = Rz * Rx * Ry). Errors throw InputError with "file:line: message".
+#pragma once
+
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+#include <nlohmann/json.hpp>
+
+#include "math/rotations.h"
+
+namespace stance {
+
+enum class BvhChannel { kXposition, kYposition, kZposition, kXrotation, kYrotation, kZrotation };
+
+// "Xposition", ..., "Zrotation"
+std::string_view bvh_channel_name(BvhChannel channel);
+
+// one ROOT or JOINT entry; End Sites are folded into their parent
+struct BvhJoint {
+  std::string name;
+  int parent = -1;                                 // index into BvhClip::joints; -1 for a root
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // from the parent, file units
+  std::vector<BvhChannel> channels;                // as listed in the file
+  int first_column = 0;                            // column of channels[0] in a motion row
+  // rotation order of the listed rotation channels; axes a joint does not list (fewer than
+  // three rotation channels) are appended in x, y, z order and always have angle 0
+  RotationOrder order = RotationOrder::kZXY;
+  int rotation_channel_count = 0;                  // 0..3
+  bool has_position = false;                       // lists at least one position channel
+  int position_slot = -1;                          // index among joints with position, or -1
+  bool has_end_site = false;
+  Eigen::Vector3d end_site_offset = Eigen::Vector3d::Zero();  // file units, if has_end_site
+  int line = 0;                                    // of its ROOT / JOINT keyword
+};
+
+// a whole file. Joints are in file (depth-first) order, so parents precede children.
+struct BvhClip {
+  std::string source;  // file name used in messages
+  std::vector<BvhJoint> joints;
+  int frame_count = 0;
+  double frame_time_s = 0.0;
+  int channel_count = 0;  // values per motion row
+
+  // the motion rows as read (degrees, file units), frame_count x channel_count. The writer does
+  // not use it: it writes from `rotations` and `positions`, so edit those.
+  Eigen::MatrixXd raw;
+
+  // local rotation of each joint relative to its parent, frame-major:
+  // rotations[frame * joints.size() + joint]
+  std::vector<Eigen::Quaterniond> rotations;
+
+  // translation in the parent frame of each joint that has position channels, frame-major:
+  // positions[frame * position_joint_count + joint.position_slot]. File units. The channels
+  // replace the joint's OFFSET; axes without a channel keep the OFFSET value.
+  std::vector<Eigen::Vector3d> positions;
+  int position_joint_count = 0;
+
+  int joint_count() const { return static_cast<int>(joints.size()); }
+  const Eigen::Quaterniond& rotation(int frame, int joint) const {
+    return rotations[static_cast<size_t>(frame) * joints.size() + joint];
+  }
+  Eigen::Quaterniond& rotation(int frame, int joint) {
+    return rotations[static_cast<size_t>(frame) * joints.size() + joint];
+  }
+  // translation of `joint` in its parent frame at `frame`: the position channels if it has them,
+  // else its OFFSET
+  Eigen::Vector3d translation(int frame, int joint) const {
+    const BvhJoint& j = joints[joint];
+    if (j.position_slot < 0) return j.offset;
+    return positions[static_cast<size_t>(frame) * position_joint_count + j.position_slot];
+  }
+  // index of the joint called `name`, or -1
+  int find_joint(std::string_view name) const;
+};
+
+// reads and parses a BVH file (the whole file is read into memory first)
+BvhClip read_bvh(const std::string& path);
+
+// parses BVH text; name_for_errors prefixes error messages ("name:line: ...")
+BvhClip parse_bvh(std::string_view text, const std::string& name_for_errors);
+
+// BVH text of a clip, LF line endings. Angles come from `rotations` in each joint's own channel
+// order, kept continuous from frame to frame and rounded to 1e-9 deg; positions and offsets
+// are written exactly (shortest round-trip form), so read -> write -> read agrees to 1e-9.
+std::string format_bvh(const BvhClip& clip);
+
+// writes format_bvh(clip) to path; throws InputError when the file cannot be written
+void write_bvh(const BvhClip& clip, const std::string& path);
+
+// meters per file unit, detected from the leg length: the rest-pose drop from the root to the
+// lowest end site along the up axis (Y, or Z when that drop is larger). Snaps to metres,
+// centimetres, millimetres, inches, feet or CMU units (0.056444 m) when one of them gives a
+// human leg of 0.45..1.5 m, else scales that leg to 0.9 m. 1.0 when there is no leg to measure.
+double detect_bvh_scale_to_meters(const BvhClip& clip);
+
+// the unit name behind detect_bvh_scale_to_meters: "meters", "centimeters", "millimeters",
+// "inches", "feet", "cmu", or "unknown"
+std::string detect_bvh_units(const BvhClip& clip);
+
+// summary for `stance bvh info --json`: frames, frame_time, joints (ROOT + JOINT entries),
+// end_sites, channels (per frame), duration_s (frames * frame_time), rotation_orders
+// ({joint name: "ZXY"}), units, scale_to_meters
+nlohmann::json bvh_info_json(const BvhClip& clip);
+
+// the same summary as readable text, with the joint tree
+std::string bvh_info_text(const BvhClip& clip);
+
+}  // namespace stance
