@@ -25,7 +25,9 @@ constexpr std::array<OrderInfo, 6> kOrders = {{
     {RotationOrder::kZYX, "ZYX", {2, 1, 0}},
 }};
 
-const OrderInfo& info(RotationOrder order) { return kOrders[static_cast<int>(order)]; }
+const OrderInfo& info(RotationOrder order) {
+  return kOrders[static_cast<int>(order)];
+}
 
 // x + 2 pi n closest to target
 double wrap_near(double x, double target) {
@@ -34,7 +36,9 @@ double wrap_near(double x, double target) {
 
 }  // namespace
 
-std::string_view rotation_order_name(RotationOrder order) { return info(order).name; }
+std::string_view rotation_order_name(RotationOrder order) {
+  return info(order).name;
+}
 
 std::optional<RotationOrder> parse_rotation_order(std::string_view name) {
   if (name.size() != 3) return std::nullopt;
@@ -47,7 +51,9 @@ std::optional<RotationOrder> parse_rotation_order(std::string_view name) {
   return rotation_order_from_axes(axes[0], axes[1], axes[2]);
 }
 
-std::array<int, 3> rotation_axes(RotationOrder order) { return info(order).axes; }
+std::array<int, 3> rotation_axes(RotationOrder order) {
+  return info(order).axes;
+}
 
 std::optional<RotationOrder> rotation_order_from_axes(int first, int second, int third) {
   for (const auto& o : kOrders) {
@@ -128,8 +134,7 @@ Eigen::Vector3d quaternion_log(const Eigen::Quaterniond& q) {
 Eigen::Quaterniond quaternion_exp(const Eigen::Vector3d& rotation_vector) {
   const double angle = rotation_vector.norm();
   // sin(angle / 2) / angle, with its series below where the division loses precision
-  const double scale =
-      angle < 1e-6 ? 0.5 - angle * angle / 48.0 : std::sin(0.5 * angle) / angle;
+  const double scale = angle < 1e-6 ? 0.5 - angle * angle / 48.0 : std::sin(0.5 * angle) / angle;
   Eigen::Quaterniond q;
   q.w() = std::cos(0.5 * angle);
   q.vec() = scale * rotation_vector;

@@ -22,11 +22,15 @@ namespace {
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
-constexpr std::array<std::string_view, 6> kChannelNames = {
-    "Xposition", "Yposition", "Zposition", "Xrotation", "Yrotation", "Zrotation"};
+constexpr std::array<std::string_view, 6> kChannelNames = {"Xposition", "Yposition", "Zposition",
+                                                           "Xrotation", "Yrotation", "Zrotation"};
 
-bool is_rotation(BvhChannel c) { return c >= BvhChannel::kXrotation; }
-int channel_axis(BvhChannel c) { return static_cast<int>(c) % 3; }
+bool is_rotation(BvhChannel c) {
+  return c >= BvhChannel::kXrotation;
+}
+int channel_axis(BvhChannel c) {
+  return static_cast<int>(c) % 3;
+}
 
 bool iequals(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
@@ -38,7 +42,9 @@ bool iequals(std::string_view a, std::string_view b) {
   return true;
 }
 
-bool is_hspace(char c) { return c == ' ' || c == '\t' || c == '\v' || c == '\f'; }
+bool is_hspace(char c) {
+  return c == ' ' || c == '\t' || c == '\v' || c == '\f';
+}
 
 // a quoted token for messages, shortened when huge
 std::string quoted(std::string_view token) {
@@ -177,8 +183,8 @@ class Scanner {
                 std::isfinite(v);
       if (!ok) {
         std::string_view t = token_on_this_line();
-        fail(row_line, fmt::format("bad number {} (value {} of the motion row)", quoted(t),
-                                   found + 1));
+        fail(row_line,
+             fmt::format("bad number {} (value {} of the motion row)", quoted(t), found + 1));
       }
       if (found < count) out[found] = v;
       ++found;
@@ -208,14 +214,14 @@ void parse_channels(Scanner& in, BvhJoint& joint, const std::vector<std::string>
   const int line = in.line();
   std::string_view count_token = in.token_on_this_line();
   int count = -1;
-  auto [p, ec] = std::from_chars(count_token.data(), count_token.data() + count_token.size(),
-                                 count);
-  if (ec != std::errc() || p != count_token.data() + count_token.size() || count < 0 ||
-      count > 6) {
+  auto [p, ec] =
+      std::from_chars(count_token.data(), count_token.data() + count_token.size(), count);
+  if (ec != std::errc() || p != count_token.data() + count_token.size() || count < 0 || count > 6) {
     in.fail(line, fmt::format("bad channel count {} for joint '{}' (expected 0..6)",
                               quoted(count_token), joint.name));
   }
-  if (!joint.channels.empty()) in.fail(line, fmt::format("joint '{}' has two CHANNELS", joint.name));
+  if (!joint.channels.empty())
+    in.fail(line, fmt::format("joint '{}' has two CHANNELS", joint.name));
   for (int i = 0; i < count; ++i) {
     std::string_view t = in.token_on_this_line();
     if (t.empty()) {
@@ -227,8 +233,8 @@ void parse_channels(Scanner& in, BvhJoint& joint, const std::vector<std::string>
       if (iequals(t, kChannelNames[c])) found = c;
     }
     if (found < 0) {
-      in.fail(line, fmt::format("unknown channel name {}{}", quoted(t),
-                                did_you_mean(t, all_names)));
+      in.fail(line,
+              fmt::format("unknown channel name {}{}", quoted(t), did_you_mean(t, all_names)));
     }
     auto ch = static_cast<BvhChannel>(found);
     if (std::find(joint.channels.begin(), joint.channels.end(), ch) != joint.channels.end()) {
@@ -247,8 +253,10 @@ void parse_channels(Scanner& in, BvhJoint& joint, const std::vector<std::string>
   std::array<int, 3> axes{};
   int n = 0;
   for (BvhChannel c : joint.channels) {
-    if (is_rotation(c)) axes[n++] = channel_axis(c);
-    else joint.has_position = true;
+    if (is_rotation(c))
+      axes[n++] = channel_axis(c);
+    else
+      joint.has_position = true;
   }
   joint.rotation_channel_count = n;
   for (int a = 0; a < 3 && n < 3; ++a) {
@@ -303,7 +311,8 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
       open.push_back({clip.joint_count() - 1, false, in.line()});
     } else if (iequals(t, "End")) {
       std::string_view site = in.token_on_this_line();
-      if (!iequals(site, "Site")) in.fail(line, fmt::format("expected 'End Site', found 'End {}'", site));
+      if (!iequals(site, "Site"))
+        in.fail(line, fmt::format("expected 'End Site', found 'End {}'", site));
       if (open.empty() || open.back().end_site) in.fail(line, "End Site outside a joint block");
       BvhJoint& parent = clip.joints[open.back().joint];
       if (parent.has_end_site) {
@@ -311,7 +320,8 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
       }
       parent.has_end_site = true;
       std::string_view brace = in.token();
-      if (brace != "{") in.fail(fmt::format("expected '{{' after End Site, found {}", quoted(brace)));
+      if (brace != "{")
+        in.fail(fmt::format("expected '{{' after End Site, found {}", quoted(brace)));
       open.push_back({open.back().joint, true, in.line()});
     } else if (iequals(t, "OFFSET")) {
       if (open.empty()) in.fail(line, "OFFSET outside a joint block");
@@ -372,8 +382,8 @@ void parse_motion(Scanner& in, BvhClip& clip) {
   for (int f = 0; f < frames; ++f) {
     in.skip_space();
     if (in.at_end()) {
-      in.fail(fmt::format("truncated data: 'Frames: {}' (line {}) but only {} motion rows",
-                          frames, frames_line, f));
+      in.fail(fmt::format("truncated data: 'Frames: {}' (line {}) but only {} motion rows", frames,
+                          frames_line, f));
     }
     in.motion_row(rows.data() + static_cast<size_t>(f) * cols, cols);
   }
@@ -400,8 +410,8 @@ std::vector<JointColumns> joint_columns(const BvhClip& clip) {
       BvhChannel ch = joint.channels[c];
       int col = joint.first_column + static_cast<int>(c);
       if (is_rotation(ch)) {
-        int slot = static_cast<int>(std::find(axes.begin(), axes.end(), channel_axis(ch)) -
-                                    axes.begin());
+        int slot =
+            static_cast<int>(std::find(axes.begin(), axes.end(), channel_axis(ch)) - axes.begin());
         out[j].rotation[slot] = col;
       } else {
         out[j].position[channel_axis(ch)] = col;
@@ -424,15 +434,18 @@ void convert_motion(BvhClip& clip) {
       const JointColumns& col = columns[j];
       if (joint.rotation_channel_count > 0) {
         Eigen::Vector3d angles;
-        for (int k = 0; k < 3; ++k) angles[k] = col.rotation[k] < 0 ? 0.0 : clip.raw(f, col.rotation[k]);
-        clip.rotation(f, static_cast<int>(j)) = euler_to_quaternion(angles * kDegToRad, joint.order);
+        for (int k = 0; k < 3; ++k)
+          angles[k] = col.rotation[k] < 0 ? 0.0 : clip.raw(f, col.rotation[k]);
+        clip.rotation(f, static_cast<int>(j)) =
+            euler_to_quaternion(angles * kDegToRad, joint.order);
       }
       if (joint.position_slot >= 0) {
         Eigen::Vector3d p = joint.offset;
         for (int k = 0; k < 3; ++k) {
           if (col.position[k] >= 0) p[k] = clip.raw(f, col.position[k]);
         }
-        clip.positions[static_cast<size_t>(f) * clip.position_joint_count + joint.position_slot] = p;
+        clip.positions[static_cast<size_t>(f) * clip.position_joint_count + joint.position_slot] =
+            p;
       }
     }
   }
@@ -468,8 +481,10 @@ Eigen::Vector3d joint_angles_deg(const Eigen::Quaterniond& q, const BvhJoint& jo
   Eigen::Vector3d best = unlisted_error(other) < unlisted_error(canonical) ? other : canonical;
   Eigen::Vector3d deg = best * kRadToDeg;
   for (int k = 0; k < 3; ++k) {
-    if (k >= joint.rotation_channel_count) deg[k] = 0.0;
-    else if (!first_frame) deg[k] += 360.0 * std::round((previous_deg[k] - deg[k]) / 360.0);
+    if (k >= joint.rotation_channel_count)
+      deg[k] = 0.0;
+    else if (!first_frame)
+      deg[k] += 360.0 * std::round((previous_deg[k] - deg[k]) / 360.0);
   }
   return deg;
 }
@@ -546,9 +561,9 @@ UnitGuess guess_units(const BvhClip& clip) {
     double scale;
     const char* name;
   };
-  static constexpr Unit kUnits[] = {{1.0, "meters"},    {0.01, "centimeters"},
+  static constexpr Unit kUnits[] = {{1.0, "meters"},        {0.01, "centimeters"},
                                     {0.001, "millimeters"}, {0.0254, "inches"},
-                                    {0.3048, "feet"},   {0.056444, "cmu"}};
+                                    {0.3048, "feet"},       {0.056444, "cmu"}};
   constexpr double kTypicalLegM = 0.9;
   const Unit* best = nullptr;
   double best_err = INFINITY;
@@ -679,9 +694,13 @@ void write_bvh(const BvhClip& clip, const std::string& path) {
   if (!file) throw InputError(located(path, 0, "cannot write BVH file"));
 }
 
-double detect_bvh_scale_to_meters(const BvhClip& clip) { return guess_units(clip).scale_to_meters; }
+double detect_bvh_scale_to_meters(const BvhClip& clip) {
+  return guess_units(clip).scale_to_meters;
+}
 
-std::string detect_bvh_units(const BvhClip& clip) { return guess_units(clip).units; }
+std::string detect_bvh_units(const BvhClip& clip) {
+  return guess_units(clip).units;
+}
 
 nlohmann::json bvh_info_json(const BvhClip& clip) {
   UnitGuess units = guess_units(clip);
@@ -716,13 +735,13 @@ std::string bvh_info_text(const BvhClip& clip) {
   std::string out;
   out += fmt::format("file:        {}\n", clip.source);
   out += fmt::format("frames:      {}\n", clip.frame_count);
-  out += fmt::format("frame time:  {} s ({:.4g} fps)\n", clip.frame_time_s,
-                     1.0 / clip.frame_time_s);
+  out +=
+      fmt::format("frame time:  {} s ({:.4g} fps)\n", clip.frame_time_s, 1.0 / clip.frame_time_s);
   out += fmt::format("duration:    {:.4g} s\n", clip.frame_count * clip.frame_time_s);
   out += fmt::format("joints:      {} (+{} End Sites)\n", clip.joint_count(), end_sites);
   out += fmt::format("channels:    {} per frame\n", clip.channel_count);
-  out += fmt::format("units:       {} ({:.6g} m per file unit)\n", units.units,
-                     units.scale_to_meters);
+  out +=
+      fmt::format("units:       {} ({:.6g} m per file unit)\n", units.units, units.scale_to_meters);
   std::string orders;
   for (const auto& [name, count] : order_counts) {
     orders += fmt::format("{}{} x{}", orders.empty() ? "" : ", ", name, count);

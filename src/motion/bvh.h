@@ -25,19 +25,19 @@ std::string_view bvh_channel_name(BvhChannel channel);
 // one ROOT or JOINT entry; End Sites are folded into their parent
 struct BvhJoint {
   std::string name;
-  int parent = -1;                                 // index into BvhClip::joints; -1 for a root
+  int parent = -1;                                   // index into BvhClip::joints; -1 for a root
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // from the parent, file units
-  std::vector<BvhChannel> channels;                // as listed in the file
-  int first_column = 0;                            // column of channels[0] in a motion row
+  std::vector<BvhChannel> channels;                  // as listed in the file
+  int first_column = 0;                              // column of channels[0] in a motion row
   // rotation order of the listed rotation channels; axes a joint does not list (fewer than
   // three rotation channels) are appended in x, y, z order and always have angle 0
   RotationOrder order = RotationOrder::kZXY;
-  int rotation_channel_count = 0;                  // 0..3
-  bool has_position = false;                       // lists at least one position channel
-  int position_slot = -1;                          // index among joints with position, or -1
+  int rotation_channel_count = 0;  // 0..3
+  bool has_position = false;       // lists at least one position channel
+  int position_slot = -1;          // index among joints with position, or -1
   bool has_end_site = false;
   Eigen::Vector3d end_site_offset = Eigen::Vector3d::Zero();  // file units, if has_end_site
-  int line = 0;                                    // of its ROOT / JOINT keyword
+  int line = 0;                                               // of its ROOT / JOINT keyword
 };
 
 // a whole file. Joints are in file (depth-first) order, so parents precede children.

@@ -15,7 +15,9 @@ const std::array<RotationOrder, 6> kAllOrders = {RotationOrder::kXYZ, RotationOr
                                                  RotationOrder::kYXZ, RotationOrder::kYZX,
                                                  RotationOrder::kZXY, RotationOrder::kZYX};
 
-Eigen::Vector3d unit_axis(int axis) { return Eigen::Vector3d::Unit(axis); }
+Eigen::Vector3d unit_axis(int axis) {
+  return Eigen::Vector3d::Unit(axis);
+}
 
 // the same rotation built from Eigen's own AngleAxis products
 Eigen::Quaterniond angle_axis_product(const Eigen::Vector3d& angles, RotationOrder order) {

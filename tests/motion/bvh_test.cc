@@ -42,28 +42,30 @@ std::string rotation_channels(std::string_view order) {
 //  22 Frames     23 Frame Time     24.. one row per frame (12 values)
 std::string synthetic_bvh(std::string_view order, const std::vector<std::vector<double>>& rows,
                           std::string_view frame_time = "0.0333333") {
-  std::string rot = rotation_channels(order);
-  std::string text = "HIERARCHY\n"
-                     "ROOT Hips\n"
-                     "{\n"
-                     "  OFFSET 0 0 0\n"
-                     "  CHANNELS 6 Xposition Yposition Zposition" + rot + "\n"
-                     "  JOINT LeftUpLeg\n"
-                     "  {\n"
-                     "    OFFSET 10 -5 0\n"
-                     "    CHANNELS 3" + rot + "\n"
-                     "    JOINT LeftLeg\n"
-                     "    {\n"
-                     "      OFFSET 0 -45 0\n"
-                     "      CHANNELS 3" + rot + "\n"
-                     "      End Site\n"
-                     "      {\n"
-                     "        OFFSET 0 -45 0\n"
-                     "      }\n"
-                     "    }\n"
-                     "  }\n"
-                     "}\n"
-                     "MOTION\n";
+  std::string text = R"(HIERARCHY
+ROOT Hips
+{
+  OFFSET 0 0 0
+  CHANNELS 6 Xposition Yposition Zposition ROT
+  JOINT LeftUpLeg
+  {
+    OFFSET 10 -5 0
+    CHANNELS 3 ROT
+    JOINT LeftLeg
+    {
+      OFFSET 0 -45 0
+      CHANNELS 3 ROT
+      End Site
+      {
+        OFFSET 0 -45 0
+      }
+    }
+  }
+}
+MOTION
+)";
+  const std::string rot = rotation_channels(order);
+  for (size_t at; (at = text.find(" ROT")) != std::string::npos;) text.replace(at, 4, rot);
   text += fmt::format("Frames: {}\nFrame Time: {}\n", rows.size(), frame_time);
   for (const auto& row : rows) {
     for (size_t i = 0; i < row.size(); ++i) text += fmt::format("{}{}", i ? " " : "", row[i]);
@@ -161,9 +163,9 @@ TEST(BvhSharedFiles, MassWalk) {
   // first row starts "-30.5073 104.521 -237.413 3.43058 -2.8926 -8.40971" (awk after Frame Time)
   EXPECT_EQ(clip.raw(0, 1), 104.521);
   EXPECT_EQ(clip.translation(0, 0), Eigen::Vector3d(-30.5073, 104.521, -237.413));
-  EXPECT_LT(geodesic_angle(clip.rotation(0, 0),
-                           angle_axis_product("ZXY", {3.43058, -2.8926, -8.40971})),
-            1e-14);
+  EXPECT_LT(
+      geodesic_angle(clip.rotation(0, 0), angle_axis_product("ZXY", {3.43058, -2.8926, -8.40971})),
+      1e-14);
   // last row ends with "-0"
   EXPECT_EQ(clip.raw(131, 113), 0.0);
   EXPECT_EQ(detect_bvh_units(clip), "centimeters");
@@ -191,9 +193,9 @@ TEST(BvhSharedFiles, CmuMixedOrdersAndLineEndings) {
   EXPECT_EQ(clip.joints[clip.find_joint("LeftKnee")].parent, clip.find_joint("LeftHip"));
   // first row "5.2300 16.9002 -33.8986 -5.4029 9.8098 10.4956 ..."; Hips lists Z Y X
   EXPECT_EQ(clip.translation(0, 0), Eigen::Vector3d(5.23, 16.9002, -33.8986));
-  EXPECT_LT(geodesic_angle(clip.rotation(0, 0),
-                           angle_axis_product("ZYX", {-5.4029, 9.8098, 10.4956})),
-            1e-14);
+  EXPECT_LT(
+      geodesic_angle(clip.rotation(0, 0), angle_axis_product("ZYX", {-5.4029, 9.8098, 10.4956})),
+      1e-14);
   // last row (no final newline): 96 values ending in 19.734
   EXPECT_EQ(clip.raw(993, 95), 19.734);
   EXPECT_EQ(detect_bvh_units(clip), "cmu");
@@ -303,14 +305,19 @@ TEST(BvhSynthetic, LineEndingsTabsAndSpacingParseIdentically) {
   std::string mixed;
   int line = 0;
   for (char c : lf) {
-    if (c == '\n') mixed += (line++ % 2) ? "\r\n" : "\n";
-    else mixed += c;
+    if (c == '\n')
+      mixed += (line++ % 2) ? "\r\n" : "\n";
+    else
+      mixed += c;
   }
   std::string tabs;  // tabs for spaces, trailing whitespace, blank lines
   for (char c : lf) {
-    if (c == ' ') tabs += "\t";
-    else if (c == '\n') tabs += " \t\n\n";
-    else tabs += c;
+    if (c == ' ')
+      tabs += "\t";
+    else if (c == '\n')
+      tabs += " \t\n\n";
+    else
+      tabs += c;
   }
   std::string no_leading_zero = replace_once(lf, "Frame Time: 0.0333333", "Frame Time:\t.0333333");
   std::string no_space = replace_once(lf, "Frames: 3", "Frames:3");
@@ -414,9 +421,10 @@ TEST(BvhUnits, DetectedFromLegLength) {
   std::string cm = synthetic_bvh("ZXY", kRows);
   EXPECT_EQ(detect_bvh_units(parse_bvh(cm, "cm")), "centimeters");
   EXPECT_EQ(detect_bvh_scale_to_meters(parse_bvh(cm, "cm")), 0.01);
-  std::string m = replace_once(replace_once(replace_once(cm, "OFFSET 10 -5 0", "OFFSET 0.1 -0.05 0"),
-                                            "OFFSET 0 -45 0", "OFFSET 0 -0.45 0"),
-                               "OFFSET 0 -45 0", "OFFSET 0 -0.45 0");
+  std::string m =
+      replace_once(replace_once(replace_once(cm, "OFFSET 10 -5 0", "OFFSET 0.1 -0.05 0"),
+                                "OFFSET 0 -45 0", "OFFSET 0 -0.45 0"),
+                   "OFFSET 0 -45 0", "OFFSET 0 -0.45 0");
   EXPECT_EQ(detect_bvh_units(parse_bvh(m, "m")), "meters");
   EXPECT_EQ(detect_bvh_scale_to_meters(parse_bvh(m, "m")), 1.0);
   // 37.4 in = 0.95 m
@@ -474,8 +482,9 @@ TEST(BvhErrors, MalformedInputNamesTheLine) {
        "test.bvh:9: unknown channel name 'Zrotaton' (did you mean 'Zrotation'?)"},
       {"too few channel names", replace_once(good, "CHANNELS 6", "CHANNELS 7"),
        "test.bvh:5: bad channel count '7'"},
-      {"channel names missing", replace_once(good, "CHANNELS 3 Zrotation Xrotation Yrotation\n",
-                                             "CHANNELS 3 Zrotation Xrotation\n"),
+      {"channel names missing",
+       replace_once(good, "CHANNELS 3 Zrotation Xrotation Yrotation\n",
+                    "CHANNELS 3 Zrotation Xrotation\n"),
        "test.bvh:9: CHANNELS 3 for joint 'LeftUpLeg' lists only 2 channel names"},
       {"duplicate channel", replace_once(good, "Zposition Zrotation", "Zposition Xrotation"),
        "test.bvh:5: channel 'Xrotation' listed twice"},
@@ -496,13 +505,15 @@ TEST(BvhErrors, MalformedInputNamesTheLine) {
       {"extra brace", replace_once(good, "}\nMOTION", "}\n}\nMOTION"),
        "test.bvh:21: unbalanced braces: '}' without a matching '{'"},
       {"end of file inside a block", good.substr(0, good.find("    }\n  }\n}")),
-       "test.bvh:18: unbalanced braces: end of file inside the block of 'LeftLeg' opened at line 11"},
+       "test.bvh:18: unbalanced braces: end of file inside the block of 'LeftLeg' opened at line "
+       "11"},
       {"no HIERARCHY", good.substr(good.find("ROOT")), "test.bvh:1: expected HIERARCHY"},
       {"JOINT outside ROOT", replace_once(good, "ROOT Hips", "JOINT Hips"),
        "test.bvh:2: JOINT outside any ROOT block"},
       {"unknown keyword", replace_once(good, "OFFSET 10 -5 0", "OFSET 10 -5 0"),
        "test.bvh:8: unexpected 'OFSET' in the hierarchy"},
-      {"empty file", "", "test.bvh:1: expected HIERARCHY at the start of a BVH file, found nothing"},
+      {"empty file", "",
+       "test.bvh:1: expected HIERARCHY at the start of a BVH file, found nothing"},
   };
   for (const BadCase& c : cases) {
     std::string msg = parse_error(c.text);
