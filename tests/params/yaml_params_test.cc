@@ -1,0 +1,164 @@
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "params/yaml_params.h"
+
+namespace stance {
+namespace {
+
+struct Inner {
+  double gain = 1;
+  std::vector<std::string> names;
+  template <class V>
+  void visit(V& v) {
+    v("gain", gain, {.min = 0});
+    v("names", names);
+  }
+};
+struct Item {
+  std::string body;
+  double t = 0;
+  template <class V>
+  void visit(V& v) {
+    v("body", body);
+    v("t", t);
+  }
+};
+struct Outer {
+  double kp = 400;
+  int count = 3;
+  bool on = false;
+  Eigen::Vector3d g = Eigen::Vector3d(0, 0, -9.81);
+  NamedValues pose;
+  Inner inner;
+  std::vector<Item> items;
+  template <class V>
+  void visit(V& v) {
+    v("kp", kp, {.unit = "N m/rad", .min = 0, .max = 1e5});
+    v("count", count);
+    v("on", on);
+    v("g", g);
+    v("pose", pose);
+    v("inner", inner);
+    v("items", items);
+  }
+};
+
+std::string error_of(const std::string& yaml) {
+  Outer o;
+  try {
+    YamlParamReader(YAML::Load(yaml), {"s.yaml"}).read(o);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(YamlParams, ReadsEveryKind) {
+  Outer o;
+  YamlParamReader(YAML::Load("kp: 12.5\ncount: 7\non: true\ng: [0, -9.81, 0]\n"
+                             "pose: {a: 0.1, b: -2}\ninner: {gain: 3, names: [x, y]}\n"
+                             "items: [{body: h, t: 1.5}, {body: k}]\n"),
+                  {"s.yaml"})
+      .read(o);
+  EXPECT_EQ(o.kp, 12.5);
+  EXPECT_EQ(o.count, 7);
+  EXPECT_TRUE(o.on);
+  EXPECT_EQ(o.g, Eigen::Vector3d(0, -9.81, 0));
+  EXPECT_EQ(o.pose.at("b"), -2);
+  EXPECT_EQ(o.inner.gain, 3);
+  EXPECT_EQ(o.inner.names.size(), 2u);
+  ASSERT_EQ(o.items.size(), 2u);
+  EXPECT_EQ(o.items[0].t, 1.5);
+  EXPECT_EQ(o.items[1].body, "k");
+  EXPECT_EQ(o.items[1].t, 0);
+}
+
+TEST(YamlParams, DefaultsStayWhenAbsent) {
+  Outer o;
+  YamlParamReader(YAML::Load("count: 1"), {"s.yaml"}).read(o);
+  EXPECT_EQ(o.kp, 400);
+}
+
+TEST(YamlParams, UnknownKeySuggestsNearestWithLine) {
+  EXPECT_EQ(error_of("count: 1\nkpp: 3\n"),
+            "s.yaml:2: unknown parameter 'kpp' (did you mean 'kp'?)");
+  EXPECT_EQ(error_of("inner:\n  gian: 3\n"),
+            "s.yaml:2: unknown parameter 'inner.gian' (did you mean 'gain'?)");
+}
+
+TEST(YamlParams, WrongTypesNameTheParameter) {
+  EXPECT_EQ(error_of("kp: fast\n"), "s.yaml:1: parameter 'kp': expected a number, found 'fast'");
+  EXPECT_EQ(error_of("count: 2.5\n"),
+            "s.yaml:1: parameter 'count': expected an integer, found '2.5'");
+  EXPECT_EQ(error_of("on: maybe\n"),
+            "s.yaml:1: parameter 'on': expected true or false, found 'maybe'");
+  EXPECT_EQ(error_of("g: [1, 2]\n"),
+            "s.yaml:1: parameter 'g': expected a list of 3 numbers, found a list");
+}
+
+TEST(YamlParams, NonFiniteAndOutOfRangeRejected) {
+  EXPECT_EQ(error_of("kp: .nan\n"), "s.yaml:1: parameter 'kp': must be a finite number, found '.nan'");
+  EXPECT_EQ(error_of("\n\nkp: .inf\n"),
+            "s.yaml:3: parameter 'kp': must be a finite number, found '.inf'");
+  EXPECT_EQ(error_of("kp: -1\n"), "s.yaml:1: parameter 'kp': -1 is outside [0, 100000]");
+  EXPECT_NE(error_of("pose: {a: nan}\n").find("pose.a"), std::string::npos);
+}
+
+TEST(YamlParams, OverridesReachNestedAndListEntries) {
+  YAML::Node doc = YAML::Load("kp: 1\nitems: [{body: h, t: 1.5}]\n");
+  apply_yaml_override(doc, "kp=250");
+  apply_yaml_override(doc, "inner.gain=4");
+  apply_yaml_override(doc, "items.0.t=2.5");
+  apply_yaml_override(doc, "g=[1, 2, 3]");
+  Outer o;
+  YamlParamReader(doc, {"s.yaml"}).read(o);
+  EXPECT_EQ(o.kp, 250);
+  EXPECT_EQ(o.inner.gain, 4);
+  EXPECT_EQ(o.items[0].t, 2.5);
+  EXPECT_EQ(o.g, Eigen::Vector3d(1, 2, 3));
+  // a bad override names --set
+  YAML::Node doc2 = YAML::Load("kp: 1\n");
+  apply_yaml_override(doc2, "kp=abc");
+  try {
+    YamlParamReader(doc2, {"s.yaml"}).read(o);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "s.yaml: (from --set) parameter 'kp': expected a number, found 'abc'");
+  }
+  EXPECT_THROW(apply_yaml_override(doc2, "novalue"), InputError);
+}
+
+TEST(YamlParams, WriterRoundTrips) {
+  Outer o;
+  o.kp = 7;
+  o.pose["x"] = 0.25;
+  o.items.push_back({"b", 3});
+  YAML::Node out(YAML::NodeType::Map);
+  YamlParamWriter(out).write(o);
+  Outer back;
+  YamlParamReader(YAML::Load(YAML::Dump(out)), {"w.yaml"}).read(back);
+  EXPECT_EQ(back.kp, 7);
+  EXPECT_EQ(back.pose.at("x"), 0.25);
+  EXPECT_EQ(back.items.at(0).t, 3);
+  EXPECT_EQ(back.g, o.g);
+}
+
+TEST(YamlParams, MalformedFileNamesLine) {
+  std::string path = ::testing::TempDir() + "/malformed.yaml";
+  FILE* f = fopen(path.c_str(), "w");
+  fputs("a: 1\nb: [1, 2\nc: 3\n", f);
+  fclose(f);
+  try {
+    load_yaml_file(path);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("malformed.yaml:"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("malformed YAML"), std::string::npos);
+  }
+  EXPECT_THROW(load_yaml_file("/no/such.yaml"), InputError);
+}
+
+}  // namespace
+}  // namespace stance
