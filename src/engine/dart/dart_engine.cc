@@ -1,0 +1,852 @@
+// DART 6.12 backend of stance::Engine.
+//
+// Conventions of this backend (see engine.h for the shared ones):
+//  - only mobile skeletons are simulated state: immobile ones (e.g. a ground skeleton) add no
+//    dofs, bodies or mass, and count as "the world" (body -1) in contacts.
+//  - nq == nv: free and ball joints store exponential coordinates, as DART does. A free
+//    joint's q is (rotation vector, translation of the child frame in the parent frame) and its
+//    v is the child body's twist in the child body frame (angular, linear); positions are
+//    integrated as T(q) * T(v dt), exactly as DART's FreeJoint::integratePositions does.
+//  - Euler and universal joints appear as one hinge JointInfo per dof, named like the dof.
+//  - contacts: DART reports normal from its 2nd to its 1st object and force on its 1st; we
+//    swap the pair, so Contact::normal points from body1 to body2 and Contact::force (normal
+//    plus friction, world frame, N) acts on body2.
+//  - collision detection uses DART's own detector whenever every collision shape is a box or
+//    sphere: it tests pairs in a fixed order, so restore_state + step replays bit-exactly. FCL
+//    and Bullet order contacts by their broad-phase trees, which depend on history, so a
+//    replay then differs in the last bits (the contact LCP sees a permuted problem). Models
+//    with other shapes keep the detector the file asks for.
+//  - MJCF through DART 6.12's MjcfParser: <option> timestep/gravity are read here (the parser
+//    ignores them), and a missing <default> is supplied (the parser asserts on it).
+#include <tinyxml2.h>
+#include <dart/dart.hpp>
+#include <dart/utils/mjcf/MjcfParser.hpp>
+#include <dart/utils/urdf/urdf.hpp>
+#include <dart/utils/utils.hpp>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <iostream>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <unordered_map>
+
+#include "core/error.h"
+#include "engine/engine.h"
+#include "engine/world_spec.h"
+#include "model/model_path.h"
+
+namespace stance {
+
+namespace {
+
+using dart::dynamics::BallJoint;
+using dart::dynamics::BodyNode;
+using dart::dynamics::FreeJoint;
+using dart::dynamics::Joint;
+using dart::dynamics::SkeletonPtr;
+
+// how a run of coordinates moves on its configuration space
+enum class PositionGroupKind { kVector, kFree, kBall };
+
+struct PositionGroup {
+  PositionGroupKind kind = PositionGroupKind::kVector;
+  int start = 0;  // in q (== in v)
+  int size = 0;
+};
+
+// one mobile skeleton's slice of the global vectors
+struct SkeletonBlock {
+  SkeletonPtr skeleton;
+  int dof_start = 0;
+  int ndof = 0;
+};
+
+// collects what DART prints to std::cerr while parsing, so errors can quote it
+class CerrCapture {
+ public:
+  CerrCapture() : old_(std::cerr.rdbuf(buffer_.rdbuf())) {}
+  ~CerrCapture() { std::cerr.rdbuf(old_); }
+  CerrCapture(const CerrCapture&) = delete;
+  CerrCapture& operator=(const CerrCapture&) = delete;
+  std::string text() const { return buffer_.str(); }
+
+ private:
+  std::ostringstream buffer_;
+  std::streambuf* old_;
+};
+
+// DART's messages are multi-line and colour-coded; keep the first few lines, joined
+std::string leading_message_lines(const std::string& text, int max_lines = 3) {
+  std::istringstream in(text);
+  std::string line, out;
+  int taken = 0;
+  while (taken < max_lines && std::getline(in, line)) {
+    std::string clean;
+    for (size_t i = 0; i < line.size(); ++i) {
+      if (line[i] == '\033') {  // skip an ANSI colour escape
+        while (i < line.size() && line[i] != 'm') ++i;
+        continue;
+      }
+      clean += line[i];
+    }
+    const size_t b = clean.find_first_not_of(" \t-");
+    if (b == std::string::npos) continue;
+    if (!out.empty()) out += ' ';
+    out.append(clean, b, std::string::npos);
+    ++taken;
+  }
+  return out;
+}
+
+std::string lowercase_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+// a read-only in-memory file for DART's resource interface
+class MemoryResource final : public dart::common::Resource {
+ public:
+  explicit MemoryResource(std::string text) : text_(std::move(text)) {}
+  std::size_t getSize() override { return text_.size(); }
+  std::size_t tell() override { return pos_; }
+  bool seek(ptrdiff_t offset, SeekType origin) override {
+    ptrdiff_t base = origin == SEEKTYPE_CUR   ? static_cast<ptrdiff_t>(pos_)
+                     : origin == SEEKTYPE_END ? static_cast<ptrdiff_t>(text_.size())
+                                              : 0;
+    ptrdiff_t target = base + offset;
+    if (target < 0 || target > static_cast<ptrdiff_t>(text_.size())) return false;
+    pos_ = static_cast<std::size_t>(target);
+    return true;
+  }
+  std::size_t read(void* buffer, std::size_t size, std::size_t count) override {
+    if (size == 0) return 0;
+    const std::size_t items = std::min(count, (text_.size() - pos_) / size);
+    std::memcpy(buffer, text_.data() + pos_, items * size);
+    pos_ += items * size;
+    return items;
+  }
+  std::string readAll() override { return text_; }
+
+ private:
+  std::string text_;
+  std::size_t pos_ = 0;
+};
+
+// serves one URI from memory (a patched model file) and everything else from disk
+class PatchedFileRetriever final : public dart::common::ResourceRetriever {
+ public:
+  PatchedFileRetriever(std::string uri, std::string text)
+      : uri_(std::move(uri)),
+        text_(std::move(text)),
+        disk_(std::make_shared<dart::common::LocalResourceRetriever>()) {}
+  bool exists(const dart::common::Uri& uri) override {
+    return uri.toString() == uri_ || disk_->exists(uri);
+  }
+  dart::common::ResourcePtr retrieve(const dart::common::Uri& uri) override {
+    if (uri.toString() == uri_) return std::make_shared<MemoryResource>(text_);
+    return disk_->retrieve(uri);
+  }
+  std::string readAll(const dart::common::Uri& uri) override {
+    if (uri.toString() == uri_) return text_;
+    return disk_->readAll(uri);
+  }
+  std::string getFilePath(const dart::common::Uri& uri) override { return disk_->getFilePath(uri); }
+
+ private:
+  std::string uri_, text_;
+  dart::common::LocalResourceRetrieverPtr disk_;
+};
+
+// an MJCF <inertial>, in its body's frame
+struct MjcfInertial {
+  double mass = 0;
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d moment = Eigen::Matrix3d::Zero();  // about the COM
+};
+
+// all model formats are XML: check well-formedness here, where the line number is known
+void load_xml(const std::string& shown_name, const std::string& file, tinyxml2::XMLDocument& doc) {
+  if (doc.LoadFile(file.c_str()) != tinyxml2::XML_SUCCESS) {
+    throw InputError(located(shown_name, doc.ErrorLineNum(),
+                             std::string("malformed XML (") +
+                                 tinyxml2::XMLDocument::ErrorIDToName(doc.ErrorID()) + ")"));
+  }
+}
+
+// what DART's MJCF parser needs done before and after it runs
+struct MjcfPreflight {
+  double timestep = 0.002;  // MuJoCo's defaults, which DART 6.12 does not read
+  Eigen::Vector3d gravity{0, 0, -9.81};
+  std::string patched_text;  // non-empty: parse this instead of the file
+  // DART 6.12 keeps <inertial> mass and pos but drops diaginertia/fullinertia (unit moment)
+  std::map<std::string, MjcfInertial> inertials;  // by body name
+};
+
+// reads n numbers from an attribute; false when absent
+bool read_numbers(const std::string& shown_name, const tinyxml2::XMLElement* e, const char* name,
+                  int n, double* out) {
+  const char* text = e->Attribute(name);
+  if (!text) return false;
+  std::istringstream in(text);
+  for (int i = 0; i < n; ++i) {
+    if (!(in >> out[i]))
+      throw InputError(located(shown_name, e->GetLineNum(),
+                               std::string(e->Name()) + " " + name + ": expected " +
+                                   std::to_string(n) + " numbers, got '" + text + "'"));
+  }
+  return true;
+}
+
+// every <body>'s <inertial> below `parent`
+void collect_inertials(const std::string& shown_name, const tinyxml2::XMLElement* parent,
+                       std::map<std::string, MjcfInertial>& out) {
+  for (const tinyxml2::XMLElement* body = parent->FirstChildElement("body"); body;
+       body = body->NextSiblingElement("body")) {
+    const tinyxml2::XMLElement* in = body->FirstChildElement("inertial");
+    const char* name = body->Attribute("name");
+    if (in && name) {
+      MjcfInertial inertial;
+      in->QueryDoubleAttribute("mass", &inertial.mass);
+      read_numbers(shown_name, in, "pos", 3, inertial.com.data());
+      double d[6] = {0, 0, 0, 0, 0, 0};
+      if (read_numbers(shown_name, in, "diaginertia", 3, d)) {
+        inertial.moment = Eigen::Vector3d(d[0], d[1], d[2]).asDiagonal();
+      } else if (read_numbers(shown_name, in, "fullinertia", 6, d)) {
+        // MuJoCo order: ixx iyy izz ixy ixz iyz
+        inertial.moment << d[0], d[3], d[4], d[3], d[1], d[5], d[4], d[5], d[2];
+      }
+      double q[4];
+      if (read_numbers(shown_name, in, "quat", 4, q)) {
+        const Eigen::Matrix3d r =
+            Eigen::Quaterniond(q[0], q[1], q[2], q[3]).normalized().toRotationMatrix();
+        inertial.moment = r * inertial.moment * r.transpose();
+      } else if (in->Attribute("euler") || in->Attribute("axisangle") || in->Attribute("xyaxes") ||
+                 in->Attribute("zaxis")) {
+        throw InputError(located(shown_name, in->GetLineNum(),
+                                 "inertial orientation: only 'quat' is supported by the DART "
+                                 "backend"));
+      }
+      out[name] = inertial;
+    }
+    collect_inertials(shown_name, body, out);
+  }
+}
+
+// checks the XML (with line numbers in errors), reads <option>, and supplies <default/>
+MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& file) {
+  tinyxml2::XMLDocument doc;
+  load_xml(shown_name, file, doc);
+  const tinyxml2::XMLElement* root = doc.RootElement();
+  if (!root || std::strcmp(root->Name(), "mujoco") != 0)
+    throw InputError(
+        located(shown_name, root ? root->GetLineNum() : 0, "expected a <mujoco> root element"));
+  MjcfPreflight out;
+  if (const tinyxml2::XMLElement* option = root->FirstChildElement("option")) {
+    option->QueryDoubleAttribute("timestep", &out.timestep);
+    if (const char* g = option->Attribute("gravity")) {
+      std::istringstream in(g);
+      Eigen::Vector3d v;
+      if (!(in >> v.x() >> v.y() >> v.z()))
+        throw InputError(
+            located(shown_name, option->GetLineNum(),
+                    std::string("option gravity: expected 3 numbers, got '") + g + "'"));
+      out.gravity = v;
+    }
+    if (!(out.timestep > 0))
+      throw InputError(
+          located(shown_name, option->GetLineNum(), "option timestep must be positive"));
+  }
+  if (const tinyxml2::XMLElement* worldbody = root->FirstChildElement("worldbody"))
+    collect_inertials(shown_name, worldbody, out.inertials);
+  if (!root->FirstChildElement("default")) {
+    tinyxml2::XMLElement* fill = doc.NewElement("default");
+    doc.RootElement()->InsertFirstChild(fill);
+    tinyxml2::XMLPrinter printer;
+    doc.Print(&printer);
+    out.patched_text = printer.CStr();
+  }
+  return out;
+}
+
+// puts the file's <inertial> values on the parsed bodies
+void apply_inertials(dart::simulation::World& world,
+                     const std::map<std::string, MjcfInertial>& inertials) {
+  for (size_t s = 0; s < world.getNumSkeletons(); ++s) {
+    const SkeletonPtr& skel = world.getSkeleton(s);
+    for (size_t b = 0; b < skel->getNumBodyNodes(); ++b) {
+      BodyNode* bn = skel->getBodyNode(b);
+      auto it = inertials.find(bn->getName());
+      if (it == inertials.end()) continue;
+      bn->setInertia(dart::dynamics::Inertia(it->second.mass, it->second.com, it->second.moment));
+    }
+  }
+}
+
+// parses one model file into a temporary world of its own
+dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const std::string& file,
+                                            std::string& warnings) {
+  const std::string absolute = std::filesystem::absolute(file).string();
+  const dart::common::Uri uri = dart::common::Uri::createFromPath(absolute);
+  const std::string ext = lowercase_extension(file);
+  dart::simulation::WorldPtr world;
+  std::string printed;
+  {
+    CerrCapture capture;
+    try {
+      if (ext == ".skel") {
+        tinyxml2::XMLDocument doc;
+        load_xml(shown_name, file, doc);
+        world = dart::utils::SkelParser::readWorld(uri);
+      } else if (ext == ".xml" || ext == ".mjcf") {
+        const MjcfPreflight mjcf = preflight_mjcf(shown_name, file);
+        dart::utils::MjcfParser::Options options;
+        if (!mjcf.patched_text.empty())
+          options.mRetriever =
+              std::make_shared<PatchedFileRetriever>(uri.toString(), mjcf.patched_text);
+        world = dart::utils::MjcfParser::readWorld(uri, options);
+        if (world) {
+          world->setTimeStep(mjcf.timestep);
+          world->setGravity(mjcf.gravity);
+          apply_inertials(*world, mjcf.inertials);
+        }
+      } else if (ext == ".urdf") {
+        tinyxml2::XMLDocument doc;
+        load_xml(shown_name, file, doc);
+        dart::utils::DartLoader loader;  // default root joint: floating
+        SkeletonPtr skeleton = loader.parseSkeleton(uri);
+        if (skeleton) {
+          world = dart::simulation::World::create();
+          world->addSkeleton(skeleton);
+        }
+      } else {
+        throw InputError(located(
+            shown_name, 0,
+            "unknown model format '" + ext + "' (DART loads .skel, .xml (MJCF) and .urdf)"));
+      }
+    } catch (const InputError&) {
+      throw;
+    } catch (const std::exception& e) {
+      printed = e.what();
+      world = nullptr;
+    }
+    printed = capture.text() + printed;
+  }
+  if (!world) {
+    std::string why = leading_message_lines(printed);
+    if (why.empty()) why = "DART could not parse the file";
+    throw InputError(located(shown_name, 0, "cannot load model: " + why));
+  }
+  if (!printed.empty()) warnings += printed;
+  return world;
+}
+
+class DartEngine final : public Engine {
+ public:
+  explicit DartEngine(const WorldSpec& spec) {
+    load(spec);
+    index_model();
+  }
+
+  std::string_view engine_name() const override { return "dart"; }
+
+  int nq() const override { return ndof_; }
+  int nv() const override { return ndof_; }
+  int nu() const override { return 0; }
+  int nbody() const override { return static_cast<int>(bodies_.size()); }
+  int njoint() const override { return static_cast<int>(joints_.size()); }
+  double total_mass() const override { return total_mass_; }
+
+  int body_index(std::string_view name) const override { return find(body_lookup_, name); }
+  int joint_index(std::string_view name) const override { return find(joint_lookup_, name); }
+  int dof_index(std::string_view name) const override { return find(dof_lookup_, name); }
+  int actuator_index(std::string_view) const override { return -1; }
+  const std::string& body_name(int body) const override { return body_names_.at(body); }
+  const std::string& dof_name(int dof) const override { return dof_names_.at(dof); }
+  const std::string& actuator_name(int actuator) const override {
+    throw std::out_of_range("DART backend has no actuators (index " + std::to_string(actuator) +
+                            ")");
+  }
+  const JointInfo& joint(int joint) const override { return joints_.at(joint); }
+  int dof_joint(int dof) const override { return dof_joint_.at(dof); }
+  double body_mass(int body) const override { return bodies_.at(body)->getMass(); }
+
+  double time() const override { return world_->getTime(); }
+  double timestep() const override { return world_->getTimeStep(); }
+  void set_timestep(double dt) override {
+    if (!(dt > 0) || !std::isfinite(dt))
+      throw std::invalid_argument("timestep must be positive, got " + std::to_string(dt));
+    world_->setTimeStep(dt);
+  }
+  Eigen::Vector3d gravity() const override { return world_->getGravity(); }
+  void set_gravity(const Eigen::Vector3d& g) override { world_->setGravity(g); }
+
+  void get_positions(Eigen::Ref<Eigen::VectorXd> q) const override {
+    for (const SkeletonBlock& b : blocks_)
+      q.segment(b.dof_start, b.ndof) = b.skeleton->getPositions();
+  }
+  void get_velocities(Eigen::Ref<Eigen::VectorXd> v) const override {
+    for (const SkeletonBlock& b : blocks_)
+      v.segment(b.dof_start, b.ndof) = b.skeleton->getVelocities();
+  }
+  void set_positions(const Eigen::Ref<const Eigen::VectorXd>& q) override {
+    check_size(q.size(), ndof_, "set_positions");
+    for (const SkeletonBlock& b : blocks_) b.skeleton->setPositions(q.segment(b.dof_start, b.ndof));
+  }
+  void set_velocities(const Eigen::Ref<const Eigen::VectorXd>& v) override {
+    check_size(v.size(), ndof_, "set_velocities");
+    for (const SkeletonBlock& b : blocks_)
+      b.skeleton->setVelocities(v.segment(b.dof_start, b.ndof));
+  }
+  double dof_position(int dof) const override {
+    const SkeletonBlock& b = block_of(dof);
+    return b.skeleton->getPosition(dof - b.dof_start);
+  }
+  double dof_velocity(int dof) const override {
+    const SkeletonBlock& b = block_of(dof);
+    return b.skeleton->getVelocity(dof - b.dof_start);
+  }
+  void set_dof_position(int dof, double value) override {
+    // rotation dofs of free/ball joints are exponential coordinates already: set directly
+    const SkeletonBlock& b = block_of(dof);
+    b.skeleton->setPosition(dof - b.dof_start, value);
+  }
+
+  void difference_positions(const Eigen::Ref<const Eigen::VectorXd>& q0,
+                            const Eigen::Ref<const Eigen::VectorXd>& q1,
+                            Eigen::Ref<Eigen::VectorXd> v) const override {
+    check_size(q0.size(), ndof_, "difference_positions q0");
+    check_size(q1.size(), ndof_, "difference_positions q1");
+    check_size(v.size(), ndof_, "difference_positions v");
+    for (const PositionGroup& g : position_groups_) {
+      switch (g.kind) {
+        case PositionGroupKind::kVector:
+          v.segment(g.start, g.size) = q1.segment(g.start, g.size) - q0.segment(g.start, g.size);
+          break;
+        case PositionGroupKind::kFree: {
+          // same as FreeJoint::getPositionDifferencesStatic: log of T0^-1 T1, piecewise
+          const Eigen::Isometry3d t0 = FreeJoint::convertToTransform(q0.segment<6>(g.start));
+          const Eigen::Isometry3d t1 = FreeJoint::convertToTransform(q1.segment<6>(g.start));
+          v.segment<6>(g.start) = FreeJoint::convertToPositions(t0.inverse() * t1);
+          break;
+        }
+        case PositionGroupKind::kBall: {
+          const Eigen::Matrix3d r0 = BallJoint::convertToRotation(q0.segment<3>(g.start));
+          const Eigen::Matrix3d r1 = BallJoint::convertToRotation(q1.segment<3>(g.start));
+          v.segment<3>(g.start) =
+              BallJoint::convertToPositions(Eigen::Matrix3d(r0.transpose() * r1));
+          break;
+        }
+      }
+    }
+  }
+
+  void integrate_positions(const Eigen::Ref<const Eigen::VectorXd>& q,
+                           const Eigen::Ref<const Eigen::VectorXd>& v, double dt,
+                           Eigen::Ref<Eigen::VectorXd> q_out) const override {
+    check_size(q.size(), ndof_, "integrate_positions q");
+    check_size(v.size(), ndof_, "integrate_positions v");
+    check_size(q_out.size(), ndof_, "integrate_positions q_out");
+    for (const PositionGroup& g : position_groups_) {
+      switch (g.kind) {
+        case PositionGroupKind::kVector:
+          q_out.segment(g.start, g.size) =
+              q.segment(g.start, g.size) + dt * v.segment(g.start, g.size);
+          break;
+        case PositionGroupKind::kFree: {
+          // FreeJoint::integratePositions: Q_next = Q * T(v dt), i.e. a body-frame step
+          const Eigen::Vector6d step = v.segment<6>(g.start) * dt;
+          const Eigen::Isometry3d t = FreeJoint::convertToTransform(q.segment<6>(g.start)) *
+                                      FreeJoint::convertToTransform(step);
+          q_out.segment<6>(g.start) = FreeJoint::convertToPositions(t);
+          break;
+        }
+        case PositionGroupKind::kBall: {
+          // BallJoint::integratePositions: R_next = R * exp(w dt)
+          const Eigen::Vector3d step = v.segment<3>(g.start) * dt;
+          const Eigen::Matrix3d r = BallJoint::convertToRotation(q.segment<3>(g.start)) *
+                                    BallJoint::convertToRotation(step);
+          q_out.segment<3>(g.start) = BallJoint::convertToPositions(r);
+          break;
+        }
+      }
+    }
+  }
+
+  void forward() override {
+    // DART computes lazily; refresh kinematics now so later const reads are cheap
+    for (const SkeletonBlock& b : blocks_) b.skeleton->computeForwardKinematics(true, true, false);
+  }
+
+  void mass_matrix(Eigen::Ref<Eigen::MatrixXd> m) const override {
+    m.setZero();
+    for (const SkeletonBlock& b : blocks_)
+      m.block(b.dof_start, b.dof_start, b.ndof, b.ndof) = b.skeleton->getMassMatrix();
+  }
+  void solve_mass(Eigen::Ref<Eigen::VectorXd> x) const override {
+    // DART's inverse comes from its articulated-body recursion, not a dense inversion
+    for (const SkeletonBlock& b : blocks_) {
+      auto seg = x.segment(b.dof_start, b.ndof);
+      seg = (b.skeleton->getInvMassMatrix() * seg).eval();
+    }
+  }
+  void bias_forces(Eigen::Ref<Eigen::VectorXd> c) const override {
+    for (const SkeletonBlock& b : blocks_)
+      c.segment(b.dof_start, b.ndof) = b.skeleton->getCoriolisAndGravityForces();
+  }
+  void constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const override {
+    for (const SkeletonBlock& b : blocks_)
+      f.segment(b.dof_start, b.ndof) = b.skeleton->getConstraintForces();
+  }
+
+  Eigen::Vector3d com() const override {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const SkeletonBlock& b : blocks_) sum += b.skeleton->getMass() * b.skeleton->getCOM();
+    return total_mass_ > 0 ? Eigen::Vector3d(sum / total_mass_) : sum;
+  }
+  Eigen::Vector3d com_velocity() const override {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (const SkeletonBlock& b : blocks_)
+      sum += b.skeleton->getMass() * b.skeleton->getCOMLinearVelocity();
+    return total_mass_ > 0 ? Eigen::Vector3d(sum / total_mass_) : sum;
+  }
+  BodyPose body_pose(int body) const override {
+    const Eigen::Isometry3d& t = bodies_.at(body)->getWorldTransform();
+    BodyPose pose;
+    pose.pos = t.translation();
+    pose.quat = Eigen::Quaterniond(t.linear());
+    return pose;
+  }
+  Eigen::Vector3d body_com(int body) const override { return bodies_.at(body)->getCOM(); }
+  Eigen::Matrix<double, 6, 1> body_velocity(int body) const override {
+    const BodyNode* bn = bodies_.at(body);
+    Eigen::Matrix<double, 6, 1> out;
+    out.head<3>() = bn->getAngularVelocity();
+    out.tail<3>() = bn->getLinearVelocity();  // of the frame origin
+    return out;
+  }
+  void point_jacobian(int body, const Eigen::Vector3d& point_world,
+                      Eigen::Ref<Eigen::MatrixXd> jac_pos,
+                      Eigen::Ref<Eigen::MatrixXd> jac_rot) const override {
+    const BodyNode* bn = bodies_.at(body);
+    const SkeletonBlock& b = blocks_[body_block_[body]];
+    if (jac_pos.cols() > 0) jac_pos.setZero();
+    if (jac_rot.cols() > 0) jac_rot.setZero();
+    const Eigen::Vector3d offset = bn->getWorldTransform().inverse() * point_world;
+    // rows are (angular; linear); columns are the skeleton's own dofs
+    const dart::math::Jacobian j = b.skeleton->getWorldJacobian(bn, offset);
+    if (jac_pos.cols() > 0) jac_pos.middleCols(b.dof_start, b.ndof) = j.bottomRows<3>();
+    if (jac_rot.cols() > 0) jac_rot.middleCols(b.dof_start, b.ndof) = j.topRows<3>();
+  }
+  void com_jacobian(Eigen::Ref<Eigen::MatrixXd> jac) const override {
+    jac.setZero();
+    if (total_mass_ <= 0) return;
+    for (const SkeletonBlock& b : blocks_) {
+      jac.middleCols(b.dof_start, b.ndof) =
+          (b.skeleton->getMass() / total_mass_) * b.skeleton->getCOMLinearJacobian();
+    }
+  }
+
+  int num_contacts() const override {
+    return static_cast<int>(world_->getLastCollisionResult().getNumContacts());
+  }
+  Contact contact(int i) const override {
+    const dart::collision::Contact& c = world_->getLastCollisionResult().getContact(i);
+    // DART: normal points from its body 2 to its body 1 and force acts on its body 1.
+    // Ours: normal from body1 to body2, force on body2. So DART's body 2 is our body1.
+    Contact out;
+    out.body1 = body_of(c.collisionObject2);
+    out.body2 = body_of(c.collisionObject1);
+    out.pos = c.point;
+    out.normal = c.normal;
+    out.force = c.force;
+    return out;
+  }
+
+  void set_generalized_forces(const Eigen::Ref<const Eigen::VectorXd>& tau) override {
+    check_size(tau.size(), ndof_, "set_generalized_forces");
+    for (const SkeletonBlock& b : blocks_) b.skeleton->setForces(tau.segment(b.dof_start, b.ndof));
+  }
+  void set_controls(const Eigen::Ref<const Eigen::VectorXd>& ctrl) override {
+    check_size(ctrl.size(), 0, "set_controls (DART models have no actuators)");
+  }
+  void get_controls(Eigen::Ref<Eigen::VectorXd> ctrl) const override {
+    check_size(ctrl.size(), 0, "get_controls (DART models have no actuators)");
+  }
+  void apply_external_force(int body, const Eigen::Vector3d& force_world,
+                            const Eigen::Vector3d& point_world) override {
+    // force and point both in world coordinates; DART clears it after the step
+    bodies_.at(body)->addExtForce(force_world, point_world, false, false);
+  }
+  void set_dof_velocity_command(int dof, double velocity) override {
+    Joint* j = block_of(dof).skeleton->getDof(dof - block_of(dof).dof_start)->getJoint();
+    if (j->getNumDofs() != 1)
+      throw std::invalid_argument("velocity command on dof '" + dof_names_[dof] +
+                                  "': DART actuates whole joints; only 1-dof joints supported");
+    velocity_command_[dof] = velocity;
+    if (std::isnan(velocity)) {
+      j->setActuatorType(Joint::FORCE);
+      j->setCommand(0, 0.0);
+    } else {
+      j->setActuatorType(Joint::VELOCITY);
+      j->setCommand(0, velocity);
+    }
+  }
+
+  void save_state(EngineState& s) const override {
+    s.time = world_->getTime();
+    s.q.resize(ndof_);
+    s.v.resize(ndof_);
+    get_positions(s.q);
+    get_velocities(s.v);
+    s.act.resize(0);
+    s.ctrl.resize(0);
+    s.extra.clear();
+  }
+  void restore_state(const EngineState& s) override {
+    world_->setTime(s.time);
+    set_positions(s.q);
+    set_velocities(s.v);
+  }
+
+  void step() override {
+    // World::step resets joint commands afterwards; velocity servos persist, so re-arm them
+    for (int dof = 0; dof < ndof_; ++dof) {
+      if (std::isnan(velocity_command_[dof])) continue;
+      const SkeletonBlock& b = block_of(dof);
+      b.skeleton->getDof(dof - b.dof_start)->setCommand(velocity_command_[dof]);
+    }
+    world_->step();
+  }
+
+  bool state_is_finite() const override {
+    for (const SkeletonBlock& b : blocks_) {
+      if (!b.skeleton->getPositions().allFinite()) return false;
+      if (!b.skeleton->getVelocities().allFinite()) return false;
+    }
+    return true;
+  }
+  std::string last_warning() const override { return load_warnings_; }
+
+ private:
+  using Lookup = std::map<std::string, int, std::less<>>;
+
+  static int find(const Lookup& lookup, std::string_view name) {
+    auto it = lookup.find(name);
+    return it == lookup.end() ? -1 : it->second;
+  }
+  static void check_size(Eigen::Index got, int want, const char* what) {
+    if (got != want)
+      throw std::invalid_argument(std::string(what) + ": expected size " + std::to_string(want) +
+                                  ", got " + std::to_string(got));
+  }
+  const SkeletonBlock& block_of(int dof) const { return blocks_[dof_block_.at(dof)]; }
+
+  int body_of(const dart::collision::CollisionObject* object) const {
+    const dart::dynamics::ShapeFrame* frame = object->getShapeFrame();
+    const dart::dynamics::ShapeNode* node = frame ? frame->asShapeNode() : nullptr;
+    if (!node) return -1;
+    auto it = body_of_node_.find(node->getBodyNodePtr().get());
+    return it == body_of_node_.end() ? -1 : it->second;
+  }
+
+  // builds world_ from the spec's files
+  void load(const WorldSpec& spec) {
+    if (spec.models.empty()) throw InputError("world spec: no model files given");
+    for (const ModelFile& model : spec.models) {
+      const std::string file = resolve_model_path(model.path);
+      dart::simulation::WorldPtr parsed = read_model_world(model.path, file, load_warnings_);
+      std::vector<SkeletonPtr> skeletons;
+      for (size_t i = 0; i < parsed->getNumSkeletons(); ++i)
+        skeletons.push_back(parsed->getSkeleton(i));
+      // offset: translate each root joint's parent frame, so q keeps its meaning
+      if (!model.offset.isZero()) {
+        for (const SkeletonPtr& skel : skeletons) {
+          for (size_t t = 0; t < skel->getNumTrees(); ++t) {
+            Joint* root = skel->getRootJoint(t);
+            Eigen::Isometry3d shifted =
+                Eigen::Translation3d(model.offset) * root->getTransformFromParentBodyNode();
+            root->setTransformFromParentBodyNode(shifted);
+          }
+        }
+      }
+      const std::string ext = lowercase_extension(file);
+      if (!world_ && ext != ".urdf") {
+        // the first world file supplies gravity, timestep and collision detector
+        world_ = parsed;
+        continue;
+      }
+      if (!world_) world_ = dart::simulation::World::create();
+      for (const SkeletonPtr& skel : skeletons) {
+        parsed->removeSkeleton(skel);
+        // rename clashes ourselves, as DART would, but without its console message
+        const std::string base = skel->getName();
+        for (int k = 1; world_->getSkeleton(skel->getName()); ++k)
+          skel->setName(base + "(" + std::to_string(k) + ")");
+        world_->addSkeleton(skel);
+      }
+    }
+    if (spec.timestep) set_timestep(*spec.timestep);
+    if (spec.gravity) world_->setGravity(*spec.gravity);
+    if (only_primitive_collision_shapes()) {
+      world_->getConstraintSolver()->setCollisionDetector(
+          dart::collision::DARTCollisionDetector::create());
+    }
+  }
+
+  // true when DART's own (deterministic) detector handles every collision shape
+  bool only_primitive_collision_shapes() const {
+    using dart::dynamics::CollisionAspect;
+    for (size_t s = 0; s < world_->getNumSkeletons(); ++s) {
+      const SkeletonPtr& skel = world_->getSkeleton(s);
+      for (size_t b = 0; b < skel->getNumBodyNodes(); ++b) {
+        for (const dart::dynamics::ShapeNode* node :
+             skel->getBodyNode(b)->getShapeNodesWith<CollisionAspect>()) {
+          const std::string& type = node->getShape()->getType();
+          if (type == dart::dynamics::BoxShape::getStaticType()) continue;
+          if (type == dart::dynamics::SphereShape::getStaticType()) continue;
+          const auto* ellipsoid =
+              dynamic_cast<const dart::dynamics::EllipsoidShape*>(node->getShape().get());
+          if (ellipsoid && ellipsoid->isSphere()) continue;
+          return false;
+        }
+      }
+    }
+    return true;
+  }
+
+  // names, index maps and position groups over the mobile skeletons, in world order
+  void index_model() {
+    Lookup skeleton_of_dof_name, skeleton_of_body_name, skeleton_of_joint_name;
+    for (size_t s = 0; s < world_->getNumSkeletons(); ++s) {
+      SkeletonPtr skel = world_->getSkeleton(s);
+      if (!skel->isMobile()) continue;
+      SkeletonBlock block{skel, ndof_, static_cast<int>(skel->getNumDofs())};
+      const int block_index = static_cast<int>(blocks_.size());
+      blocks_.push_back(block);
+      total_mass_ += skel->getMass();
+      const std::string prefix = skel->getName() + "/";
+      auto unique = [&](Lookup& seen, const std::string& name) {
+        std::string out = seen.count(name) ? prefix + name : name;
+        seen.emplace(name, block_index);
+        return out;
+      };
+
+      // bodies
+      for (size_t i = 0; i < skel->getNumBodyNodes(); ++i) {
+        BodyNode* bn = skel->getBodyNode(i);
+        const int index = static_cast<int>(bodies_.size());
+        bodies_.push_back(bn);
+        body_block_.push_back(block_index);
+        body_names_.push_back(unique(skeleton_of_body_name, bn->getName()));
+        body_lookup_.emplace(body_names_.back(), index);
+        body_of_node_.emplace(bn, index);
+      }
+      // dofs
+      for (size_t i = 0; i < skel->getNumDofs(); ++i) {
+        dof_names_.push_back(unique(skeleton_of_dof_name, skel->getDof(i)->getName()));
+        dof_lookup_.emplace(dof_names_.back(), static_cast<int>(dof_names_.size()) - 1);
+        dof_block_.push_back(block_index);
+        dof_joint_.push_back(-1);
+      }
+      // joints
+      for (size_t i = 0; i < skel->getNumJoints(); ++i) {
+        Joint* j = skel->getJoint(i);
+        const int n = static_cast<int>(j->getNumDofs());
+        if (n == 0) continue;  // weld
+        const int first = block.dof_start + static_cast<int>(j->getIndexInSkeleton(0));
+        const int child = body_of_node_.at(j->getChildBodyNode());
+        PositionGroup group{PositionGroupKind::kVector, first, n};
+        if (dynamic_cast<FreeJoint*>(j)) {
+          group.kind = PositionGroupKind::kFree;
+          add_joint(unique(skeleton_of_joint_name, j->getName()), JointType::kFree, child, first, n,
+                    nullptr);
+        } else if (dynamic_cast<BallJoint*>(j)) {
+          group.kind = PositionGroupKind::kBall;
+          add_joint(unique(skeleton_of_joint_name, j->getName()), JointType::kBall, child, first, n,
+                    nullptr);
+        } else if (n == 1) {
+          add_joint(unique(skeleton_of_joint_name, j->getName()), dof_type(j, 0), child, first, 1,
+                    j->getDof(0));
+        } else {
+          // multi-dof joints other than free/ball: one hinge/slide entry per dof
+          for (int k = 0; k < n; ++k) {
+            add_joint(unique(skeleton_of_joint_name, j->getDof(k)->getName()), dof_type(j, k),
+                      child, first + k, 1, j->getDof(k));
+          }
+        }
+        position_groups_.push_back(group);
+      }
+      ndof_ += block.ndof;
+    }
+    velocity_command_.assign(ndof_, std::nan(""));
+  }
+
+  // translational dofs of prismatic/translational/planar joints are slides
+  static JointType dof_type(const Joint* j, int k) {
+    const std::string& type = j->getType();
+    if (type == dart::dynamics::PrismaticJoint::getStaticType()) return JointType::kSlide;
+    if (type == dart::dynamics::TranslationalJoint::getStaticType()) return JointType::kSlide;
+    if (type == dart::dynamics::TranslationalJoint2D::getStaticType()) return JointType::kSlide;
+    if (type == dart::dynamics::PlanarJoint::getStaticType() && k < 2) return JointType::kSlide;
+    return JointType::kHinge;
+  }
+
+  void add_joint(const std::string& name, JointType type, int body, int first, int n,
+                 const dart::dynamics::DegreeOfFreedom* limits_from) {
+    JointInfo info;
+    info.name = name;
+    info.type = type;
+    info.body = body;
+    info.qpos_adr = first;
+    info.dof_adr = first;
+    info.nq = n;
+    info.nv = n;
+    if (limits_from) {
+      info.lower = limits_from->getPositionLowerLimit();
+      info.upper = limits_from->getPositionUpperLimit();
+      info.has_limits = std::isfinite(info.lower) || std::isfinite(info.upper);
+      if (!info.has_limits) info.lower = info.upper = 0;
+    }
+    const int index = static_cast<int>(joints_.size());
+    joints_.push_back(info);
+    joint_lookup_.emplace(name, index);
+    for (int d = first; d < first + n; ++d) dof_joint_[d] = index;
+  }
+
+  dart::simulation::WorldPtr world_;
+  std::vector<SkeletonBlock> blocks_;
+  std::vector<PositionGroup> position_groups_;
+  int ndof_ = 0;
+  double total_mass_ = 0;
+
+  std::vector<BodyNode*> bodies_;
+  std::vector<int> body_block_;
+  std::vector<std::string> body_names_;
+  std::unordered_map<const BodyNode*, int> body_of_node_;
+  Lookup body_lookup_;
+
+  std::vector<std::string> dof_names_;
+  std::vector<int> dof_block_;
+  std::vector<int> dof_joint_;
+  Lookup dof_lookup_;
+
+  std::vector<JointInfo> joints_;
+  Lookup joint_lookup_;
+
+  std::vector<double> velocity_command_;  // NaN: no servo
+  std::string load_warnings_;
+};
+
+}  // namespace
+
+std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
+  return std::make_unique<DartEngine>(spec);
+}
+
+}  // namespace stance

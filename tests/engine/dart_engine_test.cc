@@ -1,0 +1,459 @@
+// DART backend: sizes and names, the dynamics quantities against finite differences and dense
+// algebra, position algebra on free joints, determinism of save/restore, and simple physics.
+#include <gtest/gtest.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <random>
+#include <string>
+
+#include "core/error.h"
+#include "engine/engine.h"
+#include "engine/world_spec.h"
+
+namespace stance {
+namespace {
+
+constexpr const char* kFullbody = "dart://sample/skel/fullbody1.skel";
+
+std::unique_ptr<Engine> load_fullbody() {
+  WorldSpec spec;
+  spec.models.push_back({kFullbody, Eigen::Vector3d::Zero()});
+  return make_dart_engine(spec);
+}
+
+// a file under the test temp dir holding `text`; returns its path
+std::string write_temp(const std::string& name, const std::string& text) {
+  std::filesystem::path dir = std::filesystem::temp_directory_path() / "stance_dart_test";
+  std::filesystem::create_directories(dir);
+  std::filesystem::path path = dir / name;
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+// a 1 m pendulum: point-like 1 kg bob, hinge about y at the origin
+std::string pendulum_mjcf(double angle0) {
+  return R"(<mujoco model="pendulum">
+  <option timestep="0.0005" gravity="0 0 -9.81"/>
+  <worldbody>
+    <body name="arm" pos="0 0 0" euler="0 )" +
+         std::to_string(angle0 * 180.0 / M_PI) + R"( 0">
+      <joint name="swing" type="hinge" axis="0 1 0" pos="0 0 0"/>
+      <inertial pos="0 0 -1" mass="1" diaginertia="1e-6 1e-6 1e-6"/>
+      <geom type="sphere" size="0.05" pos="0 0 -1"/>
+    </body>
+  </worldbody>
+</mujoco>
+)";
+}
+
+// a configuration away from the rest pose: every dof perturbed
+Eigen::VectorXd random_configuration(const Engine& e, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-0.6, 0.6);
+  Eigen::VectorXd q(e.nq());
+  for (int i = 0; i < e.nq(); ++i) q[i] = u(rng);
+  return q;
+}
+
+Eigen::VectorXd random_vector(int n, unsigned seed, double scale = 1.0) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> g(0.0, scale);
+  Eigen::VectorXd v(n);
+  for (int i = 0; i < n; ++i) v[i] = g(rng);
+  return v;
+}
+
+// rotation vector taking r0 to r1 in the world frame: log(r1 r0^T)
+Eigen::Vector3d world_rotation_between(const Eigen::Matrix3d& r0, const Eigen::Matrix3d& r1) {
+  Eigen::AngleAxisd aa(r1 * r0.transpose());
+  return aa.angle() * aa.axis();
+}
+
+TEST(DartEngine, Fullbody1SizesAndNames) {
+  auto e = load_fullbody();
+  EXPECT_EQ(e->engine_name(), "dart");
+  EXPECT_EQ(e->nv(), 37);
+  EXPECT_EQ(e->nq(), 37);
+  EXPECT_EQ(e->nu(), 0);
+  EXPECT_NEAR(e->total_mass(), 47.9028, 1e-6);
+  // 21 bodies in the file; the immobile "ground" is excluded
+  EXPECT_EQ(e->nbody(), 20);
+  EXPECT_EQ(e->body_index("ground"), -1);
+  EXPECT_EQ(e->body_index("h_pelvis"), 0);
+  EXPECT_NEAR(e->body_mass(e->require_body("h_pelvis")), 5.6154, 1e-12);
+
+  // dart's own dof names and order
+  EXPECT_EQ(e->dof_index("j_pelvis_rot_x"), 0);
+  EXPECT_EQ(e->dof_index("j_pelvis_pos_z"), 5);
+  EXPECT_EQ(e->dof_index("j_thigh_left_z"), 6);
+  EXPECT_EQ(e->dof_index("j_shin_left"), 9);
+  EXPECT_EQ(e->dof_index("j_heel_left_1"), 10);
+  EXPECT_EQ(e->dof_index("no_such_dof"), -1);
+  EXPECT_THROW(e->require_dof("j_shin_lft"), InputError);
+  EXPECT_EQ(e->dof_name(9), "j_shin_left");
+
+  // free root: one joint with 6 dofs; euler joints split into hinges named like the dofs
+  const JointInfo& root = e->joint(e->require_joint("j_pelvis"));
+  EXPECT_EQ(root.type, JointType::kFree);
+  EXPECT_EQ(root.nq, 6);
+  EXPECT_EQ(root.nv, 6);
+  EXPECT_EQ(root.body, 0);
+  EXPECT_TRUE(e->dof_is_root(e->require_dof("j_pelvis_pos_y")));
+  EXPECT_FALSE(e->dof_is_root(e->require_dof("j_shin_left")));
+  const JointInfo& thigh_y = e->joint(e->require_joint("j_thigh_left_y"));
+  EXPECT_EQ(thigh_y.type, JointType::kHinge);
+  EXPECT_EQ(thigh_y.nv, 1);
+  EXPECT_EQ(thigh_y.dof_adr, e->dof_index("j_thigh_left_y"));
+  EXPECT_EQ(thigh_y.body, e->body_index("h_thigh_left"));
+  EXPECT_EQ(e->dof_joint(e->dof_index("j_heel_left_2")), e->joint_index("j_heel_left_2"));
+  // every dof is owned by exactly one joint
+  int covered = 0;
+  for (int j = 0; j < e->njoint(); ++j) covered += e->joint(j).nv;
+  EXPECT_EQ(covered, e->nv());
+
+  // the file's physics settings are kept
+  EXPECT_DOUBLE_EQ(e->timestep(), 0.001);
+  EXPECT_TRUE(e->gravity().isApprox(Eigen::Vector3d(0, -9.81, 0)));
+}
+
+TEST(DartEngine, SpecOverridesAndOffset) {
+  WorldSpec spec;
+  spec.models.push_back({kFullbody, Eigen::Vector3d(1.0, 0.5, -2.0)});
+  spec.timestep = 0.002;
+  spec.gravity = Eigen::Vector3d(0, 0, -9.81);
+  auto shifted = make_dart_engine(spec);
+  auto plain = load_fullbody();
+  EXPECT_DOUBLE_EQ(shifted->timestep(), 0.002);
+  EXPECT_TRUE(shifted->gravity().isApprox(Eigen::Vector3d(0, 0, -9.81)));
+  shifted->forward();
+  plain->forward();
+  // same q, whole content translated
+  EXPECT_TRUE(shifted->com().isApprox(plain->com() + Eigen::Vector3d(1.0, 0.5, -2.0), 1e-12));
+}
+
+TEST(DartEngine, TwoCopiesGetPrefixedNames) {
+  WorldSpec spec;
+  spec.models.push_back({kFullbody, Eigen::Vector3d::Zero()});
+  spec.models.push_back({kFullbody, Eigen::Vector3d(2, 0, 0)});
+  auto e = make_dart_engine(spec);
+  EXPECT_EQ(e->nv(), 74);
+  EXPECT_EQ(e->nbody(), 40);
+  EXPECT_NEAR(e->total_mass(), 2 * 47.9028, 1e-6);
+  EXPECT_EQ(e->dof_index("j_shin_left"), 9);
+  const int second =
+      e->dof_index(e->body_name(20).substr(0, e->body_name(20).find('/')) + "/j_shin_left");
+  EXPECT_EQ(second, 37 + 9);
+  EXPECT_NE(e->body_name(20).find("/h_pelvis"), std::string::npos);
+}
+
+TEST(DartEngine, SolveMassMatchesDenseLdlt) {
+  auto e = load_fullbody();
+  e->set_positions(random_configuration(*e, 1));
+  e->forward();
+  Eigen::MatrixXd m(e->nv(), e->nv());
+  e->mass_matrix(m);
+  EXPECT_TRUE(m.isApprox(m.transpose(), 1e-12));
+  const Eigen::VectorXd b = random_vector(e->nv(), 2);
+  Eigen::VectorXd x = b;
+  e->solve_mass(x);
+  const Eigen::VectorXd dense = m.ldlt().solve(b);
+  EXPECT_LT((x - dense).norm() / dense.norm(), 1e-9);
+}
+
+TEST(DartEngine, PointAndRotationJacobiansMatchFiniteDifferences) {
+  auto e = load_fullbody();
+  const Eigen::VectorXd q0 = random_configuration(*e, 3);
+  const int n = e->nv();
+  const double h = 1e-6;
+  for (const char* name : {"h_pelvis", "h_toe_left", "h_hand_right", "h_head"}) {
+    const int body = e->require_body(name);
+    e->set_positions(q0);
+    e->forward();
+    const BodyPose pose0 = e->body_pose(body);
+    // a point fixed to the body, off its origin
+    const Eigen::Vector3d local(0.03, -0.05, 0.02);
+    const Eigen::Vector3d point = pose0.pos + pose0.quat * local;
+    Eigen::MatrixXd jp(3, n), jr(3, n);
+    e->point_jacobian(body, point, jp, jr);
+
+    Eigen::MatrixXd fd_pos(3, n), fd_rot(3, n);
+    Eigen::VectorXd qp(n), qm(n);
+    for (int i = 0; i < n; ++i) {
+      const Eigen::VectorXd dir = Eigen::VectorXd::Unit(n, i);
+      e->integrate_positions(q0, dir, h, qp);
+      e->integrate_positions(q0, dir, -h, qm);
+      e->set_positions(qp);
+      e->forward();
+      const BodyPose pp = e->body_pose(body);
+      e->set_positions(qm);
+      e->forward();
+      const BodyPose pm = e->body_pose(body);
+      fd_pos.col(i) = ((pp.pos + pp.quat * local) - (pm.pos + pm.quat * local)) / (2 * h);
+      fd_rot.col(i) =
+          world_rotation_between(pm.quat.toRotationMatrix(), pp.quat.toRotationMatrix()) / (2 * h);
+    }
+    EXPECT_LT((jp - fd_pos).cwiseAbs().maxCoeff(), 1e-6) << name;
+    EXPECT_LT((jr - fd_rot).cwiseAbs().maxCoeff(), 1e-6) << name;
+    // skipping one block leaves the other intact
+    Eigen::MatrixXd jp_only(3, n), none(3, 0);
+    e->set_positions(q0);
+    e->forward();
+    e->point_jacobian(body, point, jp_only, none);
+    EXPECT_TRUE(jp_only.isApprox(jp, 1e-14)) << name;
+  }
+}
+
+TEST(DartEngine, ComJacobianMatchesFiniteDifferences) {
+  auto e = load_fullbody();
+  const Eigen::VectorXd q0 = random_configuration(*e, 4);
+  const int n = e->nv();
+  e->set_positions(q0);
+  e->forward();
+  Eigen::MatrixXd j(3, n);
+  e->com_jacobian(j);
+  const double h = 1e-6;
+  Eigen::MatrixXd fd(3, n);
+  Eigen::VectorXd qp(n), qm(n);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::VectorXd dir = Eigen::VectorXd::Unit(n, i);
+    e->integrate_positions(q0, dir, h, qp);
+    e->integrate_positions(q0, dir, -h, qm);
+    e->set_positions(qp);
+    e->forward();
+    const Eigen::Vector3d cp = e->com();
+    e->set_positions(qm);
+    e->forward();
+    fd.col(i) = (cp - e->com()) / (2 * h);
+  }
+  EXPECT_LT((j - fd).cwiseAbs().maxCoeff(), 1e-6);
+
+  // and J v is the COM velocity
+  const Eigen::VectorXd v = random_vector(n, 5);
+  e->set_positions(q0);
+  e->set_velocities(v);
+  e->forward();
+  EXPECT_TRUE(e->com_velocity().isApprox(j * v, 1e-10));
+}
+
+TEST(DartEngine, FreeJointPositionAlgebraRoundTrips) {
+  auto e = load_fullbody();
+  const int n = e->nv();
+  Eigen::VectorXd q0 = random_configuration(*e, 6);
+  q0.head<3>() = Eigen::Vector3d(1.2, -0.7, 2.0);  // a large root rotation
+  Eigen::VectorXd q_before(n);
+  e->get_positions(q_before);
+
+  // small steps: difference(q, q (+) v dt) == v dt
+  const Eigen::VectorXd v = random_vector(n, 7);
+  const double dt = 1e-3;
+  Eigen::VectorXd q1(n), d(n);
+  e->integrate_positions(q0, v, dt, q1);
+  e->difference_positions(q0, q1, d);
+  EXPECT_LT((d - v * dt).cwiseAbs().maxCoeff(), 1e-12);
+  // the root moved on SE(3), not by plain addition
+  EXPECT_GT((q1.head<6>() - (q0.head<6>() + v.head<6>() * dt)).norm(), 1e-6);
+
+  // large displacements: q0 (+) (q2 (-) q0) == q2
+  const Eigen::VectorXd q2 = random_configuration(*e, 8);
+  Eigen::VectorXd back(n);
+  e->difference_positions(q0, q2, d);
+  e->integrate_positions(q0, d, 1.0, back);
+  EXPECT_LT((back - q2).cwiseAbs().maxCoeff(), 1e-12);
+
+  // both are pure: the engine's state is untouched
+  Eigen::VectorXd q_after(n);
+  e->get_positions(q_after);
+  EXPECT_EQ(q_after, q_before);
+}
+
+TEST(DartEngine, FreeJointVelocityIsBodyFrameTwist) {
+  auto e = load_fullbody();
+  const int n = e->nv();
+  e->set_positions(random_configuration(*e, 9));
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(n);
+  v.head<6>() << 0.3, -0.2, 0.5, 1.0, 2.0, -0.5;
+  e->set_velocities(v);
+  e->forward();
+  const int pelvis = e->require_body("h_pelvis");
+  const Eigen::Matrix3d r = e->body_pose(pelvis).quat.toRotationMatrix();
+  const Eigen::Matrix<double, 6, 1> twist = e->body_velocity(pelvis);
+  EXPECT_TRUE(twist.head<3>().isApprox(r * v.head<3>(), 1e-12));
+  EXPECT_TRUE(twist.tail<3>().isApprox(r * v.segment<3>(3), 1e-12));
+}
+
+TEST(DartEngine, SaveRestoreThenStepIsBitIdentical) {
+  auto e = load_fullbody();
+  const int n = e->nv();
+  // fall into contact with the ground first, so the contact solver is exercised too
+  for (int i = 0; i < 600; ++i) e->step();
+  ASSERT_GT(e->num_contacts(), 0);
+
+  EngineState saved;
+  e->save_state(saved);
+  const Eigen::VectorXd tau = random_vector(n, 10, 5.0);
+  auto run = [&]() {
+    std::vector<Eigen::VectorXd> trace;
+    for (int i = 0; i < 20; ++i) {
+      Eigen::VectorXd t = tau;
+      t.head<6>().setZero();
+      e->set_generalized_forces(t);
+      e->apply_external_force(e->require_body("h_head"), Eigen::Vector3d(20, 0, 5),
+                              e->body_com(e->require_body("h_head")));
+      e->step();
+      Eigen::VectorXd q(n), v(n);
+      e->get_positions(q);
+      e->get_velocities(v);
+      trace.push_back(q);
+      trace.push_back(v);
+    }
+    return trace;
+  };
+  const auto first = run();
+  const double t_first = e->time();
+  e->restore_state(saved);
+  EXPECT_EQ(e->time(), saved.time);
+  const auto second = run();
+  EXPECT_EQ(e->time(), t_first);
+  for (size_t i = 0; i < first.size(); ++i) ASSERT_EQ(first[i], second[i]) << "entry " << i;
+}
+
+TEST(DartEngine, BipedFallsAndRestsOnGround) {
+  auto e = load_fullbody();
+  e->forward();
+  const double com0 = e->com().y();
+  for (int i = 0; i < 300; ++i) e->step();
+  EXPECT_TRUE(e->state_is_finite());
+  // gravity is -y in this file: the limp biped falls
+  EXPECT_LT(e->com().y(), com0 - 0.1);
+  for (int i = 0; i < 2700; ++i) e->step();
+  // ...and comes to rest on the ground box (top at y = -0.895), not through it
+  EXPECT_GT(e->com().y(), -0.895);
+  EXPECT_LT(e->com_velocity().norm(), 0.05);
+  ASSERT_GT(e->num_contacts(), 0);
+
+  // contacts: ground is body -1, normal from body1 to body2, force on body2.
+  // At rest the contact forces on the biped carry its weight.
+  Eigen::Vector3d on_biped = Eigen::Vector3d::Zero();
+  for (int i = 0; i < e->num_contacts(); ++i) {
+    const Contact c = e->contact(i);
+    ASSERT_TRUE(c.body1 == -1 || c.body2 == -1) << "no self-collision in this file";
+    const Eigen::Vector3d up_into_biped = c.body1 == -1 ? c.normal : Eigen::Vector3d(-c.normal);
+    EXPECT_NEAR(up_into_biped.y(), 1.0, 1e-9);
+    on_biped += c.body2 == -1 ? Eigen::Vector3d(-c.force) : c.force;
+  }
+  const double weight = e->total_mass() * 9.81;
+  EXPECT_NEAR(on_biped.y(), weight, 0.1 * weight);
+  EXPECT_TRUE(e->body_touches_ground(e->require_body("h_heel_left")) ||
+              e->body_touches_ground(e->require_body("h_toe_left")));
+
+  // constraint forces balance gravity in generalised coordinates at rest: the root's
+  // vertical force equals the biped's weight
+  Eigen::VectorXd f(e->nv()), c(e->nv());
+  e->constraint_forces(f);
+  e->forward();
+  e->bias_forces(c);
+  EXPECT_GT(f.norm(), 0.0);
+  EXPECT_LT((f - c).norm(), 0.1 * c.norm());
+}
+
+TEST(DartEngine, MjcfPendulumPeriodMatchesSmallAngleTheory) {
+  const double angle0 = 0.05;
+  WorldSpec spec;
+  spec.models.push_back({write_temp("pendulum.xml", pendulum_mjcf(angle0)), {}});
+  auto e = make_dart_engine(spec);
+  ASSERT_EQ(e->nv(), 1);
+  EXPECT_EQ(e->joint(0).type, JointType::kHinge);
+  EXPECT_EQ(e->dof_name(0), "swing");
+  EXPECT_DOUBLE_EQ(e->timestep(), 0.0005);
+  e->forward();
+  // the bob hangs 1 m from the pivot, tilted by angle0
+  EXPECT_NEAR(e->com().norm(), 1.0, 1e-9);
+  EXPECT_NEAR(std::atan2(-e->com().x(), -e->com().z()), angle0, 1e-9);
+
+  // time between the first and the third downward zero crossing of the angle rate
+  const int swing = e->require_dof("swing");
+  std::vector<double> crossings;
+  double prev = e->dof_velocity(swing);
+  while (e->time() < 10.0 && crossings.size() < 3) {
+    e->step();
+    const double v = e->dof_velocity(swing);
+    if (prev > 0 && v <= 0) crossings.push_back(e->time());
+    prev = v;
+  }
+  ASSERT_EQ(crossings.size(), 3u);
+  const double period = (crossings[2] - crossings[0]) / 2;
+  const double theory = 2 * M_PI * std::sqrt((1.0 + 1e-6) / 9.81);
+  EXPECT_NEAR(period, theory, 0.02 * theory);
+}
+
+TEST(DartEngine, PerStepInputsAreConsumedOnce) {
+  WorldSpec spec;
+  spec.models.push_back({write_temp("pendulum_flat.xml", pendulum_mjcf(0.0)), {}});
+  spec.gravity = Eigen::Vector3d::Zero();
+  auto e = make_dart_engine(spec);
+  const double dt = e->timestep();
+  const double inertia = 1.0 + 1e-6;  // about the pivot
+  Eigen::VectorXd tau(1);
+  tau << 2.0;
+  e->set_generalized_forces(tau);
+  e->step();
+  EXPECT_NEAR(e->dof_velocity(0), 2.0 * dt / inertia, 1e-12);
+  const double after_torque = e->dof_velocity(0);
+  e->step();  // cleared: no further acceleration
+  EXPECT_DOUBLE_EQ(e->dof_velocity(0), after_torque);
+
+  // +x force at the bob (0, 0, -1): torque r x f about +y is -1 N m per N
+  e->forward();
+  e->apply_external_force(0, Eigen::Vector3d(3.0, 0, 0), e->body_com(0));
+  e->step();
+  EXPECT_NEAR(e->dof_velocity(0) - after_torque, -3.0 * dt / inertia, 1e-9);
+  const double after_push = e->dof_velocity(0);
+  e->step();
+  EXPECT_DOUBLE_EQ(e->dof_velocity(0), after_push);
+
+  // no actuators in DART models
+  EXPECT_NO_THROW(e->set_controls(Eigen::VectorXd(0)));
+  EXPECT_THROW(e->set_controls(Eigen::VectorXd::Zero(1)), std::invalid_argument);
+}
+
+TEST(DartEngine, VelocityCommandServosAndNanReleases) {
+  WorldSpec spec;
+  spec.models.push_back({write_temp("pendulum_servo.xml", pendulum_mjcf(0.3)), {}});
+  auto e = make_dart_engine(spec);
+  e->set_dof_velocity_command(0, 1.5);
+  for (int i = 0; i < 200; ++i) e->step();
+  // held at the commanded rate against gravity
+  EXPECT_NEAR(e->dof_velocity(0), 1.5, 1e-9);
+  e->set_dof_velocity_command(0, std::nan(""));
+  const double v0 = e->dof_velocity(0);
+  for (int i = 0; i < 200; ++i) e->step();
+  EXPECT_GT(std::abs(e->dof_velocity(0) - v0), 0.05);  // gravity acts again
+}
+
+TEST(DartEngine, BadInputsThrowInputErrorNamingTheFile) {
+  auto expect_error_naming = [](const std::string& path, const std::string& mention) {
+    WorldSpec spec;
+    spec.models.push_back({path, {}});
+    try {
+      make_dart_engine(spec);
+      ADD_FAILURE() << "no error for " << path;
+    } catch (const InputError& err) {
+      EXPECT_NE(std::string(err.what()).find(mention), std::string::npos) << err.what();
+    }
+  };
+  expect_error_naming("/nonexistent/robot.skel", "robot.skel");
+  expect_error_naming("dart://sample/skel/no_such_model.skel", "no_such_model.skel");
+  expect_error_naming(write_temp("broken.skel", "<skel version=\"1.0\"><world name=\"w\">\n"),
+                      "broken.skel");
+  expect_error_naming(write_temp("empty.skel", "<skel version=\"1.0\"></skel>\n"), "empty.skel");
+  expect_error_naming(write_temp("broken.xml", "<mujoco><worldbody><body>\n"), "broken.xml");
+  expect_error_naming(write_temp("model.obj", "v 0 0 0\n"), "model.obj");
+  EXPECT_THROW(make_dart_engine(WorldSpec{}), InputError);
+}
+
+}  // namespace
+}  // namespace stance
