@@ -54,6 +54,8 @@ class Controller {
   virtual void signals(std::vector<double>& values) const {}
   // end-of-run metrics, merged into summary.json "metrics"
   virtual void add_metrics(nlohmann::json& metrics) const {}
+  // extra output files (e.g. steps.csv) into the run's output folder, at the end of a run
+  virtual void write_outputs(const std::string& out_dir) const {}
   // the parameters as YAML (for saving a tuned scenario)
   virtual YAML::Node params_yaml() const = 0;
 };
@@ -62,6 +64,7 @@ class Controller {
 struct ControllerContext {
   YamlSource source;  // scenario file, for messages
   std::string path;   // "controllers[1]"
+  uint64_t seed = 0;  // the scenario's seed, mixed with the controller's position; no global RNG
 };
 
 using ControllerFactory = std::function<std::unique_ptr<Controller>(

@@ -63,6 +63,12 @@ std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::strin
   for (const auto& m : s.model) spec.models.push_back({m.file, m.offset});
   if (s.timestep > 0) spec.timestep = s.timestep;
   if (s.gravity.size() == 3) spec.gravity = Eigen::Vector3d(s.gravity[0], s.gravity[1], s.gravity[2]);
+  if (s.slope_rad != 0) {
+    // a slope tilts gravity about the y axis instead of the floor: the walker goes down +x
+    Eigen::Vector3d g0 = spec.gravity ? *spec.gravity : Eigen::Vector3d(0, 0, -9.81);
+    double g = g0.norm();
+    spec.gravity = Eigen::Vector3d(g * std::sin(s.slope_rad), 0, -g * std::cos(s.slope_rad));
+  }
   std::unique_ptr<Engine> engine = make_engine(engine_name, spec);
   if (!s.keyframe.empty()) {
     auto* mj = dynamic_cast<MujocoEngine*>(engine.get());
@@ -129,7 +135,8 @@ ScenarioRun::ScenarioRun(const LoadedScenario& loaded, const RunOptions& options
   for (size_t i = 0; i < loaded.controllers.size(); ++i) {
     const YAML::Node& node = loaded.controllers[i];
     const ControllerType& type = find_controller_type(node["type"].Scalar());
-    ControllerContext ctx{{loaded.source}, fmt::format("controllers[{}]", i)};
+    ControllerContext ctx{{loaded.source}, fmt::format("controllers[{}]", i),
+                          static_cast<uint64_t>(scenario_.seed) * 1000003ull + i};
     try {
       controllers_.push_back(type.make(node, ctx, e));
     } catch (const InputError& err) {
@@ -318,6 +325,7 @@ RunResult ScenarioRun::run() {
   if (!options_.out_dir.empty()) {
     s.log.flush();
     s.log.close();
+    for (auto& c : controllers_) c->write_outputs(options_.out_dir);
     std::ofstream js(dir / "summary.json");
     js << result_.to_json().dump(2) << "\n";
   }

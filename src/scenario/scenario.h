@@ -72,6 +72,7 @@ struct Scenario {
   std::vector<ModelEntry> model;
   double timestep = 0;           // s; 0: the model file's own
   std::vector<double> gravity;   // m/s^2; empty: the model file's own
+  double slope_rad = 0;          // tilts gravity about y: g = |g| (sin a, 0, -cos a)
   NamedValues initial_pose;      // dof -> value
   std::string keyframe;          // MuJoCo keyframe name (MuJoCo only)
   double duration = 10;          // s
@@ -88,6 +89,8 @@ struct Scenario {
     v("model", model, {.help = "model file(s)"});
     v("timestep", timestep, {.unit = "s", .min = 0, .max = 1});
     v("gravity", gravity, {.unit = "m/s^2"});
+    v("slope_rad", slope_rad, {.unit = "rad", .min = -1.5, .max = 1.5,
+                               .help = "downhill slope along +x, applied by tilting gravity"});
     v("initial_pose", initial_pose, {.help = "dof name: value"});
     v("keyframe", keyframe, {.help = "MuJoCo keyframe to start from"});
     v("duration", duration, {.unit = "s", .min = 0});
