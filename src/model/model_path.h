@@ -1,0 +1,20 @@
+// Model file names: "dart://sample/..." resolution and format detection by extension.
+#pragma once
+
+#include <string>
+
+namespace stance {
+
+// "dart://sample/X" -> "$STANCE_DART_DATA/X" or, when the variable is unset or empty,
+// "/usr/share/doc/dart/data/X" (where Debian's dart-doc installs DART's sample data).
+// Other paths, relative ones included, are returned unchanged.
+// Throws InputError "<path>: no such file" when the resolved file does not exist.
+std::string resolve_model_path(const std::string& path);
+
+enum class ModelFormat { kMjcf, kUrdf, kSkel };
+
+// by extension, case-insensitive: .xml/.mjcf -> kMjcf, .urdf -> kUrdf, .skel -> kSkel.
+// Throws InputError for anything else.
+ModelFormat model_format(const std::string& path);
+
+}  // namespace stance
