@@ -120,6 +120,22 @@ TEST(DartEngine, Fullbody1SizesAndNames) {
   EXPECT_TRUE(e->gravity().isApprox(Eigen::Vector3d(0, -9.81, 0)));
 }
 
+TEST(DartEngine, JointLimitsComeFromDofPositionLimits) {
+  WorldSpec spec;
+  spec.models.push_back({"dart://sample/skel/biped.skel", Eigen::Vector3d::Zero()});
+  auto e = make_dart_engine(spec);
+  // <limit><lower>-3.14</lower><upper>0.0</upper></limit> on the revolute knee
+  const JointInfo& knee = e->joint(e->require_joint("j_shin_left"));
+  EXPECT_EQ(knee.type, JointType::kHinge);
+  EXPECT_TRUE(knee.has_limits);
+  EXPECT_DOUBLE_EQ(knee.lower, -3.14);
+  EXPECT_DOUBLE_EQ(knee.upper, 0.0);
+  // the root has none
+  EXPECT_FALSE(e->joint(e->require_joint("j_pelvis")).has_limits);
+  // initial positions from the file are kept
+  EXPECT_DOUBLE_EQ(e->dof_position(e->require_dof("j_shin_left")), -0.17);
+}
+
 TEST(DartEngine, SpecOverridesAndOffset) {
   WorldSpec spec;
   spec.models.push_back({kFullbody, Eigen::Vector3d(1.0, 0.5, -2.0)});
@@ -449,6 +465,10 @@ TEST(DartEngine, BadInputsThrowInputErrorNamingTheFile) {
   expect_error_naming("dart://sample/skel/no_such_model.skel", "no_such_model.skel");
   expect_error_naming(write_temp("broken.skel", "<skel version=\"1.0\"><world name=\"w\">\n"),
                       "broken.skel");
+  // well-formedness errors carry a line: here that of the unclosed <world>
+  expect_error_naming(
+      write_temp("mismatched.skel", "<skel version=\"1.0\">\n<world name=\"w\">\n</skel>\n"),
+      "mismatched.skel:2:");
   expect_error_naming(write_temp("empty.skel", "<skel version=\"1.0\"></skel>\n"), "empty.skel");
   expect_error_naming(write_temp("broken.xml", "<mujoco><worldbody><body>\n"), "broken.xml");
   expect_error_naming(write_temp("model.obj", "v 0 0 0\n"), "model.obj");

@@ -492,7 +492,9 @@ class DartEngine final : public Engine {
     // DART's inverse comes from its articulated-body recursion, not a dense inversion
     for (const SkeletonBlock& b : blocks_) {
       auto seg = x.segment(b.dof_start, b.ndof);
-      seg = (b.skeleton->getInvMassMatrix() * seg).eval();
+      auto out = solve_scratch_.head(b.ndof);
+      out.noalias() = b.skeleton->getInvMassMatrix() * seg;
+      seg = out;
     }
   }
   void bias_forces(Eigen::Ref<Eigen::VectorXd> c) const override {
@@ -785,6 +787,7 @@ class DartEngine final : public Engine {
       ndof_ += block.ndof;
     }
     velocity_command_.assign(ndof_, std::nan(""));
+    solve_scratch_.setZero(ndof_);
   }
 
   // translational dofs of prismatic/translational/planar joints are slides
@@ -839,7 +842,8 @@ class DartEngine final : public Engine {
   std::vector<JointInfo> joints_;
   Lookup joint_lookup_;
 
-  std::vector<double> velocity_command_;  // NaN: no servo
+  std::vector<double> velocity_command_;   // NaN: no servo
+  mutable Eigen::VectorXd solve_scratch_;  // dim nv; keeps solve_mass allocation-free
   std::string load_warnings_;
 };
 
