@@ -498,5 +498,78 @@ TEST(FiniteDifferenceMujocoTest, ContactMatchesTransitionFD) {
   compare_with_mujoco("fd_box_on_floor", kContactXml, 50, true);
 }
 
+// ---- generalised-force variant on both backends: physics, not plumbing ----
+
+// a 2-link arm without damping, contacts or limits
+constexpr const char* kArmXml = R"(
+<mujoco model="arm2">
+  <option timestep="0.002" integrator="Euler"/>
+  <worldbody>
+    <body name="upper" pos="0 0 1">
+      <joint name="shoulder" type="hinge" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.04" mass="1.5"/>
+      <body name="lower" pos="0.4 0 0">
+        <joint name="elbow" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03" mass="0.8"/>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+)";
+
+class FiniteDifferenceForcesTest : public ::testing::TestWithParam<std::string> {};
+
+// at zero velocity a semi-implicit Euler step gives v+ = v + dt M^-1 (tau - bias) and
+// q+ = q + dt v+, so d v+/d tau = dt M^-1 and d q+/d tau = dt^2 M^-1, exactly
+TEST_P(FiniteDifferenceForcesTest, InputJacobianIsTimestepOverMass) {
+  WorldSpec spec;
+  spec.models.push_back({write_model("fd_arm2", kArmXml)});
+  std::unique_ptr<Engine> engine;
+  try {
+    engine = make_engine(GetParam(), spec);
+  } catch (const std::exception& e) {
+    GTEST_SKIP() << GetParam() << " backend unavailable: " << e.what();
+  }
+  const int nv = engine->nv();
+  ASSERT_EQ(nv, 2);
+  engine->set_dof_position(engine->require_dof("shoulder"), 0.4);
+  engine->set_dof_position(engine->require_dof("elbow"), -0.9);
+  engine->set_velocities(VectorXd::Zero(nv));
+  engine->forward();
+  EngineState x0;
+  engine->save_state(x0);
+  MatrixXd M(nv, nv);
+  engine->mass_matrix(M);
+  const double dt = engine->timestep();
+  MatrixXd Minv = M.inverse();
+
+  // gravity compensation as the nominal force, both dofs as inputs (given in reverse order)
+  VectorXd bias(nv);
+  engine->bias_forces(bias);
+  std::vector<int> dofs = {engine->require_dof("elbow"), engine->require_dof("shoulder")};
+  MatrixXd A, B;
+  // eps 1e-4: d q+/d tau ~ dt^2 M^-1 ~ 1e-5 is tiny, and rounding of q (~1e-16 / eps) must stay
+  // well below 1e-6 of it; centred differences of this step are exact to second order anyway
+  linearize_fd_forces(*engine, x0, dofs, bias, 1e-4, true, A, B);
+  ASSERT_EQ(B.rows(), 2 * nv);
+  ASSERT_EQ(B.cols(), 2);
+  for (int j = 0; j < 2; ++j) {
+    VectorXd expected_v = dt * Minv.col(dofs[j]);
+    VectorXd expected_q = dt * dt * Minv.col(dofs[j]);
+    EXPECT_LE((B.col(j).tail(nv) - expected_v).norm(), 1e-6 * expected_v.norm()) << GetParam();
+    EXPECT_LE((B.col(j).head(nv) - expected_q).norm(), 1e-6 * expected_q.norm()) << GetParam();
+  }
+  // gravity compensated: the arm stays put, and d q+/d v = dt I at zero velocity
+  EXPECT_LE((A.topRightCorner(nv, nv) - dt * MatrixXd::Identity(nv, nv)).norm(), 1e-6 * dt);
+  engine->set_generalized_forces(bias);
+  engine->step();
+  VectorXd v(nv);
+  engine->get_velocities(v);
+  EXPECT_LE(v.norm(), 1e-9);
+}
+
+INSTANTIATE_TEST_SUITE_P(Engines, FiniteDifferenceForcesTest,
+                         ::testing::Values(std::string("mujoco"), std::string("dart")));
+
 }  // namespace
 }  // namespace stance
