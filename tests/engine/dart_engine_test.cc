@@ -480,6 +480,41 @@ TEST(DartEngine, AgreesWithMujocoOnAnMjcfChain) {
   EXPECT_TRUE(dart->body_velocity(tip_d).isApprox(mujoco->body_velocity(tip_m), 1e-12));
 }
 
+TEST(DartEngine, UrdfGetsFloatingRootAndOffset) {
+  const std::string urdf = write_temp("two_link.urdf", R"(<robot name="two_link">
+  <link name="base">
+    <inertial><mass value="2"/><origin xyz="0 0 0"/>
+      <inertia ixx="0.1" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <link name="arm">
+    <inertial><mass value="1"/><origin xyz="0 0 -0.5"/>
+      <inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial>
+  </link>
+  <joint name="elbow" type="revolute">
+    <parent link="base"/><child link="arm"/><axis xyz="0 1 0"/>
+    <limit lower="-1.5" upper="2.0" effort="10" velocity="5"/>
+  </joint>
+</robot>
+)");
+  WorldSpec spec;
+  spec.models.push_back({urdf, Eigen::Vector3d(0, 0, 3)});
+  auto e = make_dart_engine(spec);
+  EXPECT_EQ(e->nv(), 7);
+  EXPECT_EQ(e->nbody(), 2);
+  EXPECT_NEAR(e->total_mass(), 3.0, 1e-12);
+  const JointInfo& root = e->joint(e->dof_joint(0));
+  EXPECT_EQ(root.type, JointType::kFree);
+  const JointInfo& elbow = e->joint(e->require_joint("elbow"));
+  EXPECT_EQ(elbow.type, JointType::kHinge);
+  EXPECT_TRUE(elbow.has_limits);
+  EXPECT_DOUBLE_EQ(elbow.lower, -1.5);
+  EXPECT_DOUBLE_EQ(elbow.upper, 2.0);
+  e->forward();
+  EXPECT_TRUE(e->body_pose(e->require_body("base")).pos.isApprox(Eigen::Vector3d(0, 0, 3)));
+  // no file gravity in URDF: DART's default
+  EXPECT_TRUE(e->gravity().isApprox(Eigen::Vector3d(0, 0, -9.81)));
+}
+
 TEST(DartEngine, PerStepInputsAreConsumedOnce) {
   WorldSpec spec;
   spec.models.push_back({write_temp("pendulum_flat.xml", pendulum_mjcf(0.0)), {}});
