@@ -30,9 +30,47 @@ int main(int argc, char** argv) {
   convert_cmd->add_option("input", convert_in, ".skel file")->required();
   convert_cmd->add_option("output", convert_out, "MJCF file to write")->required();
 
+  std::string bvh_file;
+  bool bvh_json = false;
+  auto* bvh_cmd = app.add_subcommand("bvh", "motion-capture files");
+  bvh_cmd->require_subcommand(1);
+  auto* bvh_info_cmd = bvh_cmd->add_subcommand("info", "frames, joints, channels, orders, units");
+  bvh_info_cmd->add_option("file", bvh_file, "BVH file")->required();
+  bvh_info_cmd->add_flag("--json", bvh_json, "print JSON");
+
   std::string list_dir = "scenarios";
   auto* list_cmd = app.add_subcommand("list", "controllers and scenarios");
   list_cmd->add_option("dir", list_dir, "scenario folder");
+
+  // `sweep`: any key path; `sweep-gain`: the slope walker's hip kp, 2..12, plotted
+  stance::SweepCommand sweep, sweep_gain;
+  sweep_gain.param = "controllers.0.hip_kp";
+  sweep_gain.from = 2;
+  sweep_gain.to = 12;
+  sweep_gain.plot = true;
+  sweep_gain.out_dir = "out/sweep_gain";
+  auto add_sweep_options = [](CLI::App* c, stance::SweepCommand& s) {
+    c->add_option("scenario", s.scenario, "scenario YAML")->required();
+    c->add_option("--param", s.param, "key path to sweep, as in --set");
+    c->add_option("--from", s.from, "first value");
+    c->add_option("--to", s.to, "last value");
+    c->add_option("--steps", s.steps, "number of values from..to");
+    c->add_option("--values", s.values, "comma-separated values instead of from/to/steps");
+    c->add_option("--threads", s.threads, "worker threads (default: all cores)");
+    c->add_option("--engine", s.engine, "mujoco or dart (default: the scenario's)");
+    c->add_option("--duration", s.duration, "simulated seconds per run");
+    c->add_option("--set", s.sets, "override for every run: key.path=value")
+        ->allow_extra_args(false);
+    c->add_option("--out", s.out_dir, "output folder (sweep.csv, points.csv, PNG)");
+    c->add_flag("--plot,!--no-plot", s.plot, "plot a list metric against the value (gnuplot)");
+    c->add_option("--plot-metric", s.plot_metric, "list metric to plot");
+    c->add_flag("--quiet", s.quiet, "no progress lines");
+  };
+  auto* sweep_cmd = app.add_subcommand("sweep", "run a scenario over a range of one parameter");
+  add_sweep_options(sweep_cmd, sweep);
+  auto* sweep_gain_cmd =
+      app.add_subcommand("sweep-gain", "slope walker bifurcation diagram over hip_kp");
+  add_sweep_options(sweep_gain_cmd, sweep_gain);
 
   try {
     app.parse(argc, argv);
@@ -43,6 +81,9 @@ int main(int argc, char** argv) {
   if (*run_cmd) return stance::run_command(run);
   if (*info_cmd) return stance::info_command(info);
   if (*convert_cmd) return stance::convert_command(convert_in, convert_out);
+  if (*bvh_info_cmd) return stance::bvh_info_command(bvh_file, bvh_json);
   if (*list_cmd) return stance::list_command(list_dir);
+  if (*sweep_cmd) return stance::sweep_command(sweep);
+  if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);
   return stance::kExitBadInput;
 }

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
+#include <chrono>
 #include <filesystem>
 #include <iostream>
 
@@ -11,8 +13,10 @@
 #include "engine/engine.h"
 #include "engine/world_spec.h"
 #include "model/skel_to_mjcf.h"
+#include "motion/bvh.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/sweep.h"
 
 namespace stance {
 
@@ -110,6 +114,17 @@ int convert_command(const std::string& in_path, const std::string& out_path) {
   });
 }
 
+int bvh_info_command(const std::string& path, bool json) {
+  return guarded([&] {
+    BvhClip clip = read_bvh(path);
+    if (json)
+      std::cout << bvh_info_json(clip).dump(2) << "\n";
+    else
+      std::cout << bvh_info_text(clip);
+    return kExitOk;
+  });
+}
+
 int list_command(const std::string& scenario_dir) {
   return guarded([&] {
     std::cout << "controllers:\n";
@@ -122,6 +137,65 @@ int list_command(const std::string& scenario_dir) {
         if (f.path().extension() == ".yaml") files.push_back(f.path().string());
     std::sort(files.begin(), files.end());
     for (const auto& f : files) std::cout << "  " << f << "\n";
+    return kExitOk;
+  });
+}
+
+int sweep_command(const SweepCommand& cmd) {
+  return guarded([&] {
+    SweepOptions o;
+    o.scenario = cmd.scenario;
+    o.param = cmd.param;
+    o.sets = cmd.sets;
+    o.threads = cmd.threads;
+    o.engine = cmd.engine;
+    o.duration = cmd.duration;
+    if (!cmd.values.empty()) {
+      o.values = parse_value_list(cmd.values);
+    } else {
+      if (!cmd.from || !cmd.to) throw InputError("sweep: give --from and --to, or --values");
+      o.values = linspace(*cmd.from, *cmd.to, cmd.steps);
+    }
+    auto wall0 = std::chrono::steady_clock::now();
+    std::vector<SweepPoint> points =
+        run_sweep(o, [&](const SweepPoint& p, int done, int total) {
+          if (cmd.quiet) return;
+          std::string what = !p.error.empty() ? "error: " + p.error
+                             : p.result.diverged ? "diverged"
+                             : p.result.fell     ? "fell"
+                                                 : "ok";
+          std::cout << fmt::format("  [{}/{}] {}={} {}\n", done, total, cmd.param,
+                                   format_sweep_value(p.value), what)
+                    << std::flush;
+        });
+    double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    write_sweep_outputs(cmd.out_dir, cmd.param, points);
+    std::cout << fmt::format("swept {} over {} values in {:.2f} s wall; wrote {}/sweep.csv and "
+                             "points.csv\n",
+                             cmd.param, points.size(), wall, cmd.out_dir);
+    if (cmd.plot) {
+      std::string metric = cmd.plot_metric;
+      std::vector<std::string> lists = sweep_list_metrics(points);
+      if (metric.empty()) {
+        // the slope walker's bifurcation points when present, else the first list metric
+        auto it = std::find(lists.begin(), lists.end(), "steady_step_lengths_m");
+        if (it != lists.end()) metric = *it;
+        else if (!lists.empty()) metric = lists.front();
+        else throw InputError("--plot: the runs report no list metric to plot");
+      }
+      std::string title = fmt::format("{}: {} vs {}", points.front().result.scenario.empty()
+                                                          ? cmd.scenario
+                                                          : points.front().result.scenario,
+                                      metric, cmd.param);
+      std::string png = plot_sweep(cmd.out_dir, cmd.param, metric, title, metric + ".png");
+      std::cout << "wrote " << png << "\n";
+    }
+    for (const auto& p : points)
+      if (!p.error.empty()) {
+        std::cerr << fmt::format("error: {}={}: {}\n", cmd.param, format_sweep_value(p.value),
+                                 p.error);
+        return kExitBadInput;
+      }
     return kExitOk;
   });
 }

@@ -32,7 +32,30 @@ int info_command(const InfoCommand& cmd);
 
 int convert_command(const std::string& in_path, const std::string& out_path);
 
+// `stance bvh info FILE [--json]`
+int bvh_info_command(const std::string& path, bool json);
+
 // list scenarios in a folder and the registered controllers
 int list_command(const std::string& scenario_dir);
+
+// `stance sweep SCENARIO --param key.path (--from A --to B --steps N | --values a,b,c)`:
+// one run per value on `threads` threads; sweep.csv and points.csv in out_dir, and with
+// `plot` a PNG of a list metric (default: the first, e.g. steady_step_lengths_m) against it.
+struct SweepCommand {
+  std::string scenario;
+  std::string param;
+  std::optional<double> from, to;
+  int steps = 41;
+  std::string values;  // "1,2,3": instead of from/to/steps
+  int threads = 0;     // 0: all cores
+  std::string engine;
+  std::optional<double> duration;
+  std::vector<std::string> sets;
+  std::string out_dir = "out/sweep";
+  bool plot = false;
+  std::string plot_metric;
+  bool quiet = false;
+};
+int sweep_command(const SweepCommand& cmd);
 
 }  // namespace stance

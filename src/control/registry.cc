@@ -2,7 +2,13 @@
 #include <fmt/format.h>
 
 #include "control/controller.h"
+#include "control/ankle_strategy.h"
+#include "control/control_noise.h"
 #include "control/hold_pose_pd.h"
+#include "control/lqr.h"
+#include "control/stable_pd.h"
+#include "control/simbicon.h"
+#include "control/slope_walker.h"
 #include "core/error.h"
 
 namespace stance {
@@ -20,6 +26,29 @@ const std::vector<ControllerType>& controller_registry() {
   static const std::vector<ControllerType> registry = {
       {"hold_pose_pd", "joint-space PD holding the initial (or a given) pose",
        factory_of<HoldPosePd, HoldPosePdParams>()},
+      {"stable_pd", "stable PD (Tan et al. 2011) tracking a pose, root dofs free",
+       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
+         return std::unique_ptr<Controller>(
+             new StablePd(read_params<JointPdParams>(node, ctx), engine, true));
+       }},
+      {"pd", "plain joint PD with the stable_pd parameters, for comparison",
+       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
+         return std::unique_ptr<Controller>(
+             new StablePd(read_params<JointPdParams>(node, ctx), engine, false));
+       }},
+      {"ankle_strategy", "heel/toe torques keeping the COM over the feet (DART biped tutorial)",
+       factory_of<AnkleStrategy, AnkleStrategyParams>()},
+      {"simbicon", "SIMBICON walking: FSM targets with swing-hip balance feedback",
+       factory_of<Simbicon, SimbiconParams>()},
+      {"slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)",
+       factory_of<SlopeWalker, SlopeWalkerParams>()},
+      {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
+       factory_of<Lqr, LqrParams>()},
+      {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
+       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
+         return std::unique_ptr<Controller>(
+             new ControlNoise(read_params<ControlNoiseParams>(node, ctx), engine, ctx.seed));
+       }},
   };
   return registry;
 }

@@ -1,0 +1,94 @@
+#include "control/ankle_strategy.h"
+
+#include <cmath>
+
+#include "core/error.h"
+
+namespace stance {
+
+AnkleStrategy::AnkleStrategy(const AnkleStrategyParams& params, const Engine& engine) {
+  model_.params = params;
+  model_.heel_body = engine.require_body(params.heel_body);
+  for (const auto& n : params.heel_dofs) model_.heel_dofs.push_back(engine.require_dof(n));
+  for (const auto& n : params.toe_dofs) model_.toe_dofs.push_back(engine.require_dof(n));
+  if (params.forward_axis.norm() < 1e-9)
+    throw InputError("ankle_strategy.forward_axis: must be a non-zero vector");
+  model_.axis = params.forward_axis.normalized();
+  if (params.derivative != "velocity" && params.derivative != "per_step")
+    throw InputError("ankle_strategy.derivative: expected velocity or per_step, found '" +
+                     params.derivative + "'");
+  model_.per_step = params.derivative == "per_step";
+  for (const AnkleBand* b : {&params.forward, &params.backward})
+    if (b->lower >= b->upper)
+      throw InputError("ankle_strategy: a band needs lower < upper");
+}
+
+void AnkleStrategy::measure(const Model& model, const Engine& engine, double& offset,
+                            double& rate, double& heel_point) {
+  BodyPose heel = engine.body_pose(model.heel_body);
+  Eigen::Vector3d point = heel.pos + heel.quat * model.params.heel_point;
+  heel_point = model.axis.dot(point);
+  offset = model.axis.dot(engine.com()) - heel_point;
+  // velocity of the heel point: v_origin + w x (point - origin)
+  Eigen::Matrix<double, 6, 1> tw = engine.body_velocity(model.heel_body);
+  Eigen::Vector3d v_point = tw.tail<3>() + tw.head<3>().cross(point - heel.pos);
+  rate = model.axis.dot(engine.com_velocity() - v_point);
+}
+
+void AnkleStrategy::compute(const Model& model, State& s, const Engine& engine,
+                            ControlOutput& out) {
+  double rate = 0;
+  measure(model, engine, s.offset, rate, s.heel_point);
+  if (model.per_step) rate = s.first ? 0.0 : (s.offset - s.prev_offset);
+  s.rate = rate;
+  s.first = false;
+  s.band = 0;
+  const AnkleBand* band = nullptr;
+  const AnkleStrategyParams& p = model.params;
+  if (s.offset > p.forward.lower && s.offset < p.forward.upper) {
+    band = &p.forward;
+    s.band = 1;
+  } else if (s.offset > p.backward.lower && s.offset < p.backward.upper) {
+    band = &p.backward;
+    s.band = -1;
+  }
+  if (band && p.enabled) {
+    double heel = -band->k1 * s.offset - band->kd * rate;
+    double toe = -band->k2 * s.offset - band->kd * rate;
+    for (int i : model.heel_dofs) out.tau[i] += heel;
+    for (int i : model.toe_dofs) out.tau[i] += toe;
+  }
+  s.prev_offset = s.offset;
+}
+
+void AnkleStrategy::reset(const Engine& engine) {
+  state_ = State{};
+  max_abs_offset_ = abs_offset_sum_ = 0;
+  samples_ = 0;
+}
+
+void AnkleStrategy::compute(const Engine& engine, ControlOutput& out) {
+  compute(model_, state_, engine, out);
+  max_abs_offset_ = std::max(max_abs_offset_, std::abs(state_.offset));
+  abs_offset_sum_ += std::abs(state_.offset);
+  ++samples_;
+}
+
+void AnkleStrategy::signal_names(std::vector<std::string>& names) const {
+  names.push_back("ankle_offset_m");
+  names.push_back("ankle_offset_rate");
+  names.push_back("ankle_band");
+  names.push_back("ankle_heel_point_m");
+}
+void AnkleStrategy::signals(std::vector<double>& values) const {
+  values.push_back(state_.offset);
+  values.push_back(state_.rate);
+  values.push_back(state_.band);
+  values.push_back(state_.heel_point);
+}
+void AnkleStrategy::add_metrics(nlohmann::json& metrics) const {
+  metrics["max_com_offset_m"] = max_abs_offset_;
+  metrics["mean_abs_ankle_offset_m"] = samples_ ? abs_offset_sum_ / samples_ : 0.0;
+}
+
+}  // namespace stance

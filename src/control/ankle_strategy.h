@@ -1,0 +1,95 @@
+// The ankle strategy of DART's biped tutorial: keep the COM over the feet by torquing the heel
+// and toe dofs in proportion to the COM's forward offset from a point on the heel.
+//
+//   offset = (com - heel_point) . forward_axis
+//   in the forward band:  tau_heel += -k1 offset - kd rate,  tau_toe += -k2 offset - kd rate
+//   in the backward band: the same with the backward gains
+// where rate is d(offset)/dt (from velocities), or the seed's per-step change of the offset.
+#pragma once
+
+#include "control/controller.h"
+#include "engine/engine.h"
+
+namespace stance {
+
+struct AnkleBand {
+  double lower = 0, upper = 0.1;  // m, the band is lower < offset < upper
+  double k1 = 200;                // heel gain, N m/m
+  double k2 = 100;                // toe gain, N m/m
+  double kd = 10;                 // derivative gain
+
+  template <class V>
+  void visit(V& v) {
+    v("lower", lower, {.unit = "m"});
+    v("upper", upper, {.unit = "m"});
+    v("k1", k1, {.unit = "N m/m", .min = 0, .help = "heel gain"});
+    v("k2", k2, {.unit = "N m/m", .min = 0, .help = "toe gain"});
+    v("kd", kd, {.min = 0, .help = "derivative gain on the offset's change"});
+  }
+};
+
+struct AnkleStrategyParams {
+  bool enabled = true;
+  std::string heel_body = "h_heel_left";
+  Eigen::Vector3d heel_point = Eigen::Vector3d(0.05, 0, 0);  // in the heel body's frame
+  Eigen::Vector3d forward_axis = Eigen::Vector3d::UnitX();   // world; the seed's model is Y-up
+  std::vector<std::string> heel_dofs = {"j_heel_left_1", "j_heel_right_1"};
+  std::vector<std::string> toe_dofs = {"j_toe_left", "j_toe_right"};
+  AnkleBand forward{0.0, 0.1, 200, 100, 10};
+  AnkleBand backward{-0.2, -0.05, 2000, 100, 100};
+  // "velocity": rate = d(offset)/dt (DART's C++ tutorial); "per_step": the change of the offset
+  // since the last step (the dartpy seed), which is dt times smaller
+  std::string derivative = "velocity";
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled);
+    v("heel_body", heel_body, {.help = "body carrying the reference point"});
+    v("heel_point", heel_point, {.unit = "m", .help = "reference point in the heel's frame"});
+    v("forward_axis", forward_axis, {.help = "world direction of 'forward'"});
+    v("heel_dofs", heel_dofs);
+    v("toe_dofs", toe_dofs);
+    v("forward", forward, {.help = "band and gains for a COM ahead of the heel point"});
+    v("backward", backward, {.help = "band and gains for a COM behind it"});
+    v("derivative", derivative, {.help = "velocity or per_step"});
+  }
+};
+
+class AnkleStrategy final : public Controller {
+ public:
+  struct Model {
+    AnkleStrategyParams params;
+    int heel_body = -1;
+    std::vector<int> heel_dofs, toe_dofs;
+    Eigen::Vector3d axis;  // unit
+    bool per_step = false;
+  };
+  struct State {
+    double offset = 0, prev_offset = 0, rate = 0;
+    double heel_point = 0;  // forward coordinate of the reference point, m
+    bool first = true;
+    int band = 0;  // +1 forward, -1 backward, 0 none
+  };
+
+  AnkleStrategy(const AnkleStrategyParams& params, const Engine& engine);
+  std::string_view type() const override { return "ankle_strategy"; }
+  void reset(const Engine& engine) override;
+  void compute(const Engine& engine, ControlOutput& out) override;
+  void signal_names(std::vector<std::string>& names) const override;
+  void signals(std::vector<double>& values) const override;
+  void add_metrics(nlohmann::json& metrics) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+
+  static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
+  // the offset and its rate, dims scalar
+  static void measure(const Model& model, const Engine& engine, double& offset, double& rate,
+                      double& heel_point);
+
+ private:
+  Model model_;
+  State state_;
+  double max_abs_offset_ = 0, abs_offset_sum_ = 0;
+  long samples_ = 0;
+};
+
+}  // namespace stance

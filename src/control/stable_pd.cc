@@ -1,0 +1,138 @@
+#include "control/stable_pd.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.h"
+
+namespace stance {
+
+JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engine) {
+  JointPdModel m;
+  m.params = params;
+  const int nv = engine.nv();
+  m.kp = Eigen::VectorXd::Constant(nv, params.kp);
+  m.kd = Eigen::VectorXd::Constant(nv, params.kd);
+  for (const auto& [name, value] : params.kp_dofs) {
+    if (value < 0) throw InputError("kp_dofs." + name + ": must be >= 0");
+    m.kp[engine.require_dof(name)] = value;
+  }
+  for (const auto& [name, value] : params.kd_dofs) {
+    if (value < 0) throw InputError("kd_dofs." + name + ": must be >= 0");
+    m.kd[engine.require_dof(name)] = value;
+  }
+  for (const auto& name : params.free_dofs) {
+    int i = engine.require_dof(name);
+    m.kp[i] = m.kd[i] = 0;
+  }
+  for (int i = 0; i < nv; ++i)
+    if (engine.dof_is_root(i)) m.kp[i] = m.kd[i] = 0;
+  for (const auto& [name, value] : params.target) {
+    int dof = engine.require_dof(name);
+    const JointInfo& j = engine.joint(engine.dof_joint(dof));
+    if (j.type != JointType::kHinge && j.type != JointType::kSlide)
+      throw InputError("target: '" + name + "' is not a hinge or slide dof");
+    m.targets.emplace_back(j.qpos_adr, value);
+  }
+  return m;
+}
+
+void StablePdState::resize(int nq, int nv) {
+  q_target.resize(nq);
+  q.resize(nq);
+  q_pred.resize(nq);
+  for (Eigen::VectorXd* x : {&v, &err, &p, &d, &c, &f, &rhs}) x->setZero(nv);
+  m.resize(nv, nv);
+  llt = Eigen::LLT<Eigen::MatrixXd>(nv);
+}
+
+namespace {
+void add_clamped(const JointPdModel& model, const Eigen::VectorXd& tau, ControlOutput& out) {
+  const double lim = model.params.max_torque;
+  if (lim > 0)
+    out.tau += tau.cwiseMax(-lim).cwiseMin(lim);
+  else
+    out.tau += tau;
+}
+}  // namespace
+
+void compute_stable_pd(const JointPdModel& model, StablePdState& s, const Engine& engine,
+                       ControlOutput& out) {
+  const double dt = engine.timestep();
+  engine.get_positions(s.q);
+  engine.get_velocities(s.v);
+  // p = -Kp (q + v dt - q_target), on the configuration manifold
+  engine.integrate_positions(s.q, s.v, dt, s.q_pred);
+  engine.difference_positions(s.q_target, s.q_pred, s.err);
+  s.p.noalias() = -model.kp.cwiseProduct(s.err);
+  s.d.noalias() = -model.kd.cwiseProduct(s.v);
+  // (M + Kd dt) v' = -C + p + d + tau_c
+  engine.mass_matrix(s.m);
+  s.m.diagonal() += model.kd * dt;
+  s.llt.compute(s.m);
+  engine.bias_forces(s.c);
+  s.rhs = s.p + s.d - s.c;
+  if (model.params.constraint_forces) {
+    engine.constraint_forces(s.f);
+    s.rhs += s.f;
+  }
+  s.llt.solveInPlace(s.rhs);
+  // tau = p + d - Kd v' dt  (s.rhs now holds v')
+  s.p += s.d;
+  s.p.noalias() -= (model.kd * dt).cwiseProduct(s.rhs);
+  add_clamped(model, s.p, out);
+}
+
+void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine& engine,
+                      ControlOutput& out) {
+  engine.get_positions(s.q);
+  engine.get_velocities(s.v);
+  engine.difference_positions(s.q_target, s.q, s.err);
+  s.p.noalias() = -model.kp.cwiseProduct(s.err);
+  s.p.noalias() -= model.kd.cwiseProduct(s.v);
+  add_clamped(model, s.p, out);
+}
+
+StablePd::StablePd(const JointPdParams& params, const Engine& engine, bool stable)
+    : model_(make_joint_pd_model(params, engine)), stable_(stable) {
+  state_.resize(engine.nq(), engine.nv());
+}
+
+void StablePd::reset(const Engine& engine) {
+  engine.get_positions(state_.q_target);
+  for (const auto& [adr, value] : model_.targets) state_.q_target[adr] = value;
+  error_sq_sum_ = 0;
+  error_samples_ = 0;
+}
+
+void StablePd::compute(const Engine& engine, ControlOutput& out) {
+  if (stable_)
+    compute_stable_pd(model_, state_, engine, out);
+  else
+    compute_plain_pd(model_, state_, engine, out);
+  // tracking error of the controlled dofs, now (not predicted)
+  double e = 0;
+  int n = 0;
+  engine.difference_positions(state_.q_target, state_.q, state_.err);
+  for (int i = 0; i < state_.err.size(); ++i)
+    if (model_.kp[i] > 0) {
+      e += state_.err[i] * state_.err[i];
+      ++n;
+    }
+  state_.last_error_norm = n ? std::sqrt(e / n) : 0;
+  error_sq_sum_ += e / std::max(n, 1);
+  ++error_samples_;
+}
+
+void StablePd::signal_names(std::vector<std::string>& names) const {
+  names.push_back(std::string(type()) + "_rms_error_rad");
+}
+void StablePd::signals(std::vector<double>& values) const {
+  values.push_back(state_.last_error_norm);
+}
+void StablePd::add_metrics(nlohmann::json& metrics) const {
+  metrics[std::string(type()) + "_rms_error_rad"] =
+      error_samples_ ? std::sqrt(error_sq_sum_ / error_samples_) : 0.0;
+}
+
+}  // namespace stance

@@ -1,0 +1,88 @@
+// Stable PD (Tan, Liu and Turk 2011) and plain PD with the same parameters, for comparison.
+//
+//   p   = -Kp (q + v dt (-) q_target)
+//   d   = -Kd v
+//   v'  = (M + Kd dt)^-1 (-C + p + d + tau_constraint)
+//   tau = p + d - Kd v' dt
+//
+// Root (free-joint) dofs get zero gains. Positions are differenced by the engine, so ball and
+// free joints are handled. M + Kd dt is factored with a Cholesky decomposition whose storage is
+// made once: a step allocates nothing.
+#pragma once
+
+#include <Eigen/Cholesky>
+
+#include "control/controller.h"
+#include "engine/engine.h"
+
+namespace stance {
+
+struct JointPdParams {
+  double kp = 400;  // N m/rad (N/m on slides)
+  double kd = 40;   // N m s/rad
+  NamedValues kp_dofs;                // per-dof overrides of kp
+  NamedValues kd_dofs;                // per-dof overrides of kd
+  std::vector<std::string> free_dofs;  // dofs left alone (zero gains), e.g. skateboard wheels
+  NamedValues target;                 // dof -> target; unnamed dofs hold their initial value
+  bool constraint_forces = true;      // include last step's constraint forces (SPD only)
+  double max_torque = 0;              // N m, symmetric clamp; 0: none
+
+  template <class V>
+  void visit(V& v) {
+    v("kp", kp, {.unit = "N m/rad", .min = 0, .max = 1e7, .help = "position gain, non-root dofs"});
+    v("kd", kd, {.unit = "N m s/rad", .min = 0, .max = 1e6, .help = "velocity gain"});
+    v("kp_dofs", kp_dofs, {.unit = "N m/rad", .help = "per-dof kp overrides"});
+    v("kd_dofs", kd_dofs, {.unit = "N m s/rad", .help = "per-dof kd overrides"});
+    v("free_dofs", free_dofs, {.help = "dofs with zero gains"});
+    v("target", target, {.unit = "rad or m", .help = "target pose; default: the initial pose"});
+    v("constraint_forces", constraint_forces, {.help = "SPD: include constraint forces"});
+    v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "torque clamp; 0: none"});
+  }
+};
+
+// the Model shared by SPD and PD: gains per dof, fixed once built
+struct JointPdModel {
+  JointPdParams params;
+  Eigen::VectorXd kp, kd;  // dim nv; zero on root and free dofs
+  std::vector<std::pair<int, double>> targets;  // (qpos index, value) for named targets
+};
+
+JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engine);
+
+struct StablePdState {
+  Eigen::VectorXd q_target, q, v, q_pred, err, p, d, c, f, rhs;  // nq or nv
+  Eigen::MatrixXd m;                                              // nv x nv
+  Eigen::LLT<Eigen::MatrixXd> llt;
+  double last_error_norm = 0;
+
+  void resize(int nq, int nv);
+};
+
+// tau (dim nv) is added into out.tau
+void compute_stable_pd(const JointPdModel& model, StablePdState& s, const Engine& engine,
+                       ControlOutput& out);
+void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine& engine,
+                      ControlOutput& out);
+
+class StablePd final : public Controller {
+ public:
+  StablePd(const JointPdParams& params, const Engine& engine, bool stable = true);
+  std::string_view type() const override { return stable_ ? "stable_pd" : "pd"; }
+  void reset(const Engine& engine) override;
+  void compute(const Engine& engine, ControlOutput& out) override;
+  void signal_names(std::vector<std::string>& names) const override;
+  void signals(std::vector<double>& values) const override;
+  void add_metrics(nlohmann::json& metrics) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+
+  const JointPdModel& model() const { return model_; }
+
+ private:
+  JointPdModel model_;
+  StablePdState state_;
+  bool stable_;
+  double error_sq_sum_ = 0;
+  long error_samples_ = 0;
+};
+
+}  // namespace stance
