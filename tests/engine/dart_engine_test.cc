@@ -376,6 +376,28 @@ TEST(DartEngine, BipedFallsAndRestsOnGround) {
   EXPECT_LT((f - c).norm(), 0.1 * c.norm());
 }
 
+TEST(DartEngine, ForwardFindsContactGeometryForASetState) {
+  auto settled = load_fullbody();
+  for (int i = 0; i < 1500; ++i) settled->step();
+  EngineState resting;
+  settled->save_state(resting);
+
+  // a fresh engine put into the resting state sees the ground contacts after forward()
+  auto e = load_fullbody();
+  EXPECT_EQ(e->num_contacts(), 0);
+  e->restore_state(resting);
+  e->forward();
+  ASSERT_GT(e->num_contacts(), 0);
+  for (int i = 0; i < e->num_contacts(); ++i) EXPECT_EQ(e->contact(i).force.norm(), 0.0);
+  const int heel = e->require_body("h_heel_left"), toe = e->require_body("h_toe_left");
+  EXPECT_TRUE(e->body_touches_ground(heel) || e->body_touches_ground(toe));
+  // a step then reports that step's contacts, with forces
+  e->step();
+  double total = 0;
+  for (int i = 0; i < e->num_contacts(); ++i) total += e->contact(i).force.norm();
+  EXPECT_GT(total, 0.0);
+}
+
 TEST(DartEngine, MjcfPendulumPeriodMatchesSmallAngleTheory) {
   const double angle0 = 0.05;
   WorldSpec spec;

@@ -11,6 +11,8 @@
 //  - contacts: DART reports normal from its 2nd to its 1st object and force on its 1st; we
 //    swap the pair, so Contact::normal points from body1 to body2 and Contact::force (normal
 //    plus friction, world frame, N) acts on body2.
+//  - contacts come from the last step (with forces) or, when positions were set since,
+//    from forward() (geometry only, zero forces).
 //  - collision detection uses DART's own detector whenever every collision shape is a box or
 //    sphere: it tests pairs in a fixed order, so restore_state + step replays bit-exactly. FCL
 //    and Bullet order contacts by their broad-phase trees, which depend on history, so a
@@ -397,6 +399,7 @@ class DartEngine final : public Engine {
   void set_positions(const Eigen::Ref<const Eigen::VectorXd>& q) override {
     check_size(q.size(), ndof_, "set_positions");
     for (const SkeletonBlock& b : blocks_) b.skeleton->setPositions(q.segment(b.dof_start, b.ndof));
+    positions_set_since_step_ = true;
   }
   void set_velocities(const Eigen::Ref<const Eigen::VectorXd>& v) override {
     check_size(v.size(), ndof_, "set_velocities");
@@ -415,6 +418,7 @@ class DartEngine final : public Engine {
     // rotation dofs of free/ball joints are exponential coordinates already: set directly
     const SkeletonBlock& b = block_of(dof);
     b.skeleton->setPosition(dof - b.dof_start, value);
+    positions_set_since_step_ = true;
   }
 
   void difference_positions(const Eigen::Ref<const Eigen::VectorXd>& q0,
@@ -481,6 +485,14 @@ class DartEngine final : public Engine {
   void forward() override {
     // DART computes lazily; refresh kinematics now so later const reads are cheap
     for (const SkeletonBlock& b : blocks_) b.skeleton->computeForwardKinematics(true, true, false);
+    // contact geometry for a state set by hand; after a step the step's own contacts stand
+    if (positions_set_since_step_) {
+      dart::constraint::ConstraintSolver* solver = world_->getConstraintSolver();
+      forward_contacts_.clear();
+      solver->getCollisionGroup()->collide(solver->getCollisionOption(), &forward_contacts_);
+      use_forward_contacts_ = true;
+      positions_set_since_step_ = false;
+    }
   }
 
   void mass_matrix(Eigen::Ref<Eigen::MatrixXd> m) const override {
@@ -554,11 +566,9 @@ class DartEngine final : public Engine {
     }
   }
 
-  int num_contacts() const override {
-    return static_cast<int>(world_->getLastCollisionResult().getNumContacts());
-  }
+  int num_contacts() const override { return static_cast<int>(contacts().getNumContacts()); }
   Contact contact(int i) const override {
-    const dart::collision::Contact& c = world_->getLastCollisionResult().getContact(i);
+    const dart::collision::Contact& c = contacts().getContact(i);
     // DART: normal points from its body 2 to its body 1 and force acts on its body 1.
     // Ours: normal from body1 to body2, force on body2. So DART's body 2 is our body1.
     Contact out;
@@ -566,7 +576,7 @@ class DartEngine final : public Engine {
     out.body2 = body_of(c.collisionObject1);
     out.pos = c.point;
     out.normal = c.normal;
-    out.force = c.force;
+    out.force = use_forward_contacts_ ? Eigen::Vector3d::Zero() : c.force;
     return out;
   }
 
@@ -624,6 +634,8 @@ class DartEngine final : public Engine {
       b.skeleton->getDof(dof - b.dof_start)->setCommand(velocity_command_[dof]);
     }
     world_->step();
+    use_forward_contacts_ = false;
+    positions_set_since_step_ = false;
   }
 
   bool state_is_finite() const override {
@@ -648,6 +660,9 @@ class DartEngine final : public Engine {
                                   ", got " + std::to_string(got));
   }
   const SkeletonBlock& block_of(int dof) const { return blocks_[dof_block_.at(dof)]; }
+  const dart::collision::CollisionResult& contacts() const {
+    return use_forward_contacts_ ? forward_contacts_ : world_->getLastCollisionResult();
+  }
 
   int body_of(const dart::collision::CollisionObject* object) const {
     const dart::dynamics::ShapeFrame* frame = object->getShapeFrame();
@@ -845,6 +860,11 @@ class DartEngine final : public Engine {
   std::vector<double> velocity_command_;   // NaN: no servo
   mutable Eigen::VectorXd solve_scratch_;  // dim nv; keeps solve_mass allocation-free
   std::string load_warnings_;
+
+  // contacts: the last step's, or those forward() found for positions set since
+  dart::collision::CollisionResult forward_contacts_;
+  bool use_forward_contacts_ = false;
+  bool positions_set_since_step_ = true;
 };
 
 }  // namespace
