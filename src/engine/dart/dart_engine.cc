@@ -19,7 +19,8 @@
 //    replay then differs in the last bits (the contact LCP sees a permuted problem). Models
 //    with other shapes keep the detector the file asks for.
 //  - MJCF through DART 6.12's MjcfParser: <option> timestep/gravity are read here (the parser
-//    ignores them), and a missing <default> is supplied (the parser asserts on it).
+//    ignores them), a missing <default> is supplied (the parser asserts on it), and
+//    <inertial> diaginertia/fullinertia/quat are applied (the parser leaves a unit moment).
 #include <tinyxml2.h>
 #include <dart/dart.hpp>
 #include <dart/utils/mjcf/MjcfParser.hpp>
@@ -103,12 +104,6 @@ std::string leading_message_lines(const std::string& text, int max_lines = 3) {
     ++taken;
   }
   return out;
-}
-
-std::string lowercase_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
 }
 
 // a read-only in-memory file for DART's resource interface
@@ -295,17 +290,17 @@ dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const
                                             std::string& warnings) {
   const std::string absolute = std::filesystem::absolute(file).string();
   const dart::common::Uri uri = dart::common::Uri::createFromPath(absolute);
-  const std::string ext = lowercase_extension(file);
+  const ModelFormat format = model_format(shown_name);
   dart::simulation::WorldPtr world;
   std::string printed;
   {
     CerrCapture capture;
     try {
-      if (ext == ".skel") {
+      if (format == ModelFormat::kSkel) {
         tinyxml2::XMLDocument doc;
         load_xml(shown_name, file, doc);
         world = dart::utils::SkelParser::readWorld(uri);
-      } else if (ext == ".xml" || ext == ".mjcf") {
+      } else if (format == ModelFormat::kMjcf) {
         const MjcfPreflight mjcf = preflight_mjcf(shown_name, file);
         dart::utils::MjcfParser::Options options;
         if (!mjcf.patched_text.empty())
@@ -317,7 +312,7 @@ dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const
           world->setGravity(mjcf.gravity);
           apply_inertials(*world, mjcf.inertials);
         }
-      } else if (ext == ".urdf") {
+      } else {
         tinyxml2::XMLDocument doc;
         load_xml(shown_name, file, doc);
         dart::utils::DartLoader loader;  // default root joint: floating
@@ -326,10 +321,6 @@ dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const
           world = dart::simulation::World::create();
           world->addSkeleton(skeleton);
         }
-      } else {
-        throw InputError(located(
-            shown_name, 0,
-            "unknown model format '" + ext + "' (DART loads .skel, .xml (MJCF) and .urdf)"));
       }
     } catch (const InputError&) {
       throw;
@@ -692,8 +683,7 @@ class DartEngine final : public Engine {
           }
         }
       }
-      const std::string ext = lowercase_extension(file);
-      if (!world_ && ext != ".urdf") {
+      if (!world_ && model_format(file) != ModelFormat::kUrdf) {
         // the first world file supplies gravity, timestep and collision detector
         world_ = parsed;
         continue;
