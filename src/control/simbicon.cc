@@ -1,0 +1,261 @@
+#include "control/simbicon.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "core/error.h"
+
+namespace stance {
+
+double pitch_about_minus_y(const Eigen::Quaterniond& q) {
+  // the body x axis in the world: (cos a, ., sin a) for a rotation a about -y
+  const Eigen::Matrix3d r = q.toRotationMatrix();
+  return std::atan2(r(2, 0), r(0, 0));
+}
+
+SimbiconGaitStats simbicon_gait_stats(const std::vector<SimbiconStep>& steps, int skip) {
+  SimbiconGaitStats s;
+  double sum_l = 0, sum_l2 = 0, sum_d = 0, sum_d2 = 0;
+  std::array<double, 2> side_l{}, side_d{};
+  std::array<int, 2> side_n{};
+  for (size_t i = std::max(0, skip); i < steps.size(); ++i) {
+    const SimbiconStep& st = steps[i];
+    ++s.steps;
+    sum_l += st.length_m;
+    sum_l2 += st.length_m * st.length_m;
+    sum_d += st.duration_s;
+    sum_d2 += st.duration_s * st.duration_s;
+    side_l[st.foot] += st.length_m;
+    side_d[st.foot] += st.duration_s;
+    ++side_n[st.foot];
+  }
+  if (s.steps == 0) return s;
+  const double n = s.steps;
+  s.step_length_mean = sum_l / n;
+  s.step_duration_mean = sum_d / n;
+  s.step_length_std = std::sqrt(std::max(0.0, sum_l2 / n - s.step_length_mean * s.step_length_mean));
+  s.step_duration_std =
+      std::sqrt(std::max(0.0, sum_d2 / n - s.step_duration_mean * s.step_duration_mean));
+  if (side_n[0] > 0 && side_n[1] > 0) {
+    const double l0 = side_l[0] / side_n[0], l1 = side_l[1] / side_n[1];
+    const double d0 = side_d[0] / side_n[0], d1 = side_d[1] / side_n[1];
+    if (std::abs(s.step_length_mean) > 1e-9)
+      s.length_asymmetry = std::abs(l0 - l1) / std::abs(s.step_length_mean);
+    if (s.step_duration_mean > 1e-9) s.duration_asymmetry = std::abs(d0 - d1) / s.step_duration_mean;
+  }
+  return s;
+}
+
+namespace {
+
+void check_half_cycle(const std::vector<SimbiconStateTargets>& states, const char* name,
+                      bool required) {
+  if (states.empty() && !required) return;
+  if (states.size() != 2)
+    throw InputError(fmt::format("simbicon gait.{}: expected 2 states (timed, then contact), "
+                                 "found {}",
+                                 name, states.size()));
+}
+
+void check_gains(const std::vector<SimbiconGains>& gains, const char* name) {
+  if (gains.size() > 1)
+    throw InputError(
+        fmt::format("simbicon gait.{}: expected at most 1 entry, found {}", name, gains.size()));
+}
+
+double clamp_torque(double tau, double limit) { return std::clamp(tau, -limit, limit); }
+
+}  // namespace
+
+Simbicon::Simbicon(const SimbiconParams& params, const Engine& engine) {
+  Model& m = model_;
+  m.params = params;
+  const SimbiconGait& g = params.gait;
+  check_half_cycle(g.states, "states", true);
+  check_half_cycle(g.right_stance, "right_stance", false);
+  check_half_cycle(g.left_stance, "left_stance", false);
+  check_gains(g.right_stance_gains, "right_stance_gains");
+  check_gains(g.left_stance_gains, "left_stance_gains");
+  if (params.balance_point != "hip" && params.balance_point != "com")
+    throw InputError(fmt::format("simbicon balance_point: expected hip or com, found '{}'",
+                                 params.balance_point));
+  m.use_com = params.balance_point == "com";
+
+  // per FSM state: states 0, 1 right stance; 2, 3 left stance
+  for (int s = 0; s < 4; ++s) {
+    const auto& side_states = s < 2 ? g.right_stance : g.left_stance;
+    m.targets[s] = side_states.empty() ? g.states[s % 2] : side_states[s % 2];
+    const auto& side_gains = s < 2 ? g.right_stance_gains : g.left_stance_gains;
+    m.gains[s] = side_gains.empty() ? g.gains : side_gains[0];
+  }
+
+  const SimbiconSkeleton& k = params.skeleton;
+  m.torso = engine.require_body(k.torso);
+  m.thigh = {engine.require_body(k.right_thigh), engine.require_body(k.left_thigh)};
+  m.foot = {engine.require_body(k.right_foot), engine.require_body(k.left_foot)};
+  m.hip = {engine.require_dof(k.right_hip), engine.require_dof(k.left_hip)};
+  m.knee = {engine.require_dof(k.right_knee), engine.require_dof(k.left_knee)};
+  m.ankle = {engine.require_dof(k.right_ankle), engine.require_dof(k.left_ankle)};
+  for (int dof : {m.hip[0], m.hip[1], m.knee[0], m.knee[1], m.ankle[0], m.ankle[1]}) {
+    const JointInfo& j = engine.joint(engine.dof_joint(dof));
+    if (j.type != JointType::kHinge)
+      throw InputError(fmt::format("simbicon skeleton: dof '{}' must be a hinge",
+                                   engine.dof_name(dof)));
+  }
+  state_.steps.reserve(params.max_recorded_steps);
+}
+
+void Simbicon::reset(const Engine& engine) {
+  State& s = state_;
+  s.fsm = model_.params.initial_state;
+  s.state_start_s = engine.time();
+  s.swing_hip_target = 0;
+  s.d = s.v = 0;
+  const double x = model_.use_com ? engine.com().x() : engine.body_pose(model_.torso).pos.x();
+  s.start_x = s.last_x = x;
+  s.start_time = s.last_time = engine.time();
+  s.last_strike_s = engine.time();
+  const int stance = s.fsm < 2 ? kRight : kLeft;
+  s.last_stance_ankle_x = engine.body_pose(model_.foot[stance]).pos.x();
+  s.flight_time_s = 0;
+  s.steps.clear();
+  s.state_time_sum.fill(0);
+  s.state_count.fill(0);
+}
+
+void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOutput& out) {
+  const double t = engine.time();
+
+  // FSM: timed states end on the clock, contact states when the swing foot lands
+  {
+    const SimbiconStateTargets& cur = m.targets[s.fsm];
+    const int swing = s.fsm < 2 ? kLeft : kRight;
+    const double in_state = t - s.state_start_s;
+    bool done = in_state >= cur.duration_s;
+    if (cur.ends_on_contact && in_state >= cur.min_duration_s &&
+        engine.body_touches_ground(m.foot[swing]))
+      done = true;
+    if (done) {
+      s.state_time_sum[s.fsm] += in_state;
+      ++s.state_count[s.fsm];
+      if (cur.ends_on_contact) {
+        // a strike: the swing foot becomes the stance foot
+        const double ankle_x = engine.body_pose(m.foot[swing]).pos.x();
+        if (s.steps.size() < s.steps.capacity())
+          s.steps.push_back({t, swing, ankle_x, ankle_x - s.last_stance_ankle_x,
+                             t - s.last_strike_s});
+        s.last_stance_ankle_x = ankle_x;
+        s.last_strike_s = t;
+      }
+      s.fsm = (s.fsm + 1) % 4;
+      s.state_start_s = t;
+    }
+  }
+
+  if (!engine.body_touches_ground(m.foot[0]) && !engine.body_touches_ground(m.foot[1]))
+    s.flight_time_s += engine.timestep();
+
+  const SimbiconStateTargets& tg = m.targets[s.fsm];
+  const SimbiconGains& gn = m.gains[s.fsm];
+  const int stance = s.fsm < 2 ? kRight : kLeft;
+  const int swing = 1 - stance;
+
+  // balance feedback inputs: hip (or COM) relative to the stance ankle, along +x
+  const Eigen::Vector3d ankle = engine.body_pose(m.foot[stance]).pos;
+  double px, vx;
+  if (m.use_com) {
+    px = engine.com().x();
+    vx = engine.com_velocity().x();
+  } else {
+    px = engine.body_pose(m.torso).pos.x();
+    vx = engine.body_velocity(m.torso)[3];
+  }
+  s.d = px - ankle.x();
+  s.v = vx;
+  s.last_x = px;
+  s.last_time = t;
+  s.swing_hip_target = tg.swing_hip + tg.cd * s.d + tg.cv * s.v;
+
+  // world-frame servos: torso and swing thigh (angular velocity about -y is -w_y)
+  const double torso_angle = pitch_about_minus_y(engine.body_pose(m.torso).quat);
+  const double torso_rate = -engine.body_velocity(m.torso)[1];
+  const double thigh_angle = pitch_about_minus_y(engine.body_pose(m.thigh[swing]).quat);
+  const double thigh_rate = -engine.body_velocity(m.thigh[swing])[1];
+  const double tau_torso =
+      gn.torso.kp * (tg.torso - torso_angle) - gn.torso.damping() * torso_rate;
+  const double tau_swing_hip = clamp_torque(
+      gn.swing_hip.kp * (s.swing_hip_target - thigh_angle) - gn.swing_hip.damping() * thigh_rate,
+      gn.swing_hip.max_torque);
+  // the stance hip holds the torso: the torso feels -tau_swing_hip - tau_stance_hip
+  const double tau_stance_hip =
+      clamp_torque(-clamp_torque(tau_torso, gn.torso.max_torque) - tau_swing_hip,
+                   gn.stance_hip_max_torque);
+
+  // relative servos: knees and ankles
+  auto servo = [&](int dof, double target, const SimbiconJointGain& gain) {
+    const double tau = gain.kp * (target - engine.dof_position(dof)) -
+                       gain.damping() * engine.dof_velocity(dof);
+    return clamp_torque(tau, gain.max_torque);
+  };
+  out.tau[m.hip[swing]] += tau_swing_hip;
+  out.tau[m.hip[stance]] += tau_stance_hip;
+  out.tau[m.knee[swing]] += servo(m.knee[swing], tg.swing_knee, gn.swing_knee);
+  out.tau[m.knee[stance]] += servo(m.knee[stance], tg.stance_knee, gn.stance_knee);
+  out.tau[m.ankle[swing]] += servo(m.ankle[swing], tg.swing_ankle, gn.swing_ankle);
+  out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle, gn.stance_ankle);
+}
+
+void Simbicon::compute(const Engine& engine, ControlOutput& out) {
+  compute(model_, state_, engine, out);
+}
+
+void Simbicon::signal_names(std::vector<std::string>& names) const {
+  names.insert(names.end(), {"simbicon_state", "simbicon_swing_hip_target", "simbicon_d",
+                             "simbicon_v"});
+}
+
+void Simbicon::signals(std::vector<double>& values) const {
+  values.insert(values.end(),
+                {double(state_.fsm), state_.swing_hip_target, state_.d, state_.v});
+}
+
+void Simbicon::add_metrics(nlohmann::json& metrics) const {
+  const State& s = state_;
+  const double elapsed = s.last_time - s.start_time;
+  const double distance = s.last_x - s.start_x;
+  metrics["distance_m"] = distance;
+  metrics["mean_speed_mps"] = elapsed > 0 ? distance / elapsed : 0.0;
+  metrics["flight_fraction"] = elapsed > 0 ? s.flight_time_s / elapsed : 0.0;
+  // the first two steps are the start-up from standing
+  const SimbiconGaitStats g = simbicon_gait_stats(s.steps, 2);
+  metrics["step_count"] = static_cast<int>(s.steps.size());
+  metrics["step_length_mean_m"] = g.step_length_mean;
+  metrics["step_length_std_m"] = g.step_length_std;
+  metrics["step_duration_mean_s"] = g.step_duration_mean;
+  metrics["step_duration_std_s"] = g.step_duration_std;
+  metrics["step_length_asymmetry"] = g.length_asymmetry;
+  metrics["step_duration_asymmetry"] = g.duration_asymmetry;
+  nlohmann::json per_state = nlohmann::json::array();
+  for (int i = 0; i < 4; ++i) {
+    per_state.push_back({{"state", i},
+                         {"count", s.state_count[i]},
+                         {"mean_duration_s",
+                          s.state_count[i] ? s.state_time_sum[i] / s.state_count[i] : 0.0}});
+  }
+  metrics["simbicon_states"] = per_state;
+}
+
+void Simbicon::write_outputs(const std::string& out_dir) const {
+  std::ofstream f(std::filesystem::path(out_dir) / "steps.csv");
+  if (!f) throw InputError(fmt::format("--out {}: cannot write steps.csv", out_dir));
+  f << "time,foot,ankle_x,length_m,duration_s\n";
+  for (const SimbiconStep& st : state_.steps)
+    f << fmt::format("{:.6f},{},{:.6f},{:.6f},{:.6f}\n", st.time_s,
+                     st.foot == kRight ? "right" : "left", st.ankle_x, st.length_m, st.duration_s);
+}
+
+}  // namespace stance

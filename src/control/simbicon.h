@@ -1,0 +1,223 @@
+// SIMBICON (Yin, Loken and van de Panne, SIGGRAPH 2007): a 4-state finite state machine of
+// PD targets with balance feedback on the swing hip.
+//
+// States 0 and 1 have the right leg in stance (the left swings); states 2 and 3 the left.
+// States 0 and 2 end after their duration; states 1 and 3 end when the swing foot touches the
+// ground, and then the stance side swaps. The torso and the swing thigh are servoed in the
+// world frame; knees and ankles relative to their parent. The stance hip supplies the torso's
+// torque: tau_stance_hip = -tau_torso - tau_swing_hip. Balance feedback moves the swing hip
+// target: theta_d = theta_d0 + cd d + cv v, with d the horizontal distance from the stance
+// ankle to the hip (or COM) and v the hip's (or COM's) horizontal velocity.
+//
+// Angles are planar, about the model's -y axis (positive = flexion forward; see
+// models/simbicon_2d.xml); walking goes along +x.
+#pragma once
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "control/controller.h"
+#include "engine/engine.h"
+
+namespace stance {
+
+// one FSM state of the half cycle; the other half cycle mirrors it onto the other leg
+struct SimbiconStateTargets {
+  double duration_s = 0.3;        // ends after this; for contact states, a timeout
+  bool ends_on_contact = false;   // end when the swing foot touches the ground
+  double min_duration_s = 0.0;    // contact is ignored before this time in the state
+  double torso = 0;               // rad, world
+  double swing_hip = 0;           // rad, world (thigh from vertical)
+  double swing_knee = 0;          // rad, relative
+  double swing_ankle = 0;         // rad, relative
+  double stance_knee = 0;         // rad, relative
+  double stance_ankle = 0;        // rad, relative
+  double cd = 0;                  // rad/m, balance feedback on distance
+  double cv = 0;                  // rad s/m, balance feedback on velocity
+
+  template <class V>
+  void visit(V& v) {
+    v("duration_s", duration_s, {.unit = "s", .min = 0.001, .max = 100,
+                                 .help = "state length, or timeout of a contact state"});
+    v("ends_on_contact", ends_on_contact, {.help = "end when the swing foot lands"});
+    v("min_duration_s", min_duration_s, {.unit = "s", .min = 0, .max = 100,
+                                         .help = "ignore swing-foot contact before this"});
+    v("torso", torso, {.unit = "rad", .min = -3.2, .max = 3.2, .help = "torso pitch, world"});
+    v("swing_hip", swing_hip, {.unit = "rad", .min = -3.2, .max = 3.2,
+                               .help = "swing thigh angle from vertical, world"});
+    v("swing_knee", swing_knee, {.unit = "rad", .min = -3.2, .max = 3.2});
+    v("swing_ankle", swing_ankle, {.unit = "rad", .min = -3.2, .max = 3.2});
+    v("stance_knee", stance_knee, {.unit = "rad", .min = -3.2, .max = 3.2});
+    v("stance_ankle", stance_ankle, {.unit = "rad", .min = -3.2, .max = 3.2});
+    v("cd", cd, {.unit = "rad/m", .min = -100, .max = 100, .help = "feedback on distance d"});
+    v("cv", cv, {.unit = "rad s/m", .min = -100, .max = 100, .help = "feedback on velocity v"});
+  }
+};
+
+// one servo; kd < 0 means kp / 10, as in the paper
+struct SimbiconJointGain {
+  double kp = 300;          // N m/rad
+  double kd = -1;           // N m s/rad
+  double max_torque = 1e9;  // N m, symmetric clamp
+
+  double damping() const { return kd < 0 ? kp / 10 : kd; }
+  template <class V>
+  void visit(V& v) {
+    v("kp", kp, {.unit = "N m/rad", .min = 0, .max = 1e6});
+    v("kd", kd, {.unit = "N m s/rad", .min = -1, .max = 1e5, .help = "-1: kp/10"});
+    v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "torque limit"});
+  }
+};
+
+struct SimbiconGains {
+  SimbiconJointGain torso, swing_hip, swing_knee, swing_ankle, stance_knee, stance_ankle;
+  double stance_hip_max_torque = 1e9;  // N m
+
+  template <class V>
+  void visit(V& v) {
+    v("torso", torso);
+    v("swing_hip", swing_hip);
+    v("swing_knee", swing_knee);
+    v("swing_ankle", swing_ankle);
+    v("stance_knee", stance_knee);
+    v("stance_ankle", stance_ankle);
+    v("stance_hip_max_torque", stance_hip_max_torque, {.unit = "N m", .min = 0});
+  }
+};
+
+// a gait: the half cycle's two states, with optional per-side replacements
+struct SimbiconGait {
+  std::vector<SimbiconStateTargets> states;        // 2 entries: timed swing, then until contact
+  std::vector<SimbiconStateTargets> right_stance;  // empty, or 2 entries used in states 0, 1
+  std::vector<SimbiconStateTargets> left_stance;   // empty, or 2 entries used in states 2, 3
+  SimbiconGains gains;                             // both sides
+  std::vector<SimbiconGains> right_stance_gains;   // empty, or 1 entry for states 0, 1
+  std::vector<SimbiconGains> left_stance_gains;    // empty, or 1 entry for states 2, 3
+
+  template <class V>
+  void visit(V& v) {
+    v("states", states, {.help = "the half cycle: [timed state, contact state]"});
+    v("right_stance", right_stance, {.help = "replaces states while the right leg stands"});
+    v("left_stance", left_stance, {.help = "replaces states while the left leg stands"});
+    v("gains", gains);
+    v("right_stance_gains", right_stance_gains, {.help = "[gains] while the right leg stands"});
+    v("left_stance_gains", left_stance_gains, {.help = "[gains] while the left leg stands"});
+  }
+};
+
+// the names the controller needs from the model
+struct SimbiconSkeleton {
+  std::string torso = "torso";  // body whose frame origin is the hip centre
+  std::string left_thigh = "left_thigh", right_thigh = "right_thigh";
+  std::string left_foot = "left_foot", right_foot = "right_foot";  // frame origin at the ankle
+  std::string left_hip = "left_hip", right_hip = "right_hip";      // dofs
+  std::string left_knee = "left_knee", right_knee = "right_knee";
+  std::string left_ankle = "left_ankle", right_ankle = "right_ankle";
+
+  template <class V>
+  void visit(V& v) {
+    v("torso", torso, {.help = "body; its origin is the hip centre"});
+    v("left_thigh", left_thigh);
+    v("right_thigh", right_thigh);
+    v("left_foot", left_foot, {.help = "body; its origin is the ankle"});
+    v("right_foot", right_foot);
+    v("left_hip", left_hip, {.help = "dof"});
+    v("right_hip", right_hip);
+    v("left_knee", left_knee);
+    v("right_knee", right_knee);
+    v("left_ankle", left_ankle);
+    v("right_ankle", right_ankle);
+  }
+};
+
+struct SimbiconParams {
+  SimbiconSkeleton skeleton;
+  SimbiconGait gait;
+  std::string balance_point = "hip";  // "hip" or "com": where d and v are measured
+  int initial_state = 0;              // 0..3
+  int max_recorded_steps = 20000;     // steps.csv capacity (reserved up front)
+
+  template <class V>
+  void visit(V& v) {
+    v("skeleton", skeleton);
+    v("gait", gait);
+    v("balance_point", balance_point, {.help = "hip or com"});
+    v("initial_state", initial_state, {.min = 0, .max = 3});
+    v("max_recorded_steps", max_recorded_steps, {.min = 1, .max = 10000000});
+  }
+};
+
+// one foot strike: the end of state 1 or 3
+struct SimbiconStep {
+  double time_s = 0;      // of the strike
+  int foot = 0;           // 0 right, 1 left: the foot that landed (the new stance foot)
+  double ankle_x = 0;     // m, landing foot's ankle along +x
+  double length_m = 0;    // ankle_x minus the previous stance ankle's
+  double duration_s = 0;  // since the previous strike (or the start)
+};
+
+class Simbicon final : public Controller {
+ public:
+  enum Side { kRight = 0, kLeft = 1 };
+
+  // model: indices and the resolved per-state targets and gains, fixed after construction
+  struct Model {
+    SimbiconParams params;
+    int torso = -1;
+    std::array<int, 2> thigh{}, foot{}, hip{}, knee{}, ankle{};  // by Side
+    std::array<SimbiconStateTargets, 4> targets;  // by FSM state
+    std::array<SimbiconGains, 4> gains;           // by FSM state
+    bool use_com = false;
+  };
+  // data: the FSM and what it has recorded
+  struct State {
+    int fsm = 0;
+    double state_start_s = 0;
+    double swing_hip_target = 0;  // rad, after feedback
+    double d = 0, v = 0;          // m, m/s, the feedback inputs
+    double start_x = 0, last_x = 0, start_time = 0, last_time = 0;
+    double last_strike_s = 0;
+    double last_stance_ankle_x = 0;
+    double flight_time_s = 0;  // with neither foot on the ground (a run's flight phases)
+    std::vector<SimbiconStep> steps;            // reserved to max_recorded_steps
+    std::array<double, 4> state_time_sum{};     // s, completed states
+    std::array<int, 4> state_count{};
+  };
+
+  Simbicon(const SimbiconParams& params, const Engine& engine);
+  std::string_view type() const override { return "simbicon"; }
+  void reset(const Engine& engine) override;
+  void compute(const Engine& engine, ControlOutput& out) override;
+  void signal_names(std::vector<std::string>& names) const override;
+  void signals(std::vector<double>& values) const override;
+  void add_metrics(nlohmann::json& metrics) const override;
+  void write_outputs(const std::string& out_dir) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+
+  // one control step: advance the FSM, then add the torques to out.tau. No allocation.
+  static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
+
+  const Model& model() const { return model_; }
+  const State& state() const { return state_; }
+
+ private:
+  Model model_;
+  State state_;
+};
+
+// planar pitch of a body about the world -y axis (rad, positive = top leaning back)
+double pitch_about_minus_y(const Eigen::Quaterniond& q);
+
+// the step statistics of a walk (metrics over SimbiconStep records)
+struct SimbiconGaitStats {
+  int steps = 0;
+  double step_length_mean = 0, step_length_std = 0;      // m
+  double step_duration_mean = 0, step_duration_std = 0;  // s
+  double length_asymmetry = 0;    // |mean right - mean left| / mean, right = right foot lands
+  double duration_asymmetry = 0;  // same, for step durations
+};
+// statistics over steps, skipping the first `skip` (the start-up transient)
+SimbiconGaitStats simbicon_gait_stats(const std::vector<SimbiconStep>& steps, int skip);
+
+}  // namespace stance

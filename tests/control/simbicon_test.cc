@@ -1,0 +1,144 @@
+// SIMBICON: the shipped gaits walk, the balance feedback matters, and the walk survives pushes.
+#include "control/simbicon.h"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "core/error.h"
+#include "scenario/runner.h"
+#include "scenario/scenario.h"
+#include "test_support.h"
+
+namespace stance {
+namespace {
+
+std::string scenario_path(const std::string& name) {
+  return test::source_dir() + "/scenarios/" + name;
+}
+
+struct WalkOutcome {
+  RunResult result;
+  std::vector<SimbiconStep> steps;
+};
+
+WalkOutcome run_scenario(const std::string& file, const std::vector<std::string>& sets = {},
+                         const RunOptions& options = {}) {
+  LoadedScenario loaded = load_scenario(scenario_path(file), sets);
+  ScenarioRun run(loaded, options);
+  WalkOutcome out;
+  out.result = run.run();
+  auto* simbicon = dynamic_cast<Simbicon*>(run.controllers().at(0).get());
+  EXPECT_NE(simbicon, nullptr);
+  if (simbicon) out.steps = simbicon->state().steps;
+  return out;
+}
+
+double metric(const RunResult& r, const char* name) { return r.metrics.at(name).get<double>(); }
+
+TEST(SimbiconPitch, MatchesHingeAngleAboutMinusY) {
+  for (double a : {-1.2, -0.3, 0.0, 0.4, 2.0}) {
+    Eigen::Quaterniond q(Eigen::AngleAxisd(a, -Eigen::Vector3d::UnitY()));
+    EXPECT_NEAR(pitch_about_minus_y(q), a, 1e-12);
+  }
+}
+
+TEST(SimbiconGaitStats, MeansStdAndAsymmetry) {
+  // right steps 0.6 m / 0.5 s, left steps 0.4 m / 0.3 s, after two start-up steps
+  std::vector<SimbiconStep> steps = {{0.1, 0, 0, 5.0, 9.0}, {0.2, 1, 0, 5.0, 9.0}};
+  for (int i = 0; i < 10; ++i) steps.push_back({1.0 + i, i % 2, 0, i % 2 ? 0.4 : 0.6,
+                                                i % 2 ? 0.3 : 0.5});
+  SimbiconGaitStats s = simbicon_gait_stats(steps, 2);
+  EXPECT_EQ(s.steps, 10);
+  EXPECT_NEAR(s.step_length_mean, 0.5, 1e-12);
+  EXPECT_NEAR(s.step_length_std, 0.1, 1e-12);
+  EXPECT_NEAR(s.step_duration_mean, 0.4, 1e-12);
+  EXPECT_NEAR(s.step_duration_std, 0.1, 1e-12);
+  EXPECT_NEAR(s.length_asymmetry, 0.2 / 0.5, 1e-12);
+  EXPECT_NEAR(s.duration_asymmetry, 0.2 / 0.4, 1e-12);
+}
+
+TEST(SimbiconParams, RejectsBadGaits) {
+  auto build = [](const std::string& set) {
+    LoadedScenario l = load_scenario(scenario_path("simbicon_walk.yaml"), {set});
+    ScenarioRun run(l, {});
+  };
+  // a half cycle has exactly two states
+  EXPECT_THROW(build("controllers.0.gait.states=[{duration_s: 0.3}]"), InputError);
+  EXPECT_THROW(build("controllers.0.balance_point=knee"), InputError);
+  EXPECT_THROW(build("controllers.0.skeleton.left_knee=left_kne"), InputError);
+  EXPECT_THROW(build("controllers.0.gait.gains.torso.kp=-1"), InputError);
+}
+
+// priority 1: the paper's walk, 60 s at 1700 Hz
+TEST(SimbiconWalk, WalksSixtySecondsAtHalfAMetrePerSecond) {
+  WalkOutcome w = run_scenario("simbicon_walk.yaml");
+  const RunResult& r = w.result;
+  ASSERT_FALSE(r.diverged) << r.divergence;
+  EXPECT_FALSE(r.fell) << "fell at " << r.fall_time.value_or(-1) << ": " << r.fall_reason;
+  EXPECT_NEAR(r.sim_time, 60.0, 1e-6);
+  EXPECT_GE(metric(r, "mean_speed_mps"), 0.5);
+  EXPECT_GE(metric(r, "distance_m"), 30.0);
+  // a steady gait: many strikes of both feet, regular lengths
+  EXPECT_GT(r.metrics.at("step_count").get<int>(), 60);
+  EXPECT_GT(metric(r, "step_length_mean_m"), 0.2);
+  EXPECT_LT(metric(r, "step_length_std_m"), 0.5 * metric(r, "step_length_mean_m"));
+  EXPECT_LT(metric(r, "step_length_asymmetry"), 0.3);
+  for (const auto& st : r.metrics.at("simbicon_states")) EXPECT_GT(st.at("count").get<int>(), 30);
+}
+
+// priority 2: without feedback the same gait is not stable
+TEST(SimbiconWalk, WithoutBalanceFeedbackFallsWithinFifteenSeconds) {
+  WalkOutcome w = run_scenario("simbicon_walk.yaml",
+                               {"duration=15", "controllers.0.gait.states.0.cd=0",
+                                "controllers.0.gait.states.0.cv=0",
+                                "controllers.0.gait.states.1.cd=0",
+                                "controllers.0.gait.states.1.cv=0"});
+  ASSERT_FALSE(w.result.diverged) << w.result.divergence;
+  EXPECT_TRUE(w.result.fell) << "speed " << metric(w.result, "mean_speed_mps");
+  if (w.result.fell) EXPECT_LT(*w.result.fall_time, 15.0);
+}
+
+TEST(SimbiconGaits, RunAndCrouchWalkThirtySeconds) {
+  for (const char* file : {"simbicon_run.yaml", "simbicon_crouch.yaml"}) {
+    WalkOutcome w = run_scenario(file, {"duration=30"});
+    SCOPED_TRACE(file);
+    ASSERT_FALSE(w.result.diverged) << w.result.divergence;
+    EXPECT_FALSE(w.result.fell) << "fell at " << w.result.fall_time.value_or(-1);
+    EXPECT_NEAR(w.result.sim_time, 30.0, 1e-6);
+    EXPECT_GT(metric(w.result, "mean_speed_mps"), 0.3);
+    EXPECT_GT(w.result.metrics.at("step_count").get<int>(), 30);
+  }
+}
+
+// priority 5: 100 N forward and backward on the torso for 0.2 s at 4 phases of one stride
+TEST(SimbiconWalk, SurvivesHundredNewtonPushesAtFourPhases) {
+  // the unpushed walk gives the strike times; runs are deterministic up to the push
+  WalkOutcome ref = run_scenario("simbicon_walk.yaml", {"duration=8"});
+  ASSERT_GE(ref.steps.size(), 8u);
+  // a stride from a right-foot strike after the start-up
+  size_t k = 4;
+  while (k < ref.steps.size() && ref.steps[k].foot != Simbicon::kRight) ++k;
+  ASSERT_LT(k + 2, ref.steps.size());
+  const double t0 = ref.steps[k].time_s, stride = ref.steps[k + 2].time_s - t0;
+  for (double phase : {0.0, 0.25, 0.5, 0.75}) {
+    for (double fx : {100.0, -100.0}) {
+      RunOptions opt;
+      Perturbation p;
+      p.body = "torso";
+      p.force = Eigen::Vector3d(fx, 0, 0);
+      p.start = t0 + phase * stride;
+      p.duration = 0.2;
+      opt.extra_pushes.push_back(p);
+      opt.duration = p.start + 6.0;
+      WalkOutcome w = run_scenario("simbicon_walk.yaml", {}, opt);
+      SCOPED_TRACE(::testing::Message() << "phase " << phase << " force " << fx);
+      ASSERT_FALSE(w.result.diverged);
+      EXPECT_FALSE(w.result.fell) << "fell at " << w.result.fall_time.value_or(-1);
+      EXPECT_EQ(w.result.metrics.at("pushes_survived").get<int>(), 1);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace stance
