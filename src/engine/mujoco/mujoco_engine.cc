@@ -101,7 +101,18 @@ mjModel* load_mujoco_model(const WorldSpec& spec) {
 
 std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
   mjModel* m = load_mujoco_model(spec);
-  return std::make_unique<MujocoEngine>(m, spec.models.front().path);
+  auto engine = std::make_unique<MujocoEngine>(m, spec.models.front().path);
+  // a translated SKEL keeps DART's initial state (<init_pos>) in keyframe "init": start there,
+  // as DART does
+  if (model_format(resolve_model_path(spec.models.front().path)) == ModelFormat::kSkel) {
+    int key = mj_name2id(m, mjOBJ_KEY, "init");
+    if (key >= 0) {
+      mj_resetDataKeyframe(m, engine->data(), key);
+      mj_forward(m, engine->data());
+      engine->invalidate();
+    }
+  }
+  return engine;
 }
 
 MujocoEngine::MujocoEngine(mjModel* model, std::string source)
