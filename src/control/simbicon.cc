@@ -115,7 +115,10 @@ void Simbicon::reset(const Engine& engine) {
   s.state_start_s = engine.time();
   s.swing_hip_target = 0;
   s.d = s.v = 0;
-  const double x = model_.use_com ? engine.com().x() : engine.body_pose(model_.torso).pos.x();
+  const double x =
+      model_.use_com ? engine.com().x()
+                     : 0.5 * (engine.body_pose(model_.thigh[0]).pos.x() +
+                              engine.body_pose(model_.thigh[1]).pos.x());
   s.start_x = s.last_x = x;
   s.start_time = s.last_time = engine.time();
   s.last_strike_s = engine.time();
@@ -171,8 +174,9 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
     px = engine.com().x();
     vx = engine.com_velocity().x();
   } else {
-    px = engine.body_pose(m.torso).pos.x();
-    vx = engine.body_velocity(m.torso)[3];
+    // the hip centre: midway between the thigh frames (at the hip joints)
+    px = 0.5 * (engine.body_pose(m.thigh[0]).pos.x() + engine.body_pose(m.thigh[1]).pos.x());
+    vx = 0.5 * (engine.body_velocity(m.thigh[0])[3] + engine.body_velocity(m.thigh[1])[3]);
   }
   s.d = px - ankle.x();
   s.v = vx;

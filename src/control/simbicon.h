@@ -108,8 +108,8 @@ struct SimbiconGait {
 
 // the names the controller needs from the model
 struct SimbiconSkeleton {
-  std::string torso = "torso";  // body whose frame origin is the hip centre
-  std::string left_thigh = "left_thigh", right_thigh = "right_thigh";
+  std::string torso = "torso";
+  std::string left_thigh = "left_thigh", right_thigh = "right_thigh";  // origin at the hip joint
   std::string left_foot = "left_foot", right_foot = "right_foot";  // frame origin at the ankle
   std::string left_hip = "left_hip", right_hip = "right_hip";      // dofs
   std::string left_knee = "left_knee", right_knee = "right_knee";
@@ -117,8 +117,8 @@ struct SimbiconSkeleton {
 
   template <class V>
   void visit(V& v) {
-    v("torso", torso, {.help = "body; its origin is the hip centre"});
-    v("left_thigh", left_thigh);
+    v("torso", torso, {.help = "body servoed in the world frame"});
+    v("left_thigh", left_thigh, {.help = "body; its origin is the hip joint"});
     v("right_thigh", right_thigh);
     v("left_foot", left_foot, {.help = "body; its origin is the ankle"});
     v("right_foot", right_foot);

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "engine/world_spec.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
 #include "test_support.h"
@@ -139,6 +140,38 @@ TEST(SimbiconWalk, SurvivesHundredNewtonPushesAtFourPhases) {
     }
   }
 }
+
+#ifdef STANCE_HAVE_DART
+// priority 6: the same model and walk on DART (loaded through DART's own MJCF parser)
+TEST(SimbiconDart, ModelMatchesMujocoBodyForBody) {
+  WorldSpec spec;
+  spec.models.push_back({test::source_dir() + "/models/simbicon_2d.xml", Eigen::Vector3d::Zero()});
+  auto mj = make_engine("mujoco", spec);
+  auto dt = make_engine("dart", spec);
+  mj->forward();
+  dt->forward();
+  ASSERT_EQ(mj->nbody(), dt->nbody());
+  ASSERT_EQ(mj->nv(), dt->nv());
+  EXPECT_NEAR(mj->total_mass(), 70.0, 1e-9);
+  EXPECT_NEAR(dt->total_mass(), 70.0, 1e-9);
+  for (int b = 0; b < mj->nbody(); ++b) {
+    int d = dt->require_body(mj->body_name(b));
+    EXPECT_LT((mj->body_pose(b).pos - dt->body_pose(d).pos).norm(), 1e-9) << mj->body_name(b);
+    EXPECT_LT((mj->body_com(b) - dt->body_com(d)).norm(), 1e-9) << mj->body_name(b);
+  }
+  EXPECT_LT((mj->com() - dt->com()).norm(), 1e-9);
+}
+
+TEST(SimbiconDart, WalksTwentySeconds) {
+  RunOptions opt;
+  opt.engine = "dart";
+  WalkOutcome w = run_scenario("simbicon_walk.yaml", {"duration=20"}, opt);
+  ASSERT_FALSE(w.result.diverged) << w.result.divergence;
+  EXPECT_FALSE(w.result.fell) << "fell at " << w.result.fall_time.value_or(-1);
+  EXPECT_GE(metric(w.result, "mean_speed_mps"), 0.5);
+  EXPECT_GT(w.result.metrics.at("step_count").get<int>(), 20);
+}
+#endif
 
 }  // namespace
 }  // namespace stance
