@@ -20,6 +20,7 @@ HoldPosePd::HoldPosePd(const HoldPosePdParams& params, const Engine& engine) {
   state_.q.resize(engine.nq());
   state_.v.resize(engine.nv());
   state_.dq.resize(engine.nv());
+  state_.bias.setZero(engine.nv());
 }
 
 void HoldPosePd::reset(const Engine& engine) {
@@ -40,9 +41,10 @@ void HoldPosePd::compute(const Model& model, State& state, const Engine& engine,
   engine.get_positions(state.q);
   engine.get_velocities(state.v);
   engine.difference_positions(state.q_target, state.q, state.dq);
+  if (model.params.compensate_bias) engine.bias_forces(state.bias);
   const double lim = model.params.max_torque;
   for (int i : model.dofs) {
-    double t = -model.params.kp * state.dq[i] - model.params.kd * state.v[i];
+    double t = -model.params.kp * state.dq[i] - model.params.kd * state.v[i] + state.bias[i];
     out.tau[i] += std::clamp(t, -lim, lim);
   }
 }

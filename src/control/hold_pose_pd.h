@@ -14,6 +14,7 @@ struct HoldPosePdParams {
   std::vector<std::string> dofs;  // empty: every non-root dof
   NamedValues target;             // dof -> value; unnamed dofs hold their initial value
   double max_torque = 1e9;        // N m, symmetric clamp
+  bool compensate_bias = false;   // add the bias forces (gravity + Coriolis) on the held dofs
 
   template <class V>
   void visit(V& v) {
@@ -22,6 +23,7 @@ struct HoldPosePdParams {
     v("dofs", dofs, {.help = "dofs to hold; empty = all non-root dofs"});
     v("target", target, {.unit = "rad or m", .help = "target per dof; default: initial pose"});
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "torque clamp"});
+    v("compensate_bias", compensate_bias, {.help = "feed forward gravity and Coriolis forces"});
   }
 };
 
@@ -34,7 +36,7 @@ class HoldPosePd final : public Controller {
   };
   // data: the target pose captured at reset, and work vectors
   struct State {
-    Eigen::VectorXd q_target, q, v, dq;
+    Eigen::VectorXd q_target, q, v, dq, bias;
   };
 
   HoldPosePd(const HoldPosePdParams& params, const Engine& engine);
