@@ -132,6 +132,14 @@ void Simbicon::reset(const Engine& engine) {
 
 void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOutput& out) {
   const double t = engine.time();
+  // which feet touch the ground: one pass over the contacts
+  std::array<bool, 2> on_ground{false, false};
+  for (int i = 0, n = engine.num_contacts(); i < n; ++i) {
+    const Contact c = engine.contact(i);
+    const int other = c.body1 < 0 ? c.body2 : (c.body2 < 0 ? c.body1 : -2);
+    for (int side : {kRight, kLeft})
+      if (other == m.foot[side]) on_ground[side] = true;
+  }
 
   // FSM: timed states end on the clock, contact states when the swing foot lands
   {
@@ -139,8 +147,7 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
     const int swing = s.fsm < 2 ? kLeft : kRight;
     const double in_state = t - s.state_start_s;
     bool done = in_state >= cur.duration_s;
-    if (cur.ends_on_contact && in_state >= cur.min_duration_s &&
-        engine.body_touches_ground(m.foot[swing]))
+    if (cur.ends_on_contact && in_state >= cur.min_duration_s && on_ground[swing])
       done = true;
     if (done) {
       s.state_time_sum[s.fsm] += in_state;
@@ -159,7 +166,7 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
     }
   }
 
-  if (!engine.body_touches_ground(m.foot[0]) && !engine.body_touches_ground(m.foot[1]))
+  if (!on_ground[kRight] && !on_ground[kLeft])
     s.flight_time_s += engine.timestep();
 
   const SimbiconStateTargets& tg = m.targets[s.fsm];
