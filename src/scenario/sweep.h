@@ -1,0 +1,66 @@
+// A parameter sweep: one scenario run for each value of any `--set` key path, on several
+// threads, each run with its own engine. Results come back in the order of the values and do
+// not depend on the thread count (runs share nothing and no run reads a clock or a global RNG).
+//
+// Outputs (write_sweep_outputs):
+//  - sweep.csv:  one row per value: "<param>,fell,diverged,sim_time,error,<scalar metrics...>";
+//                the metric columns are the union of every run's scalar metrics, in key order;
+//                timing metrics (realtime_factor) are left out so that the file is reproducible
+//  - points.csv: "<param>,metric,index,y": every element of every list-valued metric (e.g. the
+//                slope walker's steady_step_lengths_m, the points of a bifurcation diagram)
+//  - <metric>.png and .gp with plot_sweep(): the points of one list metric against the value
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scenario/runner.h"
+
+namespace stance {
+
+struct SweepOptions {
+  std::string scenario;           // YAML file
+  std::vector<std::string> sets;  // overrides applied to every run ("a.b=value")
+  std::string param;              // key path swept, as in --set ("controllers.0.hip_kp")
+  std::vector<double> values;
+  int threads = 0;  // 0: every core (std::thread::hardware_concurrency)
+  std::string engine;              // overrides the scenario's when set
+  std::optional<double> duration;  // s, overrides the scenario's
+};
+
+struct SweepPoint {
+  double value = 0;
+  RunResult result;
+  std::string error;  // non-empty: this run failed (it has no result)
+};
+
+// `steps` values from `from` to `to` inclusive (steps >= 1; steps == 1 gives `from`)
+std::vector<double> linspace(double from, double to, int steps);
+
+// parse "1,2.5,4" into numbers; throws InputError naming the bad entry
+std::vector<double> parse_value_list(const std::string& text);
+
+// the override text for one value: shortest form that reads back exactly
+std::string format_sweep_value(double value);
+
+// runs every value. Bad input (scenario, key path, first value) throws InputError before any
+// thread starts. on_done (optional) is called under a lock as each run finishes.
+std::vector<SweepPoint> run_sweep(
+    const SweepOptions& options,
+    const std::function<void(const SweepPoint&, int done, int total)>& on_done = {});
+
+// writes sweep.csv and points.csv into dir (created if needed)
+void write_sweep_outputs(const std::string& dir, const std::string& param,
+                         const std::vector<SweepPoint>& points);
+
+// the list metrics present in the points, in key order
+std::vector<std::string> sweep_list_metrics(const std::vector<SweepPoint>& points);
+
+// plots points.csv's `metric` against the value with gnuplot into dir/<png_name>; writes the
+// script beside it. Throws InputError when gnuplot is missing or fails. Returns the PNG path.
+std::string plot_sweep(const std::string& dir, const std::string& param, const std::string& metric,
+                       const std::string& title, const std::string& png_name);
+
+}  // namespace stance
