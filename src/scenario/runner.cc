@@ -162,8 +162,12 @@ ScenarioRun::ScenarioRun(const LoadedScenario& loaded, const RunOptions& options
                                    did_you_mean(name, e.body_names())));
     impl_->allowed_contact[b] = true;
   }
+  // heights are measured along the floor's normal: -gravity, or z when a slope tilts gravity
   Eigen::Vector3d g = e.gravity();
-  if (g.norm() > 0) impl_->up = -g.normalized();
+  if (scenario_.slope_rad != 0)
+    impl_->up = Eigen::Vector3d::UnitZ();
+  else if (g.norm() > 0)
+    impl_->up = -g.normalized();
   impl_->out.resize(e.nv(), e.nu());
   e.save_state(impl_->initial);
   for (auto& c : controllers_) c->signal_names(impl_->signal_names);
