@@ -1,0 +1,168 @@
+// LQR balance about a static pose (after DeepMind's humanoid LQR tutorial, seed 002):
+//
+//  1. set-point: the target pose with qacc = 0, the root shifted along the up axis until inverse
+//     dynamics needs no fictitious vertical root force (bracket, then Brent's method), then
+//     ctrl0 = pinv(actuator_moment)^T qfrc0, checked by forward dynamics;
+//  2. cost: Q = blkdiag(balance_cost (J_com - J_foot)^T (J_com - J_foot) + Q_joint, 0) + eps I,
+//     R = I, with J_com the subtree-COM Jacobian of the root body and J_foot the COM Jacobian of
+//     the stance foot;
+//  3. A, B by centred finite differences of one step;
+//  4. the DARE (math/dare.h) and K = (R + B'PB)^-1 B'PA;
+//  5. per step, ctrl = ctrl0 - K [q (-) q0; v], allocation-free.
+//
+// The controller is engine-agnostic. The set-point and the linearisation need the backend's
+// inverse dynamics; they sit behind find_lqr_setpoint / linearize_lqr_plant, implemented for
+// MuJoCo in control/lqr_setpoint_mujoco.cc.
+#pragma once
+
+#include <Eigen/Core>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "control/controller.h"
+#include "engine/engine.h"
+
+namespace stance {
+
+struct LqrParams {
+  std::string root_body = "torso";       // its subtree COM is balanced; has the free joint
+  std::string stance_foot = "left_foot";  // the COM is kept above this body's COM
+  double balance_cost = 1000;             // weight of |COM - foot| (m^-2)
+  double balance_joint_cost = 3;          // stance leg and abdomen (rad^-2)
+  double other_joint_cost = 0.3;          // all other non-root joints (rad^-2)
+  // dofs with balance_joint_cost: regular expressions matched against whole dof names
+  std::vector<std::string> balance_dofs = {"abdomen_.*", "left_(hip_.*|knee|ankle_.*)"};
+  double velocity_cost = 1e-10;  // eps I on the whole of Q (the velocity block is 0 otherwise)
+  double fd_eps = 1e-6;          // finite-difference perturbation
+  double offset_tolerance_m = 1e-9;  // height offset bracket width at convergence
+  double offset_first_step_m = 1e-4;  // first bracketing step, doubled until the sign changes
+  bool feedback = true;          // false: ctrl0 only (shows that the pose is unstable)
+  bool force_plot = false;       // write force_offset.png with gnuplot (force_offset.csv always)
+
+  template <class V>
+  void visit(V& v) {
+    v("root_body", root_body, {.help = "body whose subtree COM is balanced (free joint)"});
+    v("stance_foot", stance_foot, {.help = "body the COM is kept above"});
+    v("balance_cost", balance_cost, {.unit = "1/m^2", .min = 0, .max = 1e9});
+    v("balance_joint_cost", balance_joint_cost, {.unit = "1/rad^2", .min = 0, .max = 1e9});
+    v("other_joint_cost", other_joint_cost, {.unit = "1/rad^2", .min = 0, .max = 1e9});
+    v("balance_dofs", balance_dofs, {.help = "regexes of dofs with balance_joint_cost"});
+    v("velocity_cost", velocity_cost, {.min = 0, .max = 1e3, .help = "eps I added to Q"});
+    v("fd_eps", fd_eps, {.min = 1e-12, .max = 1e-2, .help = "finite-difference step"});
+    v("offset_tolerance_m", offset_tolerance_m, {.unit = "m", .min = 1e-15, .max = 1e-6});
+    v("offset_first_step_m", offset_first_step_m, {.unit = "m", .min = 1e-9, .max = 0.1});
+    v("feedback", feedback, {.help = "false: open loop ctrl0"});
+    v("force_plot", force_plot, {.help = "write force_offset.png (needs gnuplot)"});
+  }
+};
+
+// the static operating point
+struct LqrSetPoint {
+  Eigen::VectorXd q0;     // dim nq: the pose with the root height offset
+  Eigen::VectorXd qfrc0;  // dim nv: inverse dynamics forces at q0, qacc = 0
+  Eigen::VectorXd ctrl0;  // dim nu: pinv(actuator_moment)^T qfrc0
+  double height_offset_m = 0;          // root shift along the up axis
+  double residual_vertical_force_N = 0;  // up-axis root force left at the offset
+  double weight_N = 0;                 // total mass times |g|
+  int offset_evaluations = 0;          // inverse-dynamics calls of the search
+  double mismatch_actuated_N = 0;      // max |qfrc_actuator(ctrl0) - qfrc0| on actuated dofs
+  double mismatch_root_N = 0;          // max |qfrc_actuator(ctrl0) - qfrc0| on root dofs
+  // the force-versus-offset curve around the solution, for the plot
+  std::vector<double> curve_offset_m, curve_force_N;
+};
+
+// the linear model at the set-point
+struct LqrPlant {
+  Eigen::MatrixXd jac_com;   // 3 x nv: subtree COM of the root body
+  Eigen::MatrixXd jac_foot;  // 3 x nv: COM of the stance foot
+  Eigen::MatrixXd A;         // 2nv x 2nv: d x+/d x, x = [dq; v]
+  Eigen::MatrixXd B;         // 2nv x nu: d x+/d ctrl
+};
+
+struct LqrDesign {
+  LqrSetPoint setpoint;
+  LqrPlant plant;
+  Eigen::MatrixXd Q;  // 2nv x 2nv
+  Eigen::MatrixXd R;  // nu x nu
+  Eigen::MatrixXd K;  // nu x 2nv, ctrl = ctrl0 - K x
+  double dare_residual = 0;    // relative DARE residual
+  double spectral_radius = 0;  // of A - BK
+  std::vector<int> balance_dofs;  // dofs with balance_joint_cost
+  std::vector<std::string> actuator_names, dof_names;  // rows and (half the) columns of K
+  int foot_body = -1;             // engine body index of the stance foot
+  double setpoint_ms = 0, linearize_ms = 0, dare_ms = 0, design_ms = 0;  // wall times
+};
+
+// backend hooks (control/lqr_setpoint_mujoco.cc). `engine` is at the target pose; its state is
+// not changed. Throw InputError for unknown bodies, a root without a free joint, no sign change
+// of the vertical force, or an engine without inverse dynamics (DART).
+LqrSetPoint find_lqr_setpoint(const LqrParams& params, const Engine& engine);
+void linearize_lqr_plant(const LqrParams& params, const Engine& engine, const LqrSetPoint& sp,
+                         LqrPlant& plant);
+
+// Q (2nv x 2nv) from the Jacobians and the dof classes: root dofs 0, balance_dofs
+// balance_joint_cost, other dofs other_joint_cost; velocity block 0; plus velocity_cost I.
+Eigen::MatrixXd lqr_state_cost(const LqrParams& params, const Eigen::MatrixXd& jac_com,
+                               const Eigen::MatrixXd& jac_foot, const std::vector<bool>& is_root,
+                               const std::vector<int>& balance_dofs);
+// dofs whose names fully match one of the patterns; throws InputError on a bad regex
+std::vector<int> match_dofs(const Engine& engine, const std::vector<std::string>& patterns);
+
+// the whole pipeline; throws InputError when the DARE fails
+LqrDesign design_lqr(const LqrParams& params, const Engine& engine);
+
+// a root of f in [a, b] by Brent's method, given f(a) f(b) <= 0; stops when the bracket is
+// narrower than tol. Returns the end of the final bracket with the smaller |f|.
+struct RootResult {
+  double x = 0, fx = 0;
+  double bracket_width = 0;
+  int evaluations = 0;
+};
+RootResult find_root_brent(const std::function<double(double)>& f, double a, double b, double fa,
+                           double fb, double tol, int max_evaluations = 200);
+
+// the runtime: writes ctrl0 - K [q (-) q0; v] into out.ctrl
+struct LqrState {
+  Eigen::VectorXd q;  // nq
+  Eigen::VectorXd x;  // 2nv: [dq; v]
+  Eigen::VectorXd u;  // nu: K x
+  double com_foot_distance_m = 0;
+  double max_com_foot_distance_m = 0;
+  double compute_ns_sum = 0;
+  long computes = 0;
+
+  void resize(int nq, int nv, int nu);
+};
+
+void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engine& engine,
+                 ControlOutput& out);
+
+class Lqr final : public Controller {
+ public:
+  Lqr(const LqrParams& params, const Engine& engine);
+  std::string_view type() const override { return "lqr"; }
+  void reset(const Engine& engine) override;
+  void compute(const Engine& engine, ControlOutput& out) override;
+  void signal_names(std::vector<std::string>& names) const override;
+  void signals(std::vector<double>& values) const override;
+  void add_metrics(nlohmann::json& metrics) const override;
+  // K.csv, force_offset.csv and (force_plot) force_offset.png
+  void write_outputs(const std::string& out_dir) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
+
+  const LqrDesign& design() const { return design_; }
+
+ private:
+  LqrParams params_;
+  LqrDesign design_;
+  LqrState state_;
+};
+
+// the force-versus-offset plot: a CSV and a gnuplot PNG with the weight line and the chosen
+// offset. Throws InputError when gnuplot is missing or fails.
+void write_force_offset_csv(const LqrSetPoint& sp, const std::string& csv_path);
+void plot_force_offset(const LqrSetPoint& sp, const std::string& csv_path,
+                       const std::string& png_path);
+
+}  // namespace stance

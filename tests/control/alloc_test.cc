@@ -1,0 +1,173 @@
+// Every controller in the registry steps without allocating: after its first compute(), no
+// further call may reach the heap. Counts global operator new (the C++ containers) and malloc,
+// calloc and realloc (Eigen's dynamic matrices allocate with malloc, not new), replaced in this
+// test binary and forwarded to glibc. A controller is built on the first scenario in
+// scenarios/ that can host it: with that scenario's own parameters when it uses the type, with
+// the defaults otherwise.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <new>
+#include <set>
+
+#include "control/controller.h"
+#include "engine/engine.h"
+#include "scenario/runner.h"
+#include "scenario/scenario.h"
+#include "test_support.h"
+
+namespace {
+std::atomic<bool> g_counting{false};
+std::atomic<long> g_news{0};
+std::atomic<long> g_mallocs{0};
+}  // namespace
+
+extern "C" {
+void* __libc_malloc(size_t size);
+void* __libc_calloc(size_t n, size_t size);
+void* __libc_realloc(void* p, size_t size);
+void __libc_free(void* p);
+
+void* malloc(size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) ++g_mallocs;
+  return __libc_malloc(size);
+}
+void* calloc(size_t n, size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) ++g_mallocs;
+  return __libc_calloc(n, size);
+}
+void* realloc(void* p, size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) ++g_mallocs;
+  return __libc_realloc(p, size);
+}
+void free(void* p) { __libc_free(p); }
+}
+
+void* operator new(std::size_t size) {
+  if (g_counting.load(std::memory_order_relaxed)) ++g_news;
+  if (void* p = __libc_malloc(size ? size : 1)) return p;
+  throw std::bad_alloc();
+}
+void* operator new[](std::size_t size) { return operator new(size); }
+void operator delete(void* p) noexcept { __libc_free(p); }
+void operator delete[](void* p) noexcept { __libc_free(p); }
+void operator delete(void* p, std::size_t) noexcept { __libc_free(p); }
+void operator delete[](void* p, std::size_t) noexcept { __libc_free(p); }
+
+namespace stance {
+namespace {
+
+struct Counts {
+  long news = 0, mallocs = 0;
+};
+
+// the heap calls made by fn
+template <class Fn>
+Counts count_allocations(Fn&& fn) {
+  g_news = 0;
+  g_mallocs = 0;
+  g_counting = true;
+  fn();
+  g_counting = false;
+  return {g_news.load(), g_mallocs.load()};
+}
+
+TEST(AllocationCounter, SeesNewAndEigenAllocations) {
+  Counts c = count_allocations([] {
+    auto* v = new std::vector<int>(100);
+    delete v;
+  });
+  EXPECT_GE(c.news, 1);
+  c = count_allocations([] {
+    Eigen::VectorXd x = Eigen::VectorXd::Random(50);
+    Eigen::VectorXd y = x * 2;  // a heap temporary for the result
+    EXPECT_EQ(y.size(), 50);
+  });
+  EXPECT_GE(c.mallocs, 1);
+  Eigen::VectorXd a = Eigen::VectorXd::Zero(50), b = Eigen::VectorXd::Ones(50);
+  c = count_allocations([&] { a.noalias() += 2 * b; });
+  EXPECT_EQ(c.news + c.mallocs, 0);
+}
+
+struct Host {
+  std::string scenario;
+  YAML::Node node;
+};
+
+// controllers whose authors made them allocation-free; the test fails if one cannot be built
+const std::set<std::string> kRequired = {"lqr",          "stable_pd",    "pd",
+                                         "ankle_strategy", "hold_pose_pd", "control_noise"};
+
+std::vector<std::string> scenario_files() {
+  std::vector<std::string> files;
+  for (const auto& e : std::filesystem::directory_iterator(test::source_dir() + "/scenarios"))
+    if (e.path().extension() == ".yaml") files.push_back(e.path().string());
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+TEST(ControllerAllocations, NoneAfterTheFirstCompute) {
+  const auto files = scenario_files();
+  std::set<std::string> tested;
+  for (const ControllerType& type : controller_registry()) {
+    // hosts: scenarios that use the type (their parameters), then the rest (defaults)
+    std::vector<Host> hosts;
+    for (const auto& f : files) {
+      LoadedScenario l;
+      try {
+        l = load_scenario(f);
+      } catch (const std::exception&) {
+        continue;
+      }
+      for (const auto& node : l.controllers)
+        if (node["type"].Scalar() == type.name) hosts.insert(hosts.begin(), {f, YAML::Clone(node)});
+      YAML::Node defaults(YAML::NodeType::Map);
+      defaults["type"] = type.name;
+      hosts.push_back({f, defaults});
+    }
+    for (const Host& host : hosts) {
+      std::unique_ptr<Engine> engine;
+      std::unique_ptr<Controller> controller;
+      try {
+        LoadedScenario l = load_scenario(host.scenario);
+        engine = make_scenario_engine(l.scenario, l.scenario.engine);
+        YAML::Node node = YAML::Clone(host.node);
+        if (type.name == "lqr") node["force_plot"] = false;
+        ControllerContext ctx{{host.scenario}, "controllers[0]", 1};
+        controller = type.make(node, ctx, *engine);
+      } catch (const std::exception&) {
+        continue;  // not a model this controller can run on
+      }
+      SCOPED_TRACE(type.name + " on " + host.scenario);
+      ControlOutput out;
+      out.resize(engine->nv(), engine->nu());
+      controller->reset(*engine);
+      auto step = [&](bool counted) {
+        engine->forward();
+        out.clear();
+        Counts c = count_allocations([&] { controller->compute(*engine, out); });
+        if (counted) {
+          EXPECT_EQ(c.news, 0) << "operator new calls in compute()";
+          EXPECT_EQ(c.mallocs, 0) << "malloc calls in compute()";
+        }
+        engine->set_generalized_forces(out.tau);
+        if (out.ctrl_used) engine->set_controls(out.ctrl);
+        engine->step();
+      };
+      step(false);
+      for (int k = 0; k < 200 && !::testing::Test::HasFailure(); ++k) step(true);
+      tested.insert(type.name);
+      break;
+    }
+  }
+  for (const auto& name : kRequired) EXPECT_TRUE(tested.count(name)) << name << " was not built";
+  std::string list;
+  for (const auto& n : tested) list += n + " ";
+  std::cout << "allocation-free: " << list << "\n";
+}
+
+}  // namespace
+}  // namespace stance
