@@ -2,11 +2,9 @@
 #include <fmt/format.h>
 
 #include "control/controller.h"
-#include "control/control_noise.h"
 #include "control/ankle_strategy.h"
 #include "control/control_noise.h"
 #include "control/hold_pose_pd.h"
-#include "control/lqr.h"
 #include "control/lqr.h"
 #include "control/stable_pd.h"
 #include "control/simbicon.h"
@@ -28,13 +26,6 @@ const std::vector<ControllerType>& controller_registry() {
   static const std::vector<ControllerType> registry = {
       {"hold_pose_pd", "joint-space PD holding the initial (or a given) pose",
        factory_of<HoldPosePd, HoldPosePdParams>()},
-      {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
-       factory_of<Lqr, LqrParams>()},
-      {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
-       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::unique_ptr<Controller>(
-             new ControlNoise(read_params<ControlNoiseParams>(node, ctx), engine, ctx.seed));
-       }},
       {"stable_pd", "stable PD (Tan et al. 2011) tracking a pose, root dofs free",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
          return std::unique_ptr<Controller>(
