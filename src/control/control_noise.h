@@ -30,8 +30,8 @@ struct ControlNoiseParams {
   void visit(V& v) {
     v("balance_std", balance_std, {.unit = "ctrl", .min = 0, .max = 1e3});
     v("other_std", other_std, {.unit = "ctrl", .min = 0, .max = 1e3});
-    v("smoothing_s", smoothing_s, {.unit = "s", .min = 0, .max = 100,
-                                   .help = "Gaussian kernel width; 0: white noise"});
+    v("smoothing_s", smoothing_s,
+      {.unit = "s", .min = 0, .max = 100, .help = "Gaussian kernel width; 0: white noise"});
     v("balance_actuators", balance_actuators, {.help = "regexes of actuators with balance_std"});
     v("seed_offset", seed_offset, {.min = 0, .max = 1e9});
   }

@@ -265,18 +265,21 @@ void plot_force_offset(const LqrSetPoint& sp, const std::string& csv_path,
        << "set ylabel 'vertical force (N)'\n"
        << "set grid\n"
        << "set key right bottom\n"
-       << fmt::format("set arrow from {0:.9g},{1:.9g} to {0:.9g},{2:.9g} nohead dt 2 lw 2 "
-                      "lc rgb '#c0392b'\n",
-                      sp.height_offset_m * 1e3, std::min(*lo, 0.0), std::max(*hi, sp.weight_N))
-       << fmt::format("set label 'offset {:.4f} mm, residual {:.2g} N' at {:.9g},{:.9g} "
-                      "offset 1,0\n",
-                      sp.height_offset_m * 1e3, sp.residual_vertical_force_N,
-                      sp.height_offset_m * 1e3, 0.5 * sp.weight_N)
+       << fmt::format(
+              "set arrow from {0:.9g},{1:.9g} to {0:.9g},{2:.9g} nohead dt 2 lw 2 "
+              "lc rgb '#c0392b'\n",
+              sp.height_offset_m * 1e3, std::min(*lo, 0.0), std::max(*hi, sp.weight_N))
+       << fmt::format(
+              "set label 'offset {:.4f} mm, residual {:.2g} N' at {:.9g},{:.9g} "
+              "offset 1,0\n",
+              sp.height_offset_m * 1e3, sp.residual_vertical_force_N, sp.height_offset_m * 1e3,
+              0.5 * sp.weight_N)
        << "plot '" << fs::absolute(csv_path).string()
        << "' every ::1 using 1:2 with lines lw 2 lc rgb '#1f4e9c' title 'vertical force', \\\n"
-       << fmt::format("  {:.9g} with lines dt 2 lw 2 lc rgb '#27ae60' title 'weight ({:.1f} N)', "
-                      "\\\n",
-                      sp.weight_N, sp.weight_N)
+       << fmt::format(
+              "  {:.9g} with lines dt 2 lw 2 lc rgb '#27ae60' title 'weight ({:.1f} N)', "
+              "\\\n",
+              sp.weight_N, sp.weight_N)
        << "  NaN with lines dt 2 lw 2 lc rgb '#c0392b' title 'chosen offset'\n";
   }
   const std::string cmd = fmt::format("gnuplot '{}' 2>'{}'", script.string(), err.string());

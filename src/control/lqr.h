@@ -26,19 +26,19 @@
 namespace stance {
 
 struct LqrParams {
-  std::string root_body = "torso";       // its subtree COM is balanced; has the free joint
+  std::string root_body = "torso";        // its subtree COM is balanced; has the free joint
   std::string stance_foot = "left_foot";  // the COM is kept above this body's COM
   double balance_cost = 1000;             // weight of |COM - foot| (m^-2)
   double balance_joint_cost = 3;          // stance leg and abdomen (rad^-2)
   double other_joint_cost = 0.3;          // all other non-root joints (rad^-2)
   // dofs with balance_joint_cost: regular expressions matched against whole dof names
   std::vector<std::string> balance_dofs = {"abdomen_.*", "left_(hip_.*|knee|ankle_.*)"};
-  double velocity_cost = 1e-10;  // eps I on the whole of Q (the velocity block is 0 otherwise)
-  double fd_eps = 1e-6;          // finite-difference perturbation
-  double offset_tolerance_m = 1e-9;  // height offset bracket width at convergence
+  double velocity_cost = 1e-10;       // eps I on the whole of Q (the velocity block is 0 otherwise)
+  double fd_eps = 1e-6;               // finite-difference perturbation
+  double offset_tolerance_m = 1e-9;   // height offset bracket width at convergence
   double offset_first_step_m = 1e-4;  // first bracketing step, doubled until the sign changes
-  bool feedback = true;          // false: ctrl0 only (shows that the pose is unstable)
-  bool force_plot = false;       // write force_offset.png with gnuplot (force_offset.csv always)
+  bool feedback = true;               // false: ctrl0 only (shows that the pose is unstable)
+  bool force_plot = false;  // write force_offset.png with gnuplot (force_offset.csv always)
 
   template <class V>
   void visit(V& v) {
@@ -59,15 +59,15 @@ struct LqrParams {
 
 // the static operating point
 struct LqrSetPoint {
-  Eigen::VectorXd q0;     // dim nq: the pose with the root height offset
-  Eigen::VectorXd qfrc0;  // dim nv: inverse dynamics forces at q0, qacc = 0
-  Eigen::VectorXd ctrl0;  // dim nu: pinv(actuator_moment)^T qfrc0
-  double height_offset_m = 0;          // root shift along the up axis
+  Eigen::VectorXd q0;                    // dim nq: the pose with the root height offset
+  Eigen::VectorXd qfrc0;                 // dim nv: inverse dynamics forces at q0, qacc = 0
+  Eigen::VectorXd ctrl0;                 // dim nu: pinv(actuator_moment)^T qfrc0
+  double height_offset_m = 0;            // root shift along the up axis
   double residual_vertical_force_N = 0;  // up-axis root force left at the offset
-  double weight_N = 0;                 // total mass times |g|
-  int offset_evaluations = 0;          // inverse-dynamics calls of the search
-  double mismatch_actuated_N = 0;      // max |qfrc_actuator(ctrl0) - qfrc0| on actuated dofs
-  double mismatch_root_N = 0;          // max |qfrc_actuator(ctrl0) - qfrc0| on root dofs
+  double weight_N = 0;                   // total mass times |g|
+  int offset_evaluations = 0;            // inverse-dynamics calls of the search
+  double mismatch_actuated_N = 0;        // max |qfrc_actuator(ctrl0) - qfrc0| on actuated dofs
+  double mismatch_root_N = 0;            // max |qfrc_actuator(ctrl0) - qfrc0| on root dofs
   // the force-versus-offset curve around the solution, for the plot
   std::vector<double> curve_offset_m, curve_force_N;
 };
@@ -83,14 +83,14 @@ struct LqrPlant {
 struct LqrDesign {
   LqrSetPoint setpoint;
   LqrPlant plant;
-  Eigen::MatrixXd Q;  // 2nv x 2nv
-  Eigen::MatrixXd R;  // nu x nu
-  Eigen::MatrixXd K;  // nu x 2nv, ctrl = ctrl0 - K x
-  double dare_residual = 0;    // relative DARE residual
-  double spectral_radius = 0;  // of A - BK
-  std::vector<int> balance_dofs;  // dofs with balance_joint_cost
+  Eigen::MatrixXd Q;                                   // 2nv x 2nv
+  Eigen::MatrixXd R;                                   // nu x nu
+  Eigen::MatrixXd K;                                   // nu x 2nv, ctrl = ctrl0 - K x
+  double dare_residual = 0;                            // relative DARE residual
+  double spectral_radius = 0;                          // of A - BK
+  std::vector<int> balance_dofs;                       // dofs with balance_joint_cost
   std::vector<std::string> actuator_names, dof_names;  // rows and (half the) columns of K
-  int foot_body = -1;             // engine body index of the stance foot
+  int foot_body = -1;                                  // engine body index of the stance foot
   double setpoint_ms = 0, linearize_ms = 0, dare_ms = 0, design_ms = 0;  // wall times
 };
 

@@ -81,8 +81,8 @@ LqrSetPoint find_lqr_setpoint(const LqrParams& params, const Engine& engine) {
   LqrSetPoint sp;
   Eigen::VectorXd pose(nq);
   engine.get_positions(pose);
-  sp.weight_N = engine.total_mass() * Eigen::Vector3d(m->opt.gravity[0], m->opt.gravity[1],
-                                                       m->opt.gravity[2]).norm();
+  sp.weight_N = engine.total_mass() *
+                Eigen::Vector3d(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]).norm();
 
   // inverse dynamics at rest with the root shifted by h along up: qfrc_inverse lands in d
   auto place = [&](double h) {
@@ -118,8 +118,7 @@ LqrSetPoint find_lqr_setpoint(const LqrParams& params, const Engine& engine) {
     fb = vertical_force(b);
     step *= 2;
   }
-  RootResult root_result = find_root_brent(vertical_force, a, b, fa, fb,
-                                           params.offset_tolerance_m);
+  RootResult root_result = find_root_brent(vertical_force, a, b, fa, fb, params.offset_tolerance_m);
   sp.height_offset_m = root_result.x;
   sp.residual_vertical_force_N = root_result.fx;
 

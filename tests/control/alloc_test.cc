@@ -43,7 +43,9 @@ void* realloc(void* p, size_t size) {
   if (g_counting.load(std::memory_order_relaxed)) ++g_mallocs;
   return __libc_realloc(p, size);
 }
-void free(void* p) { __libc_free(p); }
+void free(void* p) {
+  __libc_free(p);
+}
 }
 
 void* operator new(std::size_t size) {
@@ -51,11 +53,21 @@ void* operator new(std::size_t size) {
   if (void* p = __libc_malloc(size ? size : 1)) return p;
   throw std::bad_alloc();
 }
-void* operator new[](std::size_t size) { return operator new(size); }
-void operator delete(void* p) noexcept { __libc_free(p); }
-void operator delete[](void* p) noexcept { __libc_free(p); }
-void operator delete(void* p, std::size_t) noexcept { __libc_free(p); }
-void operator delete[](void* p, std::size_t) noexcept { __libc_free(p); }
+void* operator new[](std::size_t size) {
+  return operator new(size);
+}
+void operator delete(void* p) noexcept {
+  __libc_free(p);
+}
+void operator delete[](void* p) noexcept {
+  __libc_free(p);
+}
+void operator delete(void* p, std::size_t) noexcept {
+  __libc_free(p);
+}
+void operator delete[](void* p, std::size_t) noexcept {
+  __libc_free(p);
+}
 
 namespace stance {
 namespace {
@@ -98,8 +110,8 @@ struct Host {
 };
 
 // controllers whose authors made them allocation-free; the test fails if one cannot be built
-const std::set<std::string> kRequired = {"lqr",          "stable_pd",    "pd",
-                                         "ankle_strategy", "hold_pose_pd", "control_noise"};
+const std::set<std::string> kRequired = {"lqr",          "stable_pd",    "pd", "ankle_strategy",
+                                         "hold_pose_pd", "control_noise"};
 
 std::vector<std::string> scenario_files() {
   std::vector<std::string> files;

@@ -22,11 +22,13 @@ namespace {
 
 const char* kHumanoid = "/usr/share/mujoco/model/humanoid/humanoid.xml";
 
-std::string scenario_path() { return test::source_dir() + "/scenarios/lqr_one_leg.yaml"; }
+std::string scenario_path() {
+  return test::source_dir() + "/scenarios/lqr_one_leg.yaml";
+}
 
 // the scenario, or a skip when Debian's libmujoco-samples is absent
-#define REQUIRE_HUMANOID()                                                   \
-  if (!std::filesystem::exists(kHumanoid))                                   \
+#define REQUIRE_HUMANOID()                 \
+  if (!std::filesystem::exists(kHumanoid)) \
     GTEST_SKIP() << kHumanoid << " missing (Debian package libmujoco-samples)";
 
 LoadedScenario one_leg(const std::vector<std::string>& sets = {}) {
