@@ -100,6 +100,23 @@ Simbicon::Simbicon(const SimbiconParams& params, const Engine& engine) {
   m.hip = {engine.require_dof(k.right_hip), engine.require_dof(k.left_hip)};
   m.knee = {engine.require_dof(k.right_knee), engine.require_dof(k.left_knee)};
   m.ankle = {engine.require_dof(k.right_ankle), engine.require_dof(k.left_ankle)};
+  const std::array<const std::string*, 6> spatial_names = {
+      &k.right_hip_roll, &k.left_hip_roll, &k.right_hip_yaw, &k.left_hip_yaw,
+      &k.right_ankle_roll, &k.left_ankle_roll};
+  int named = 0;
+  for (const std::string* n : spatial_names) named += n->empty() ? 0 : 1;
+  if (named != 0 && named != 6)
+    throw InputError("simbicon skeleton: a 3D biped needs all six of left/right_hip_roll, "
+                     "_hip_yaw and _ankle_roll; a planar one none");
+  m.spatial = named == 6;
+  if (m.spatial) {
+    m.hip_roll = {engine.require_dof(k.right_hip_roll), engine.require_dof(k.left_hip_roll)};
+    m.hip_yaw = {engine.require_dof(k.right_hip_yaw), engine.require_dof(k.left_hip_yaw)};
+    m.ankle_roll = {engine.require_dof(k.right_ankle_roll), engine.require_dof(k.left_ankle_roll)};
+  }
+  m.heading = Eigen::Quaterniond(Eigen::AngleAxisd(params.heading_rad, Eigen::Vector3d::UnitZ()));
+  state_.jac_rot.setZero(3, engine.nv());
+  state_.jac_none.resize(3, 0);
   for (int dof : {m.hip[0], m.hip[1], m.knee[0], m.knee[1], m.ankle[0], m.ankle[1]}) {
     const JointInfo& j = engine.joint(engine.dof_joint(dof));
     if (j.type != JointType::kHinge)
@@ -115,15 +132,18 @@ void Simbicon::reset(const Engine& engine) {
   s.state_start_s = engine.time();
   s.swing_hip_target = 0;
   s.d = s.v = 0;
-  const double x =
-      model_.use_com ? engine.com().x()
-                     : 0.5 * (engine.body_pose(model_.thigh[0]).pos.x() +
-                              engine.body_pose(model_.thigh[1]).pos.x());
+  const Eigen::Vector3d p =
+      model_.use_com ? engine.com()
+                     : Eigen::Vector3d(0.5 * (engine.body_pose(model_.thigh[0]).pos +
+                                              engine.body_pose(model_.thigh[1]).pos));
+  const double x = (model_.heading * Eigen::Vector3d::UnitX()).dot(p);
+  s.lateral_start = s.lateral_last = (model_.heading * Eigen::Vector3d::UnitY()).dot(p);
   s.start_x = s.last_x = x;
   s.start_time = s.last_time = engine.time();
   s.last_strike_s = engine.time();
   const int stance = s.fsm < 2 ? kRight : kLeft;
-  s.last_stance_ankle_x = engine.body_pose(model_.foot[stance]).pos.x();
+  s.last_stance_ankle_x =
+      (model_.heading * Eigen::Vector3d::UnitX()).dot(engine.body_pose(model_.foot[stance]).pos);
   s.flight_time_s = 0;
   s.steps.clear();
   s.state_time_sum.fill(0);
@@ -154,7 +174,8 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
       ++s.state_count[s.fsm];
       if (cur.ends_on_contact) {
         // a strike: the swing foot becomes the stance foot
-        const double ankle_x = engine.body_pose(m.foot[swing]).pos.x();
+        const double ankle_x =
+            (m.heading * Eigen::Vector3d::UnitX()).dot(engine.body_pose(m.foot[swing]).pos);
         if (s.steps.size() < s.steps.capacity())
           s.steps.push_back({t, swing, ankle_x, ankle_x - s.last_stance_ankle_x,
                              t - s.last_strike_s});
@@ -174,22 +195,84 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
   const int stance = s.fsm < 2 ? kRight : kLeft;
   const int swing = 1 - stance;
 
-  // balance feedback inputs: hip (or COM) relative to the stance ankle, along +x
+  // balance feedback inputs: hip (or COM) relative to the stance ankle, along the heading
+  const Eigen::Vector3d fwd = m.heading * Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d left = m.heading * Eigen::Vector3d::UnitY();
   const Eigen::Vector3d ankle = engine.body_pose(m.foot[stance]).pos;
-  double px, vx;
+  Eigen::Vector3d point, velocity;
   if (m.use_com) {
-    px = engine.com().x();
-    vx = engine.com_velocity().x();
+    point = engine.com();
+    velocity = engine.com_velocity();
   } else {
     // the hip centre: midway between the thigh frames (at the hip joints)
-    px = 0.5 * (engine.body_pose(m.thigh[0]).pos.x() + engine.body_pose(m.thigh[1]).pos.x());
-    vx = 0.5 * (engine.body_velocity(m.thigh[0])[3] + engine.body_velocity(m.thigh[1])[3]);
+    point = 0.5 * (engine.body_pose(m.thigh[0]).pos + engine.body_pose(m.thigh[1]).pos);
+    velocity = 0.5 * (engine.body_velocity(m.thigh[0]).tail<3>() +
+                      engine.body_velocity(m.thigh[1]).tail<3>());
   }
-  s.d = px - ankle.x();
-  s.v = vx;
-  s.last_x = px;
+  s.d = fwd.dot(point - ankle);
+  s.v = fwd.dot(velocity);
+  s.last_x = fwd.dot(point);
+  s.lateral_last = left.dot(point);
   s.last_time = t;
   s.swing_hip_target = tg.swing_hip + tg.cd * s.d + tg.cv * s.v;
+
+  // relative servos: knees and ankles
+  auto servo = [&](int dof, double target, const SimbiconJointGain& gain) {
+    const double tau = gain.kp * (target - engine.dof_position(dof)) -
+                       gain.damping() * engine.dof_velocity(dof);
+    return clamp_torque(tau, gain.max_torque);
+  };
+
+  if (m.spatial) {
+    // 3D: world-frame orientation servos; outward is +y for the left swing leg
+    const double outward = swing == kLeft ? 1.0 : -1.0;
+    const double d_lat = left.dot(point - ankle), v_lat = left.dot(velocity);
+    const double roll_target =
+        outward * tg.swing_hip_roll + tg.cd_lateral * d_lat + tg.cv_lateral * v_lat;
+    const Eigen::Vector3d minus_y = -Eigen::Vector3d::UnitY(), unit_x = Eigen::Vector3d::UnitX();
+    // heading policy: the heading turns by +path_gain per metre of lateral offset from the
+    // start line. Measured, not derived: this sign brings the walker back to the line (the
+    // coronal feedback re-centres the feet faster than the turned heading moves the body);
+    // the opposite sign drifts off (tests/control/simbicon_test.cc, docs/simbicon.md)
+    const double steer = std::clamp(m.params.path_gain * (s.lateral_last - s.lateral_start),
+                                    -m.params.max_steer_rad, m.params.max_steer_rad);
+    const Eigen::Quaterniond heading =
+        Eigen::AngleAxisd(steer, Eigen::Vector3d::UnitZ()) * m.heading;
+    const Eigen::Quaterniond torso_goal = heading *
+                                          Eigen::AngleAxisd(outward * tg.torso_roll, unit_x) *
+                                          Eigen::AngleAxisd(tg.torso, minus_y);
+    const Eigen::Quaterniond thigh_goal = heading * Eigen::AngleAxisd(roll_target, unit_x) *
+                                          Eigen::AngleAxisd(s.swing_hip_target, minus_y);
+    auto orientation_servo = [&](int body, const Eigen::Quaterniond& goal,
+                                 const SimbiconJointGain& gain) {
+      const Eigen::AngleAxisd err(goal * engine.body_pose(body).quat.conjugate());
+      Eigen::Vector3d tau = gain.kp * err.angle() * err.axis() -
+                            gain.damping() * engine.body_velocity(body).head<3>();
+      for (int i = 0; i < 3; ++i) tau[i] = clamp_torque(tau[i], gain.max_torque);
+      return tau;
+    };
+    const Eigen::Vector3d tau_torso = orientation_servo(m.torso, torso_goal, gn.torso);
+    const Eigen::Vector3d tau_swing = orientation_servo(m.thigh[swing], thigh_goal, gn.swing_hip);
+    Eigen::Vector3d tau_stance = -tau_torso - tau_swing;
+    for (int i = 0; i < 3; ++i) tau_stance[i] = clamp_torque(tau_stance[i], gn.stance_hip_max_torque);
+    // a torque pair (thigh +tau, torso -tau) is the hip dofs' forces a_i . tau, where a_i are
+    // the hip axes in the world: the thigh's rotational Jacobian columns at those dofs
+    auto to_hip = [&](int side, const Eigen::Vector3d& tau) {
+      const int thigh = m.thigh[side];
+      engine.point_jacobian(thigh, engine.body_pose(thigh).pos, s.jac_none, s.jac_rot);
+      for (int dof : {m.hip_roll[side], m.hip[side], m.hip_yaw[side]})
+        out.tau[dof] += s.jac_rot.col(dof).dot(tau);
+    };
+    to_hip(swing, tau_swing);
+    to_hip(stance, tau_stance);
+    out.tau[m.ankle_roll[swing]] += servo(m.ankle_roll[swing], 0.0, gn.swing_ankle);
+    out.tau[m.ankle_roll[stance]] += servo(m.ankle_roll[stance], 0.0, gn.stance_ankle);
+    out.tau[m.knee[swing]] += servo(m.knee[swing], tg.swing_knee, gn.swing_knee);
+    out.tau[m.knee[stance]] += servo(m.knee[stance], tg.stance_knee, gn.stance_knee);
+    out.tau[m.ankle[swing]] += servo(m.ankle[swing], tg.swing_ankle, gn.swing_ankle);
+    out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle, gn.stance_ankle);
+    return;
+  }
 
   // world-frame servos: torso and swing thigh (angular velocity about -y is -w_y)
   const double torso_angle = pitch_about_minus_y(engine.body_pose(m.torso).quat);
@@ -206,12 +289,6 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
       clamp_torque(-clamp_torque(tau_torso, gn.torso.max_torque) - tau_swing_hip,
                    gn.stance_hip_max_torque);
 
-  // relative servos: knees and ankles
-  auto servo = [&](int dof, double target, const SimbiconJointGain& gain) {
-    const double tau = gain.kp * (target - engine.dof_position(dof)) -
-                       gain.damping() * engine.dof_velocity(dof);
-    return clamp_torque(tau, gain.max_torque);
-  };
   out.tau[m.hip[swing]] += tau_swing_hip;
   out.tau[m.hip[stance]] += tau_stance_hip;
   out.tau[m.knee[swing]] += servo(m.knee[swing], tg.swing_knee, gn.swing_knee);
@@ -240,6 +317,11 @@ void Simbicon::add_metrics(nlohmann::json& metrics) const {
   const double distance = s.last_x - s.start_x;
   metrics["distance_m"] = distance;
   metrics["mean_speed_mps"] = elapsed > 0 ? distance / elapsed : 0.0;
+  // sideways drift per metre forward (3D; 0 for a planar model)
+  metrics["lateral_drift_m"] = s.lateral_last - s.lateral_start;
+  metrics["drift_per_10m"] =
+      std::abs(distance) > 1e-9 ? 10.0 * std::abs(s.lateral_last - s.lateral_start) / std::abs(distance)
+                                : 0.0;
   metrics["flight_fraction"] = elapsed > 0 ? s.flight_time_s / elapsed : 0.0;
   // the first two steps are the start-up from standing
   const SimbiconGaitStats g = simbicon_gait_stats(s.steps, 2);

@@ -9,8 +9,11 @@
 // target: theta_d = theta_d0 + cd d + cv v, with d the horizontal distance from the stance
 // ankle to the hip (or COM) and v the hip's (or COM's) horizontal velocity.
 //
-// Angles are planar, about the model's -y axis (positive = flexion forward; see
-// models/simbicon_2d.xml); walking goes along +x.
+// Planar models: angles are about the model's -y axis (positive = flexion forward; see
+// models/simbicon_2d.xml); walking goes along +x. Spatial models (models/simbicon_3d.xml) add
+// coronal-plane feedback on the swing hip's roll, world-frame torso and swing-thigh
+// orientation servos whose torques reach the 3-dof hips through the hip axes (the stance hip
+// holds the torso in pitch, roll and heading), and a heading for the swing thigh and torso.
 #pragma once
 
 #include <array>
@@ -35,6 +38,11 @@ struct SimbiconStateTargets {
   double stance_ankle = 0;        // rad, relative
   double cd = 0;                  // rad/m, balance feedback on distance
   double cv = 0;                  // rad s/m, balance feedback on velocity
+  // 3D only (coronal plane): mirrored so that positive is outward for either swing leg
+  double swing_hip_roll = 0;      // rad, world, swing thigh abduction
+  double torso_roll = 0;          // rad, world
+  double cd_lateral = 0;          // rad/m, coronal feedback on the lateral distance
+  double cv_lateral = 0;          // rad s/m, coronal feedback on the lateral velocity
 
   template <class V>
   void visit(V& v) {
@@ -52,6 +60,13 @@ struct SimbiconStateTargets {
     v("stance_ankle", stance_ankle, {.unit = "rad", .min = -3.2, .max = 3.2});
     v("cd", cd, {.unit = "rad/m", .min = -100, .max = 100, .help = "feedback on distance d"});
     v("cv", cv, {.unit = "rad s/m", .min = -100, .max = 100, .help = "feedback on velocity v"});
+    v("swing_hip_roll", swing_hip_roll, {.unit = "rad", .min = -1.5, .max = 1.5,
+                                         .help = "3D: swing thigh abduction, world, outward +"});
+    v("torso_roll", torso_roll, {.unit = "rad", .min = -1.5, .max = 1.5, .help = "3D"});
+    v("cd_lateral", cd_lateral, {.unit = "rad/m", .min = -100, .max = 100,
+                                 .help = "3D: coronal feedback on lateral distance"});
+    v("cv_lateral", cv_lateral, {.unit = "rad s/m", .min = -100, .max = 100,
+                                 .help = "3D: coronal feedback on lateral velocity"});
   }
 };
 
@@ -114,6 +129,9 @@ struct SimbiconSkeleton {
   std::string left_hip = "left_hip", right_hip = "right_hip";      // dofs
   std::string left_knee = "left_knee", right_knee = "right_knee";
   std::string left_ankle = "left_ankle", right_ankle = "right_ankle";
+  // 3D: set all six to control a spatial biped; empty = planar
+  std::string left_hip_roll, right_hip_roll, left_hip_yaw, right_hip_yaw;
+  std::string left_ankle_roll, right_ankle_roll;
 
   template <class V>
   void visit(V& v) {
@@ -128,6 +146,12 @@ struct SimbiconSkeleton {
     v("right_knee", right_knee);
     v("left_ankle", left_ankle);
     v("right_ankle", right_ankle);
+    v("left_hip_roll", left_hip_roll, {.help = "3D: dof; empty = planar"});
+    v("right_hip_roll", right_hip_roll);
+    v("left_hip_yaw", left_hip_yaw);
+    v("right_hip_yaw", right_hip_yaw);
+    v("left_ankle_roll", left_ankle_roll);
+    v("right_ankle_roll", right_ankle_roll);
   }
 };
 
@@ -136,6 +160,9 @@ struct SimbiconParams {
   SimbiconGait gait;
   std::string balance_point = "hip";  // "hip" or "com": where d and v are measured
   int initial_state = 0;              // 0..3
+  double heading_rad = 0;             // 3D: walking direction, about z from +x
+  double path_gain = 0;               // rad/m: 3D heading turn per metre off the start line
+  double max_steer_rad = 0.3;         // clamp of the path correction
   int max_recorded_steps = 20000;     // steps.csv capacity (reserved up front)
 
   template <class V>
@@ -144,6 +171,11 @@ struct SimbiconParams {
     v("gait", gait);
     v("balance_point", balance_point, {.help = "hip or com"});
     v("initial_state", initial_state, {.min = 0, .max = 3});
+    v("heading_rad", heading_rad, {.unit = "rad", .min = -3.2, .max = 3.2,
+                                   .help = "3D: desired heading about z"});
+    v("path_gain", path_gain, {.unit = "rad/m", .min = 0, .max = 10,
+                               .help = "3D: heading turn per metre left of the start line"});
+    v("max_steer_rad", max_steer_rad, {.unit = "rad", .min = 0, .max = 1.5});
     v("max_recorded_steps", max_recorded_steps, {.min = 1, .max = 10000000});
   }
 };
@@ -169,6 +201,9 @@ class Simbicon final : public Controller {
     std::array<SimbiconStateTargets, 4> targets;  // by FSM state
     std::array<SimbiconGains, 4> gains;           // by FSM state
     bool use_com = false;
+    bool spatial = false;  // 3D: hip roll/yaw and ankle roll dofs present
+    std::array<int, 2> hip_roll{{-1, -1}}, hip_yaw{{-1, -1}}, ankle_roll{{-1, -1}};
+    Eigen::Quaterniond heading = Eigen::Quaterniond::Identity();
   };
   // data: the FSM and what it has recorded
   struct State {
@@ -183,6 +218,8 @@ class Simbicon final : public Controller {
     std::vector<SimbiconStep> steps;            // reserved to max_recorded_steps
     std::array<double, 4> state_time_sum{};     // s, completed states
     std::array<int, 4> state_count{};
+    double lateral_start = 0, lateral_last = 0;  // m, hip along the heading's left axis
+    Eigen::MatrixXd jac_rot, jac_none;           // 3 x nv, 3 x 0: work for the 3D hips
   };
 
   Simbicon(const SimbiconParams& params, const Engine& engine);

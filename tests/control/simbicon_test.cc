@@ -142,6 +142,49 @@ TEST(SimbiconWalk, SurvivesHundredNewtonPushesAtFourPhases) {
   }
 }
 
+// priority 7: the 3D walker. Drift is measured over the whole run, start-up included.
+TEST(Simbicon3d, WalksTwentySecondsStraight) {
+  WalkOutcome w = run_scenario("simbicon_walk_3d.yaml");
+  const RunResult& r = w.result;
+  ASSERT_FALSE(r.diverged) << r.divergence;
+  EXPECT_FALSE(r.fell) << "fell at " << r.fall_time.value_or(-1) << ": " << r.fall_reason;
+  EXPECT_NEAR(r.sim_time, 20.0, 1e-6);
+  EXPECT_GT(metric(r, "distance_m"), 10.0);
+  EXPECT_LT(metric(r, "drift_per_10m"), 1.0);
+  EXPECT_GT(r.metrics.at("step_count").get<int>(), 40);
+}
+
+TEST(Simbicon3d, SurvivesFiftyNewtonLateralPushes) {
+  // left and right, in two different phases of the stride
+  for (double start : {10.0, 10.17}) {
+    for (double fy : {50.0, -50.0}) {
+      RunOptions opt;
+      Perturbation p;
+      p.body = "torso";
+      p.force = Eigen::Vector3d(0, fy, 0);
+      p.start = start;
+      p.duration = 0.2;
+      opt.extra_pushes.push_back(p);
+      WalkOutcome w = run_scenario("simbicon_walk_3d.yaml", {}, opt);
+      SCOPED_TRACE(::testing::Message() << "push " << fy << " N at " << start << " s");
+      ASSERT_FALSE(w.result.diverged);
+      EXPECT_FALSE(w.result.fell) << "fell at " << w.result.fall_time.value_or(-1);
+      EXPECT_EQ(w.result.metrics.at("pushes_survived").get<int>(), 1);
+      EXPECT_LT(metric(w.result, "drift_per_10m"), 1.0);
+    }
+  }
+}
+
+// the coronal feedback is what keeps it up: without it the 3D walk falls
+TEST(Simbicon3d, WithoutCoronalFeedbackFalls) {
+  WalkOutcome w = run_scenario("simbicon_walk_3d.yaml",
+                               {"controllers.0.gait.states.0.cd_lateral=0",
+                                "controllers.0.gait.states.0.cv_lateral=0",
+                                "controllers.0.gait.states.1.cd_lateral=0",
+                                "controllers.0.gait.states.1.cv_lateral=0"});
+  EXPECT_TRUE(w.result.fell);
+}
+
 #ifdef STANCE_HAVE_DART
 // priority 6: the same model and walk on DART (loaded through DART's own MJCF parser)
 TEST(SimbiconDart, ModelMatchesMujocoBodyForBody) {
