@@ -3,11 +3,13 @@
 // ctrl0 only, stands under seeded smoothed noise with identical summaries).
 #include "control/lqr.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 
 #include "control/control_noise.h"
 #include "core/error.h"
@@ -159,6 +161,47 @@ TEST(LqrBalance, StandsWithLqrAndFallsWithCtrl0Only) {
     ASSERT_TRUE(r.fell);
     EXPECT_LT(*r.fall_time, 3.0);
   }
+}
+
+TEST(LqrBalance, SurvivesSmallPushesBothWays) {
+  REQUIRE_HUMANOID();
+  // 0.1 s pushes on the torso at 3 s; measured limits: 40 N forward, 20 N sideways
+  for (const char* push : {"torso,40,0,0,3,0.1", "torso,0,20,0,3,0.1"}) {
+    LoadedScenario l = one_leg();
+    RunOptions o;
+    o.duration = 8.0;
+    o.extra_pushes = {parse_push(push)};
+    ScenarioRun run(l, o);
+    RunResult r = run.run();
+    EXPECT_FALSE(r.fell) << push << ": fell at " << r.fall_time.value_or(-1);
+  }
+}
+
+// the same pose given as a MuJoCo keyframe (how other MJCF humanoids are used) designs the
+// same controller
+TEST(LqrDesign, KeyframeGivesTheSameDesignAsInitialPose) {
+  REQUIRE_HUMANOID();
+  LoadedScenario l = one_leg();
+  auto engine = make_scenario_engine(l.scenario, "mujoco");
+  Eigen::VectorXd q(engine->nq());
+  engine->get_positions(q);
+  std::ifstream in(kHumanoid);
+  std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  std::string key = "<keyframe><key name=\"one_leg\" qpos=\"";
+  for (int i = 0; i < q.size(); ++i) key += fmt::format("{}{:.17g}", i ? " " : "", q[i]);
+  key += "\"/></keyframe>\n</mujoco>";
+  xml.replace(xml.rfind("</mujoco>"), 9, key);
+  const std::string model = test::write_temp_file("humanoid_keyframe.xml", xml);
+
+  Scenario s = l.scenario;
+  s.model = {ModelEntry{model}};
+  s.initial_pose.clear();
+  s.keyframe = "one_leg";
+  auto keyed = make_scenario_engine(s, "mujoco");
+  LqrParams p;
+  LqrDesign a = design_lqr(p, *engine), b = design_lqr(p, *keyed);
+  EXPECT_NEAR(a.setpoint.height_offset_m, b.setpoint.height_offset_m, 1e-12);
+  EXPECT_TRUE(a.K.isApprox(b.K, 1e-8));
 }
 
 nlohmann::json summary_without_timing(const std::string& dir) {
