@@ -1,7 +1,12 @@
 // stance: the command-line front end. Argument parsing only; the work is in the library.
 #include <CLI/CLI.hpp>
 
+#include <iostream>
+
 #include "app/commands.h"
+#ifdef STANCE_HAVE_VIEWER
+#include "viz/viz_commands.h"
+#endif
 
 int main(int argc, char** argv) {
   CLI::App app{"stance: physics-based biped balance and locomotion control"};
@@ -18,6 +23,27 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   run_cmd->add_option("--out", run.out_dir, "output folder (summary.json, log.csv)");
   run_cmd->add_flag("--quiet", run.quiet, "no summary on stdout");
+  run_cmd->add_option("--record", run.record, "render an MP4 offscreen (ffmpeg)");
+  run_cmd->add_option("--screenshot", run.screenshot, "render one PNG frame at --at");
+  run_cmd->add_option("--at", run.screenshot_at, "screenshot time, s");
+  run_cmd->add_option("--fps", run.fps, "video frames per simulated second");
+  run_cmd->add_option("--size", run.size, "frame size WxH");
+  run_cmd->add_option("--camera", run.camera, "follow or free");
+
+  stance::ViewCommand view;
+  auto* view_cmd = app.add_subcommand("view", "watch, push and tune a scenario in a window");
+  view_cmd->add_option("scenario", view.scenario, "scenario YAML")->required();
+  view_cmd->add_option("--engine", view.engine, "mujoco or dart (default: the scenario's)");
+  view_cmd->add_option("--set", view.sets, "override a parameter: key.path=value")
+      ->allow_extra_args(false);
+
+  std::string shots_dir = "scenarios", shots_out = "docs/img", shots_size = "800x500";
+  double shots_at = 2.0;
+  auto* shots_cmd = app.add_subcommand("screenshots", "one PNG per scenario (README images)");
+  shots_cmd->add_option("--dir", shots_dir, "scenario folder");
+  shots_cmd->add_option("--out", shots_out, "image folder");
+  shots_cmd->add_option("--at", shots_at, "simulated time of each picture, s");
+  shots_cmd->add_option("--size", shots_size, "WxH");
 
   stance::InfoCommand info;
   auto* info_cmd = app.add_subcommand("info", "model sizes and mass");
@@ -78,7 +104,24 @@ int main(int argc, char** argv) {
     int code = app.exit(e);
     return code == 0 ? 0 : stance::kExitBadInput;
   }
+  if (*run_cmd && (!run.record.empty() || !run.screenshot.empty())) {
+#ifdef STANCE_HAVE_VIEWER
+    return stance::record_command(run);
+#else
+    std::cerr << "error: --record/--screenshot need the viewer build (STANCE_WITH_VIEWER)\n";
+    return stance::kExitBadInput;
+#endif
+  }
   if (*run_cmd) return stance::run_command(run);
+  if (*view_cmd || *shots_cmd) {
+#ifdef STANCE_HAVE_VIEWER
+    if (*view_cmd) return stance::view_command(view);
+    return stance::screenshots_command(shots_dir, shots_out, shots_at, shots_size);
+#else
+    std::cerr << "error: this stance was built without the viewer (STANCE_WITH_VIEWER)\n";
+    return stance::kExitBadInput;
+#endif
+  }
   if (*info_cmd) return stance::info_command(info);
   if (*convert_cmd) return stance::convert_command(convert_in, convert_out);
   if (*bvh_info_cmd) return stance::bvh_info_command(bvh_file, bvh_json);

@@ -20,8 +20,24 @@ struct RunCommand {
   std::vector<std::string> pushes;
   std::string out_dir = "out";
   bool quiet = false;
+  // offscreen recording (src/viz/viz_commands.h): a video and/or one frame at screenshot_at
+  std::string record;      // .mp4
+  std::string screenshot;  // .png
+  double screenshot_at = 0;  // s
+  double fps = 60;
+  std::string size = "1280x720";
+  std::string camera = "follow";  // follow or free
 };
 int run_command(const RunCommand& cmd);
+
+// `stance view SCENARIO [--engine E]`: runs in src/viz (viz/viz_commands.h)
+struct ViewCommand {
+  std::string scenario;
+  std::string engine;
+  std::vector<std::string> sets;
+  int width = 1400, height = 900;
+};
+
 
 struct InfoCommand {
   std::string model;

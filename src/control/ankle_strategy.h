@@ -79,6 +79,7 @@ class AnkleStrategy final : public Controller {
   void signals(std::vector<double>& values) const override;
   void add_metrics(nlohmann::json& metrics) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+  std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
 
   static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
   // the offset and its rate, dims scalar

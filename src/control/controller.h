@@ -16,6 +16,7 @@
 #include <string_view>
 #include <vector>
 
+#include "params/param_list.h"
 #include "params/yaml_params.h"
 
 namespace stance {
@@ -58,6 +59,14 @@ class Controller {
   virtual void write_outputs(const std::string& out_dir) const {}
   // the parameters as YAML (for saving a tuned scenario)
   virtual YAML::Node params_yaml() const = 0;
+  // the numeric parameters for live tuning, in params_yaml()'s key paths (the viewer's panel).
+  // The default lists params_yaml()'s numbers without units or ranges; controllers override it
+  // with list_params(params) to give the visit's units, ranges and help.
+  virtual std::vector<ParamEntry> tunable_params() const {
+    std::vector<ParamEntry> out;
+    list_yaml_params(params_yaml(), "", out);
+    return out;
+  }
 };
 
 // the registry: one line per controller type (see control/registry.cc)

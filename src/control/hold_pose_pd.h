@@ -46,6 +46,7 @@ class HoldPosePd final : public Controller {
   void signal_names(std::vector<std::string>& names) const override;
   void signals(std::vector<double>& values) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+  std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
 
   static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
 

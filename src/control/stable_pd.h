@@ -74,6 +74,7 @@ class StablePd final : public Controller {
   void signals(std::vector<double>& values) const override;
   void add_metrics(nlohmann::json& metrics) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+  std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
 
   const JointPdModel& model() const { return model_; }
 

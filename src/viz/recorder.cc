@@ -1,0 +1,145 @@
+#include "viz/recorder.h"
+
+#include <fmt/format.h>
+#include <stb/stb_image_write.h>
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <stdexcept>
+#include <vector>
+
+#include "core/error.h"
+#include "viz/gl_context.h"
+
+namespace stance {
+
+void parse_frame_size(const std::string& text, int& width, int& height) {
+  int w = 0, h = 0;
+  char x = 0, extra = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') ||
+      w < 16 || h < 16 || w > 7680 || h > 4320)
+    throw InputError(fmt::format("--size '{}': expected WxH, e.g. 1280x720 (16..7680 x 16..4320)",
+                                 text));
+  width = w;
+  height = h;
+}
+
+void write_png(const std::string& path, int width, int height, const unsigned char* rgb) {
+  std::filesystem::path p(path);
+  if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
+  if (!stbi_write_png(path.c_str(), width, height, 3, rgb, width * 3))
+    throw std::runtime_error("cannot write " + path);
+}
+
+namespace {
+// an ffmpeg process reading raw rgb frames on its stdin
+class FfmpegPipe {
+ public:
+  FfmpegPipe(const std::string& path, int width, int height, double fps) {
+    std::filesystem::path p(path);
+    if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
+    // one encoder thread and bitexact flags: the same frames give the same file
+    std::string cmd = fmt::format(
+        "ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -s {}x{} -r {} -i - -c:v libx264 "
+        "-preset veryfast -crf 20 -pix_fmt yuv420p -threads 1 -fflags +bitexact "
+        "-flags:v +bitexact -movflags +faststart '{}'",
+        width, height, fps, path);
+    pipe_ = popen(cmd.c_str(), "w");
+    if (!pipe_) throw std::runtime_error("cannot start ffmpeg (is it installed?)");
+  }
+  ~FfmpegPipe() {
+    if (pipe_) pclose(pipe_);
+  }
+  void write(const std::vector<unsigned char>& rgb) {
+    if (std::fwrite(rgb.data(), 1, rgb.size(), pipe_) != rgb.size())
+      throw std::runtime_error("ffmpeg stopped reading frames");
+  }
+  void close() {
+    int status = pclose(pipe_);
+    pipe_ = nullptr;
+    if (status != 0) throw std::runtime_error(fmt::format("ffmpeg failed (status {})", status));
+  }
+
+ private:
+  FILE* pipe_ = nullptr;
+};
+}  // namespace
+
+RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run_options,
+                             const RecordOptions& o) {
+  if (o.video.empty() && o.screenshot.empty())
+    throw InputError("recording: give --record FILE.mp4 and/or --screenshot FILE.png");
+  if (!(o.fps > 0 && o.fps <= 1000)) throw InputError(fmt::format("--fps {}: expected 0..1000", o.fps));
+  if (!o.video.empty() && (o.width % 2 || o.height % 2))
+    throw InputError(fmt::format("--size {}x{}: video sizes must be even", o.width, o.height));
+
+  RecordResult result;
+  OffscreenGlContext gl;
+  result.gl_backend = gl.backend();
+  ScenarioRun run(loaded, run_options);
+  SceneView view(run, o.width, o.height);
+  view.options.camera = o.camera;
+  Engine& engine = run.engine();
+  double duration = run.scenario().duration;
+  if (!o.screenshot.empty() && (o.screenshot_time < 0 || o.screenshot_time > duration))
+    throw InputError(fmt::format("--at {}: expected a time in 0..{} s", o.screenshot_time,
+                                 duration));
+  if (o.camera == CameraMode::kFree) {
+    // a fixed camera where the character starts
+    view.options.camera = CameraMode::kFollow;
+    view.update(run);
+    view.options.camera = CameraMode::kFree;
+  }
+
+  std::unique_ptr<FfmpegPipe> ffmpeg;
+  if (!o.video.empty()) ffmpeg = std::make_unique<FfmpegPipe>(o.video, o.width, o.height, o.fps);
+  long frames = o.video.empty() ? 0 : std::lround(std::floor(duration * o.fps + 1e-9));
+  double end = o.video.empty() ? o.screenshot_time : duration;
+  bool shot_taken = o.screenshot.empty();
+  std::vector<unsigned char> rgb;
+  double dt = engine.timestep();
+  long frame = 0;
+  // step to each frame's time (half a step of tolerance: times are sums of dt)
+  auto reached = [&](double t) { return engine.time() >= t - 0.5 * dt; };
+  while (true) {
+    if (!shot_taken && reached(o.screenshot_time)) {
+      view.update(run);
+      view.render_offscreen(o.width, o.height, rgb, fmt::format("t = {:.2f} s", engine.time()));
+      write_png(o.screenshot, o.width, o.height, rgb.data());
+      shot_taken = true;
+    }
+    while (frame < frames && reached(frame / o.fps)) {
+      view.update(run);
+      view.render_offscreen(o.width, o.height, rgb, fmt::format("t = {:.2f} s", engine.time()));
+      ffmpeg->write(rgb);
+      ++frame;
+    }
+    if ((frame >= frames && shot_taken) || engine.time() >= end + 0.5 * dt) break;
+    if (result.diverged) {
+      // keep the video at its full length: repeat the last frame after a divergence
+      ffmpeg->write(rgb);
+      ++frame;
+      continue;
+    }
+    if (!run.step()) {
+      result.diverged = true;
+      result.divergence = run.result().divergence;
+      if (rgb.empty()) {
+        view.update(run);
+        view.render_offscreen(o.width, o.height, rgb);
+      }
+      if (!shot_taken) {
+        write_png(o.screenshot, o.width, o.height, rgb.data());
+        shot_taken = true;
+      }
+      if (!ffmpeg) break;
+    }
+  }
+  if (ffmpeg) ffmpeg->close();
+  result.frames = frame;
+  result.sim_time = engine.time();
+  return result;
+}
+
+}  // namespace stance

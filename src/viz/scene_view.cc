@@ -1,0 +1,214 @@
+#include "viz/scene_view.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "engine/mujoco/mujoco_engine.h"
+
+namespace stance {
+
+namespace {
+constexpr float kPushColor[4] = {0.95f, 0.15f, 0.1f, 1.0f};
+constexpr float kContactColor[4] = {0.1f, 0.5f, 1.0f, 1.0f};
+constexpr float kComColor[4] = {1.0f, 0.85f, 0.1f, 1.0f};
+constexpr float kSupportColor[4] = {1.0f, 0.55f, 0.0f, 0.8f};
+constexpr int kMaxGeoms = 5000;
+}  // namespace
+
+SceneView::SceneView(ScenarioRun& run, int offscreen_width, int offscreen_height) {
+  Engine& engine = run.engine();
+  mj_ = dynamic_cast<MujocoEngine*>(&engine);
+  if (!mj_) {
+    // a MuJoCo copy of the same model, for drawing only (see the header)
+    draw_engine_ = make_scenario_engine(run.scenario(), "mujoco");
+    mj_ = static_cast<MujocoEngine*>(draw_engine_.get());
+  }
+  model_ = mj_->mutable_model();
+  // the offscreen buffer must hold the largest frame asked for
+  model_->vis.global.offwidth = std::max(model_->vis.global.offwidth, offscreen_width);
+  model_->vis.global.offheight = std::max(model_->vis.global.offheight, offscreen_height);
+
+  // a brighter headlight than MuJoCo's default: many models bring no lights of their own
+  for (int i = 0; i < 3; ++i) {
+    model_->vis.headlight.ambient[i] = 0.35f;
+    model_->vis.headlight.diffuse[i] = 0.6f;
+  }
+
+  body_map_.assign(engine.nbody(), -1);
+  for (int b = 0; b < engine.nbody(); ++b) {
+    int mb = mj_->body_index(engine.body_name(b));
+    if (mb >= 0) body_map_[b] = mj_->mj_body_id(mb);
+  }
+
+  Eigen::Vector3d g = engine.gravity();
+  if (g.norm() > 0) up_ = -g.normalized();
+  view_rot_ = Eigen::Quaterniond::FromTwoVectors(up_, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+  body_weight_n_ = std::max(1e-6, engine.total_mass() * std::max(1e-6, g.norm()));
+  ground_height_ = run.scenario().fall.ground_height;
+
+  mjv_defaultScene(&scn_);
+  mjv_makeScene(model_, &scn_, kMaxGeoms);
+  mjv_defaultOption(&opt_);
+  mjr_defaultContext(&con_);
+  mjr_makeContext(model_, &con_, mjFONTSCALE_150);
+  mjv_defaultCamera(&cam_);
+  reset_camera();
+  engine.forward();
+  update(run);
+}
+
+SceneView::~SceneView() {
+  mjr_freeContext(&con_);
+  mjv_freeScene(&scn_);
+}
+
+void SceneView::reset_camera() {
+  cam_.type = mjCAMERA_FREE;
+  // a person-sized view: model extents include long floors
+  cam_.distance = std::clamp(1.5 * model_->stat.extent, 2.0, 3.5);
+  cam_.azimuth = 90;  // looking along +y: the sagittal plane of the planar walkers
+  cam_.elevation = -12;
+}
+
+void SceneView::pose_draw_model(Engine& engine) {
+  mjData* d = mj_->data();
+  for (int b = 0; b < engine.nbody(); ++b) {
+    int id = body_map_[b];
+    if (id < 0) continue;
+    BodyPose pose = engine.body_pose(b);
+    Eigen::Map<Eigen::Vector3d>(d->xpos + 3 * id) = pose.pos;
+    mjtNum q[4] = {pose.quat.w(), pose.quat.x(), pose.quat.y(), pose.quat.z()};
+    mju_copy4(d->xquat + 4 * id, q);
+    mju_quat2Mat(d->xmat + 9 * id, q);
+    // body COM frame and geom frames follow from the body frame
+    mju_rotVecMat(d->xipos + 3 * id, model_->body_ipos + 3 * id, d->xmat + 9 * id);
+    mju_addTo3(d->xipos + 3 * id, d->xpos + 3 * id);
+    mjtNum iq[4];
+    mju_mulQuat(iq, q, model_->body_iquat + 4 * id);
+    mju_quat2Mat(d->ximat + 9 * id, iq);
+  }
+  for (int g = 0; g < model_->ngeom; ++g) {
+    int id = model_->geom_bodyid[g];
+    mju_rotVecMat(d->geom_xpos + 3 * g, model_->geom_pos + 3 * g, d->xmat + 9 * id);
+    mju_addTo3(d->geom_xpos + 3 * g, d->xpos + 3 * id);
+    mjtNum gq[4];
+    mju_mulQuat(gq, d->xquat + 4 * id, model_->geom_quat + 4 * g);
+    mju_quat2Mat(d->geom_xmat + 9 * g, gq);
+  }
+  d->time = engine.time();
+}
+
+void SceneView::add_arrow(const Eigen::Vector3d& tail, const Eigen::Vector3d& head,
+                          const float rgba[4], double width) {
+  if (scn_.ngeom >= scn_.maxgeom || (head - tail).norm() < 1e-6) return;
+  mjvGeom* g = scn_.geoms + scn_.ngeom++;
+  mjv_initGeom(g, mjGEOM_ARROW, nullptr, nullptr, nullptr, rgba);
+  Eigen::Vector3d a = to_view(tail), b = to_view(head);
+  mjv_makeConnector(g, mjGEOM_ARROW, width, a.x(), a.y(), a.z(), b.x(), b.y(), b.z());
+  g->category = mjCAT_DECOR;
+}
+
+void SceneView::add_sphere(const Eigen::Vector3d& pos, double radius, const float rgba[4]) {
+  if (scn_.ngeom >= scn_.maxgeom) return;
+  mjvGeom* g = scn_.geoms + scn_.ngeom++;
+  mjtNum size[3] = {radius, radius, radius};
+  Eigen::Vector3d p = to_view(pos);
+  mjtNum pos3[3] = {p.x(), p.y(), p.z()};
+  mjv_initGeom(g, mjGEOM_SPHERE, size, pos3, nullptr, rgba);
+  g->category = mjCAT_DECOR;
+}
+
+void SceneView::update(ScenarioRun& run, const std::vector<ForceArrow>& extra_forces) {
+  Engine& engine = run.engine();
+  engine.forward();
+  if (draw_engine_) pose_draw_model(engine);
+  time_ = engine.time();
+
+  // the camera looks at the root body (follow) in the view frame
+  Eigen::Vector3d root = engine.nbody() > 0 ? engine.body_pose(0).pos : engine.com();
+  if (options.camera == CameraMode::kFollow) {
+    Eigen::Vector3d at = to_view(root);
+    for (int i = 0; i < 3; ++i) cam_.lookat[i] = at[i];
+  }
+  // mjv_updateScene reads the poses in mjData and computes no kinematics
+  mjv_updateScene(model_, mj_->data(), &opt_, nullptr, &cam_, mjCAT_ALL, &scn_);
+
+  // turn the model's geoms and lights so that up is +z
+  Eigen::Matrix3f r = view_rot_.cast<float>();
+  for (int i = 0; i < scn_.ngeom; ++i) {
+    mjvGeom& g = scn_.geoms[i];
+    Eigen::Map<Eigen::Vector3f> pos(g.pos);
+    pos = r * Eigen::Vector3f(pos);
+    Eigen::Map<Eigen::Matrix<float, 3, 3, Eigen::RowMajor>> mat(g.mat);
+    mat = r * Eigen::Matrix3f(mat);
+  }
+  for (int i = 0; i < scn_.nlight; ++i) {
+    mjvLight& l = scn_.lights[i];
+    if (l.headlight) continue;
+    Eigen::Map<Eigen::Vector3f> pos(l.pos), dir(l.dir);
+    pos = r * Eigen::Vector3f(pos);
+    dir = r * Eigen::Vector3f(dir);
+  }
+
+  // pushes: arrows ending at the pushed point, one body weight = 1 m
+  auto draw_force = [&](const Eigen::Vector3d& point, const Eigen::Vector3d& f) {
+    Eigen::Vector3d len = f / body_weight_n_;
+    if (len.norm() < 0.15) len = 0.15 * f.normalized();
+    add_arrow(point - len, point, kPushColor, 0.03);
+  };
+  if (options.pushes) {
+    for (const auto& p : run.scenario().perturbations) {
+      if (!p.active_at(time_) || p.force.norm() == 0) continue;
+      int b = engine.body_index(p.body);
+      if (b >= 0) draw_force(engine.body_com(b), p.force);
+    }
+    for (const auto& a : extra_forces)
+      if (a.force.norm() > 0) draw_force(a.point, a.force);
+  }
+  if (options.contacts) {
+    for (int i = 0, n = engine.num_contacts(); i < n; ++i) {
+      Contact c = engine.contact(i);
+      add_sphere(c.pos, 0.02, kContactColor);
+      // the force on body2, scaled as the pushes: one body weight = 1 m
+      if (c.force.norm() > 1e-6) add_arrow(c.pos, c.pos + c.force / body_weight_n_,
+                                           kContactColor, 0.012);
+    }
+  }
+  if (options.com) {
+    Eigen::Vector3d com = engine.com();
+    add_sphere(com, 0.045, kComColor);
+    // support marker: the COM's projection onto the ground along up
+    double h = up_.dot(com) - ground_height_;
+    add_sphere(com - h * up_, 0.03, kSupportColor);
+  }
+}
+
+void SceneView::render_window(int width, int height, const std::string& overlay) {
+  mjrRect vp = {0, 0, width, height};
+  mjr_setBuffer(mjFB_WINDOW, &con_);
+  mjr_render(vp, &scn_, &con_);
+  if (!overlay.empty())
+    mjr_overlay(mjFONT_NORMAL, mjGRID_TOPRIGHT, vp, overlay.c_str(), nullptr, &con_);
+}
+
+void SceneView::render_offscreen(int width, int height, std::vector<unsigned char>& rgb,
+                                 const std::string& overlay) {
+  if (width > con_.offWidth || height > con_.offHeight)
+    throw std::runtime_error("frame larger than the offscreen buffer");
+  mjrRect vp = {0, 0, width, height};
+  mjr_setBuffer(mjFB_OFFSCREEN, &con_);
+  mjr_render(vp, &scn_, &con_);
+  if (!overlay.empty())
+    mjr_overlay(mjFONT_NORMAL, mjGRID_TOPRIGHT, vp, overlay.c_str(), nullptr, &con_);
+  std::vector<unsigned char> bottom_up(static_cast<size_t>(width) * height * 3);
+  mjr_readPixels(bottom_up.data(), nullptr, vp, &con_);
+  // OpenGL rows start at the bottom; images start at the top
+  rgb.resize(bottom_up.size());
+  size_t row = static_cast<size_t>(width) * 3;
+  for (int y = 0; y < height; ++y)
+    std::copy_n(bottom_up.data() + (height - 1 - y) * row, row, rgb.data() + y * row);
+}
+
+}  // namespace stance

@@ -1,0 +1,88 @@
+// Draws a running scenario with MuJoCo's renderer (mjv_/mjr_), on either engine.
+//
+// MuJoCo runs draw the engine's own mjModel/mjData. Other engines (DART) are drawn through a
+// second, MuJoCo copy of the same scenario model (SKEL through the SKEL->MJCF translation, MJCF
+// and URDF natively) that is used for drawing only: each frame, every body pose of the running
+// engine is copied by body name into the copy's mjData (xpos/xquat/xmat, then the geom frames),
+// and mjv_updateScene draws that. No DART header is needed here, and the Engine interface
+// (body names and poses) is enough.
+//
+// The scene is turned so that "up" (against gravity) points up on screen: Y-up models and tilted
+// slopes are shown as a person standing on the floor would see them.
+#pragma once
+
+#include <mujoco/mujoco.h>
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "scenario/runner.h"
+
+namespace stance {
+
+class MujocoEngine;
+
+enum class CameraMode { kFree, kFollow };
+
+// a force arrow to draw: force (N, world) applied at a world point
+struct ForceArrow {
+  Eigen::Vector3d point = Eigen::Vector3d::Zero();
+  Eigen::Vector3d force = Eigen::Vector3d::Zero();
+};
+
+struct SceneOptions {
+  bool contacts = true;  // contact points and forces
+  bool com = true;       // COM marker and its ground projection (support marker)
+  bool pushes = true;    // arrows for the scenario's active pushes and extra forces
+  CameraMode camera = CameraMode::kFollow;
+};
+
+class SceneView {
+ public:
+  // needs a current OpenGL context. offscreen_size: the largest frame render_offscreen() makes.
+  SceneView(ScenarioRun& run, int offscreen_width = 1280, int offscreen_height = 720);
+  ~SceneView();
+  SceneView(const SceneView&) = delete;
+  SceneView& operator=(const SceneView&) = delete;
+
+  // copy the run's state into the scene; call while the physics is not stepping.
+  // extra_forces: forces applied outside the scenario's pushes (the viewer's keys)
+  void update(ScenarioRun& run, const std::vector<ForceArrow>& extra_forces = {});
+  // draw into the current (window) framebuffer
+  void render_window(int width, int height, const std::string& overlay = "");
+  // draw offscreen and read back rgb, dim width*height*3, top row first
+  void render_offscreen(int width, int height, std::vector<unsigned char>& rgb,
+                        const std::string& overlay = "");
+
+  // place the free camera behind/beside the character again
+  void reset_camera();
+  mjvCamera& camera() { return cam_; }
+  const mjModel* draw_model() const { return model_; }
+  mjvScene& scene() { return scn_; }
+  SceneOptions options;
+
+ private:
+  void pose_draw_model(Engine& engine);
+  void add_arrow(const Eigen::Vector3d& tail, const Eigen::Vector3d& head, const float rgba[4],
+                 double width);
+  void add_sphere(const Eigen::Vector3d& pos, double radius, const float rgba[4]);
+  Eigen::Vector3d to_view(const Eigen::Vector3d& p) const { return view_rot_ * p; }
+
+  std::unique_ptr<Engine> draw_engine_;  // the MuJoCo copy for non-MuJoCo runs
+  MujocoEngine* mj_ = nullptr;           // what is drawn
+  mjModel* model_ = nullptr;
+  std::vector<int> body_map_;  // running engine body -> mj body id in the drawing model
+  mjvScene scn_;
+  mjrContext con_;
+  mjvCamera cam_;
+  mjvOption opt_;
+  Eigen::Matrix3d view_rot_ = Eigen::Matrix3d::Identity();  // world -> view (up = +z)
+  double body_weight_n_ = 1;
+  double ground_height_ = 0;
+  Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
+  double time_ = 0;
+};
+
+}  // namespace stance

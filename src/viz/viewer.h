@@ -1,0 +1,76 @@
+// `stance view`: a GLFW window drawn by MuJoCo's renderer with imgui panels. Physics runs on its
+// own thread paced to real time (times a slow-motion / fast-forward factor); the panels show the
+// state, a parameter panel generated from each controller's tunable_params() (no per-controller
+// GUI code), live plots over a rolling window and the key reference.
+//
+// Keys: space pause, n single step, p replay, , and . push back and forth, a and s skateboard
+// speed (a controller parameter "speed", stepped by "speed_step"), - and = slow down / speed up, f camera
+// follow/free, c contacts, m COM markers, h help, Esc quit. Mouse: left drag rotates, right drag
+// pans, wheel zooms.
+//
+// Tests drive the same code without a person: key() is what a key press does, frame() is one
+// window frame, and with threaded = false each frame() advances the physics by frame_dt so that
+// runs are reproducible.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "params/param_list.h"
+#include "scenario/scenario.h"
+
+namespace stance {
+
+struct ViewerOptions {
+  std::string engine;  // overrides the scenario's
+  int width = 1400, height = 900;
+  bool visible = true;
+  bool threaded = true;         // physics thread paced to real time
+  double frame_dt = 1.0 / 60;   // s of simulated time per frame() when not threaded
+  std::string save_path;        // scenario file; "save scenario" writes <stem>_tuned.yaml beside it
+};
+
+class Viewer {
+ public:
+  // throws std::runtime_error when no window can be opened (no display)
+  Viewer(const LoadedScenario& loaded, const ViewerOptions& options);
+  ~Viewer();
+  Viewer(const Viewer&) = delete;
+  Viewer& operator=(const Viewer&) = delete;
+
+  // until the window is closed
+  void run();
+  // one frame: events, (unthreaded) physics, drawing, panels, swap
+  void frame();
+  // what pressing a key does (GLFW key codes, e.g. GLFW_KEY_SPACE or 'P')
+  void key(int glfw_key);
+  // the last frame as it was shown (rgb, top row first); false when no frame was drawn yet
+  bool screenshot(const std::string& png_path) const;
+  const std::vector<unsigned char>& last_frame(int& width, int& height) const;
+
+  // the parameter panel's path: set controller `index`'s parameter `path` (rebuilds it)
+  void set_param(int index, const std::string& path, double value);
+  const std::vector<std::vector<ParamEntry>>& param_panel() const;
+  // writes the scenario with the tuned parameters; returns the file written
+  std::string save_scenario(const std::string& path = "");
+
+  double sim_time() const;
+  bool paused() const;
+  double speed_factor() const;
+  bool follow_camera() const;
+  // the character's COM velocity (m/s, world), e.g. to see a push act
+  Eigen::Vector3d com_velocity() const;
+  // COM height above the scenario's ground, along up (m)
+  double com_height() const;
+  // a parameter as the panel shows it; NaN when absent
+  double param_value(int index, const std::string& path) const;
+  const std::string& status() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace stance

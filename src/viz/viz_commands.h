@@ -1,0 +1,22 @@
+// The CLI commands that need OpenGL (apps/stance_main.cc calls them when the viewer is built).
+// Each returns the process exit code, as in app/commands.h.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "app/commands.h"
+
+namespace stance {
+
+// `stance run SCENARIO --record out.mp4 / --screenshot out.png --at T`
+int record_command(const RunCommand& cmd);
+
+// `stance view SCENARIO [--engine E]` (ViewCommand is in app/commands.h)
+int view_command(const ViewCommand& cmd);
+
+// `stance screenshots [--dir scenarios] [--out docs/img] [--at T]`: one PNG per scenario
+int screenshots_command(const std::string& scenario_dir, const std::string& out_dir, double at,
+                        const std::string& size);
+
+}  // namespace stance
