@@ -55,21 +55,28 @@ void simbicon_walk(benchmark::State& state, const std::string& engine_name) {
     one_second(true);
     ++seconds;
   }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   const double cpu = double(std::clock() - cpu0) / CLOCKS_PER_SEC;
   // on a shared machine the CPU-time factor is the one to compare with an idle core
   state.counters["rtf_cpu"] = cpu > 0 ? seconds / cpu : 0.0;
-  state.counters["rtf"] = benchmark::Counter(static_cast<double>(seconds), benchmark::Counter::kIsRate);
+  state.counters["rtf"] =
+      benchmark::Counter(static_cast<double>(seconds), benchmark::Counter::kIsRate);
   state.counters["controller_share"] = wall > 0 ? controller_s / wall : 0.0;
-  state.counters["controller_ns"] = seconds ? 1e9 * controller_s / (seconds * steps_per_second) : 0.0;
+  state.counters["controller_ns"] =
+      seconds ? 1e9 * controller_s / (seconds * steps_per_second) : 0.0;
   state.SetLabel(engine_name + ", 1700 Hz, 1 iteration = 1 simulated s");
 }
 
-void BM_SimbiconWalkMujoco(benchmark::State& state) { simbicon_walk(state, "mujoco"); }
+void BM_SimbiconWalkMujoco(benchmark::State& state) {
+  simbicon_walk(state, "mujoco");
+}
 BENCHMARK(BM_SimbiconWalkMujoco)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 #ifdef STANCE_HAVE_DART
-void BM_SimbiconWalkDart(benchmark::State& state) { simbicon_walk(state, "dart"); }
+void BM_SimbiconWalkDart(benchmark::State& state) {
+  simbicon_walk(state, "dart");
+}
 BENCHMARK(BM_SimbiconWalkDart)->Unit(benchmark::kMillisecond)->UseRealTime();
 #endif
 

@@ -37,7 +37,8 @@ SimbiconGaitStats simbicon_gait_stats(const std::vector<SimbiconStep>& steps, in
   const double n = s.steps;
   s.step_length_mean = sum_l / n;
   s.step_duration_mean = sum_d / n;
-  s.step_length_std = std::sqrt(std::max(0.0, sum_l2 / n - s.step_length_mean * s.step_length_mean));
+  s.step_length_std =
+      std::sqrt(std::max(0.0, sum_l2 / n - s.step_length_mean * s.step_length_mean));
   s.step_duration_std =
       std::sqrt(std::max(0.0, sum_d2 / n - s.step_duration_mean * s.step_duration_mean));
   if (side_n[0] > 0 && side_n[1] > 0) {
@@ -45,7 +46,8 @@ SimbiconGaitStats simbicon_gait_stats(const std::vector<SimbiconStep>& steps, in
     const double d0 = side_d[0] / side_n[0], d1 = side_d[1] / side_n[1];
     if (std::abs(s.step_length_mean) > 1e-9)
       s.length_asymmetry = std::abs(l0 - l1) / std::abs(s.step_length_mean);
-    if (s.step_duration_mean > 1e-9) s.duration_asymmetry = std::abs(d0 - d1) / s.step_duration_mean;
+    if (s.step_duration_mean > 1e-9)
+      s.duration_asymmetry = std::abs(d0 - d1) / s.step_duration_mean;
   }
   return s;
 }
@@ -56,9 +58,10 @@ void check_half_cycle(const std::vector<SimbiconStateTargets>& states, const cha
                       bool required) {
   if (states.empty() && !required) return;
   if (states.size() != 2)
-    throw InputError(fmt::format("simbicon gait.{}: expected 2 states (timed, then contact), "
-                                 "found {}",
-                                 name, states.size()));
+    throw InputError(
+        fmt::format("simbicon gait.{}: expected 2 states (timed, then contact), "
+                    "found {}",
+                    name, states.size()));
 }
 
 void check_gains(const std::vector<SimbiconGains>& gains, const char* name) {
@@ -67,7 +70,9 @@ void check_gains(const std::vector<SimbiconGains>& gains, const char* name) {
         fmt::format("simbicon gait.{}: expected at most 1 entry, found {}", name, gains.size()));
 }
 
-double clamp_torque(double tau, double limit) { return std::clamp(tau, -limit, limit); }
+double clamp_torque(double tau, double limit) {
+  return std::clamp(tau, -limit, limit);
+}
 
 }  // namespace
 
@@ -100,14 +105,15 @@ Simbicon::Simbicon(const SimbiconParams& params, const Engine& engine) {
   m.hip = {engine.require_dof(k.right_hip), engine.require_dof(k.left_hip)};
   m.knee = {engine.require_dof(k.right_knee), engine.require_dof(k.left_knee)};
   m.ankle = {engine.require_dof(k.right_ankle), engine.require_dof(k.left_ankle)};
-  const std::array<const std::string*, 6> spatial_names = {
-      &k.right_hip_roll, &k.left_hip_roll, &k.right_hip_yaw, &k.left_hip_yaw,
-      &k.right_ankle_roll, &k.left_ankle_roll};
+  const std::array<const std::string*, 6> spatial_names = {&k.right_hip_roll,   &k.left_hip_roll,
+                                                           &k.right_hip_yaw,    &k.left_hip_yaw,
+                                                           &k.right_ankle_roll, &k.left_ankle_roll};
   int named = 0;
   for (const std::string* n : spatial_names) named += n->empty() ? 0 : 1;
   if (named != 0 && named != 6)
-    throw InputError("simbicon skeleton: a 3D biped needs all six of left/right_hip_roll, "
-                     "_hip_yaw and _ankle_roll; a planar one none");
+    throw InputError(
+        "simbicon skeleton: a 3D biped needs all six of left/right_hip_roll, "
+        "_hip_yaw and _ankle_roll; a planar one none");
   m.spatial = named == 6;
   if (m.spatial) {
     m.hip_roll = {engine.require_dof(k.right_hip_roll), engine.require_dof(k.left_hip_roll)};
@@ -120,8 +126,8 @@ Simbicon::Simbicon(const SimbiconParams& params, const Engine& engine) {
   for (int dof : {m.hip[0], m.hip[1], m.knee[0], m.knee[1], m.ankle[0], m.ankle[1]}) {
     const JointInfo& j = engine.joint(engine.dof_joint(dof));
     if (j.type != JointType::kHinge)
-      throw InputError(fmt::format("simbicon skeleton: dof '{}' must be a hinge",
-                                   engine.dof_name(dof)));
+      throw InputError(
+          fmt::format("simbicon skeleton: dof '{}' must be a hinge", engine.dof_name(dof)));
   }
   state_.steps.reserve(params.max_recorded_steps);
 }
@@ -132,10 +138,10 @@ void Simbicon::reset(const Engine& engine) {
   s.state_start_s = engine.time();
   s.swing_hip_target = 0;
   s.d = s.v = 0;
-  const Eigen::Vector3d p =
-      model_.use_com ? engine.com()
-                     : Eigen::Vector3d(0.5 * (engine.body_pose(model_.thigh[0]).pos +
-                                              engine.body_pose(model_.thigh[1]).pos));
+  const Eigen::Vector3d p = model_.use_com
+                                ? engine.com()
+                                : Eigen::Vector3d(0.5 * (engine.body_pose(model_.thigh[0]).pos +
+                                                         engine.body_pose(model_.thigh[1]).pos));
   const double x = (model_.heading * Eigen::Vector3d::UnitX()).dot(p);
   s.lateral_start = s.lateral_last = (model_.heading * Eigen::Vector3d::UnitY()).dot(p);
   s.start_x = s.last_x = x;
@@ -167,8 +173,7 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
     const int swing = s.fsm < 2 ? kLeft : kRight;
     const double in_state = t - s.state_start_s;
     bool done = in_state >= cur.duration_s;
-    if (cur.ends_on_contact && in_state >= cur.min_duration_s && on_ground[swing])
-      done = true;
+    if (cur.ends_on_contact && in_state >= cur.min_duration_s && on_ground[swing]) done = true;
     if (done) {
       s.state_time_sum[s.fsm] += in_state;
       ++s.state_count[s.fsm];
@@ -177,8 +182,8 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
         const double ankle_x =
             (m.heading * Eigen::Vector3d::UnitX()).dot(engine.body_pose(m.foot[swing]).pos);
         if (s.steps.size() < s.steps.capacity())
-          s.steps.push_back({t, swing, ankle_x, ankle_x - s.last_stance_ankle_x,
-                             t - s.last_strike_s});
+          s.steps.push_back(
+              {t, swing, ankle_x, ankle_x - s.last_stance_ankle_x, t - s.last_strike_s});
         s.last_stance_ankle_x = ankle_x;
         s.last_strike_s = t;
       }
@@ -187,8 +192,7 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
     }
   }
 
-  if (!on_ground[kRight] && !on_ground[kLeft])
-    s.flight_time_s += engine.timestep();
+  if (!on_ground[kRight] && !on_ground[kLeft]) s.flight_time_s += engine.timestep();
 
   const SimbiconStateTargets& tg = m.targets[s.fsm];
   const SimbiconGains& gn = m.gains[s.fsm];
@@ -218,8 +222,8 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
 
   // relative servos: knees and ankles
   auto servo = [&](int dof, double target, const SimbiconJointGain& gain) {
-    const double tau = gain.kp * (target - engine.dof_position(dof)) -
-                       gain.damping() * engine.dof_velocity(dof);
+    const double tau =
+        gain.kp * (target - engine.dof_position(dof)) - gain.damping() * engine.dof_velocity(dof);
     return clamp_torque(tau, gain.max_torque);
   };
 
@@ -254,7 +258,8 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
     const Eigen::Vector3d tau_torso = orientation_servo(m.torso, torso_goal, gn.torso);
     const Eigen::Vector3d tau_swing = orientation_servo(m.thigh[swing], thigh_goal, gn.swing_hip);
     Eigen::Vector3d tau_stance = -tau_torso - tau_swing;
-    for (int i = 0; i < 3; ++i) tau_stance[i] = clamp_torque(tau_stance[i], gn.stance_hip_max_torque);
+    for (int i = 0; i < 3; ++i)
+      tau_stance[i] = clamp_torque(tau_stance[i], gn.stance_hip_max_torque);
     // a torque pair (thigh +tau, torso -tau) is the hip dofs' forces a_i . tau, where a_i are
     // the hip axes in the world: the thigh's rotational Jacobian columns at those dofs
     auto to_hip = [&](int side, const Eigen::Vector3d& tau) {
@@ -279,15 +284,13 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
   const double torso_rate = -engine.body_velocity(m.torso)[1];
   const double thigh_angle = pitch_about_minus_y(engine.body_pose(m.thigh[swing]).quat);
   const double thigh_rate = -engine.body_velocity(m.thigh[swing])[1];
-  const double tau_torso =
-      gn.torso.kp * (tg.torso - torso_angle) - gn.torso.damping() * torso_rate;
+  const double tau_torso = gn.torso.kp * (tg.torso - torso_angle) - gn.torso.damping() * torso_rate;
   const double tau_swing_hip = clamp_torque(
       gn.swing_hip.kp * (s.swing_hip_target - thigh_angle) - gn.swing_hip.damping() * thigh_rate,
       gn.swing_hip.max_torque);
   // the stance hip holds the torso: the torso feels -tau_swing_hip - tau_stance_hip
-  const double tau_stance_hip =
-      clamp_torque(-clamp_torque(tau_torso, gn.torso.max_torque) - tau_swing_hip,
-                   gn.stance_hip_max_torque);
+  const double tau_stance_hip = clamp_torque(
+      -clamp_torque(tau_torso, gn.torso.max_torque) - tau_swing_hip, gn.stance_hip_max_torque);
 
   out.tau[m.hip[swing]] += tau_swing_hip;
   out.tau[m.hip[stance]] += tau_stance_hip;
@@ -302,13 +305,12 @@ void Simbicon::compute(const Engine& engine, ControlOutput& out) {
 }
 
 void Simbicon::signal_names(std::vector<std::string>& names) const {
-  names.insert(names.end(), {"simbicon_state", "simbicon_swing_hip_target", "simbicon_d",
-                             "simbicon_v"});
+  names.insert(names.end(),
+               {"simbicon_state", "simbicon_swing_hip_target", "simbicon_d", "simbicon_v"});
 }
 
 void Simbicon::signals(std::vector<double>& values) const {
-  values.insert(values.end(),
-                {double(state_.fsm), state_.swing_hip_target, state_.d, state_.v});
+  values.insert(values.end(), {double(state_.fsm), state_.swing_hip_target, state_.d, state_.v});
 }
 
 void Simbicon::add_metrics(nlohmann::json& metrics) const {
@@ -320,8 +322,9 @@ void Simbicon::add_metrics(nlohmann::json& metrics) const {
   // sideways drift per metre forward (3D; 0 for a planar model)
   metrics["lateral_drift_m"] = s.lateral_last - s.lateral_start;
   metrics["drift_per_10m"] =
-      std::abs(distance) > 1e-9 ? 10.0 * std::abs(s.lateral_last - s.lateral_start) / std::abs(distance)
-                                : 0.0;
+      std::abs(distance) > 1e-9
+          ? 10.0 * std::abs(s.lateral_last - s.lateral_start) / std::abs(distance)
+          : 0.0;
   metrics["flight_fraction"] = elapsed > 0 ? s.flight_time_s / elapsed : 0.0;
   // the first two steps are the start-up from standing
   const SimbiconGaitStats g = simbicon_gait_stats(s.steps, 2);
@@ -334,10 +337,10 @@ void Simbicon::add_metrics(nlohmann::json& metrics) const {
   metrics["step_duration_asymmetry"] = g.duration_asymmetry;
   nlohmann::json per_state = nlohmann::json::array();
   for (int i = 0; i < 4; ++i) {
-    per_state.push_back({{"state", i},
-                         {"count", s.state_count[i]},
-                         {"mean_duration_s",
-                          s.state_count[i] ? s.state_time_sum[i] / s.state_count[i] : 0.0}});
+    per_state.push_back(
+        {{"state", i},
+         {"count", s.state_count[i]},
+         {"mean_duration_s", s.state_count[i] ? s.state_time_sum[i] / s.state_count[i] : 0.0}});
   }
   metrics["simbicon_states"] = per_state;
 }

@@ -27,46 +27,58 @@ namespace stance {
 
 // one FSM state of the half cycle; the other half cycle mirrors it onto the other leg
 struct SimbiconStateTargets {
-  double duration_s = 0.3;        // ends after this; for contact states, a timeout
-  bool ends_on_contact = false;   // end when the swing foot touches the ground
-  double min_duration_s = 0.0;    // contact is ignored before this time in the state
-  double torso = 0;               // rad, world
-  double swing_hip = 0;           // rad, world (thigh from vertical)
-  double swing_knee = 0;          // rad, relative
-  double swing_ankle = 0;         // rad, relative
-  double stance_knee = 0;         // rad, relative
-  double stance_ankle = 0;        // rad, relative
-  double cd = 0;                  // rad/m, balance feedback on distance
-  double cv = 0;                  // rad s/m, balance feedback on velocity
+  double duration_s = 0.3;       // ends after this; for contact states, a timeout
+  bool ends_on_contact = false;  // end when the swing foot touches the ground
+  double min_duration_s = 0.0;   // contact is ignored before this time in the state
+  double torso = 0;              // rad, world
+  double swing_hip = 0;          // rad, world (thigh from vertical)
+  double swing_knee = 0;         // rad, relative
+  double swing_ankle = 0;        // rad, relative
+  double stance_knee = 0;        // rad, relative
+  double stance_ankle = 0;       // rad, relative
+  double cd = 0;                 // rad/m, balance feedback on distance
+  double cv = 0;                 // rad s/m, balance feedback on velocity
   // 3D only (coronal plane): mirrored so that positive is outward for either swing leg
-  double swing_hip_roll = 0;      // rad, world, swing thigh abduction
-  double torso_roll = 0;          // rad, world
-  double cd_lateral = 0;          // rad/m, coronal feedback on the lateral distance
-  double cv_lateral = 0;          // rad s/m, coronal feedback on the lateral velocity
+  double swing_hip_roll = 0;  // rad, world, swing thigh abduction
+  double torso_roll = 0;      // rad, world
+  double cd_lateral = 0;      // rad/m, coronal feedback on the lateral distance
+  double cv_lateral = 0;      // rad s/m, coronal feedback on the lateral velocity
 
   template <class V>
   void visit(V& v) {
-    v("duration_s", duration_s, {.unit = "s", .min = 0.001, .max = 100,
-                                 .help = "state length, or timeout of a contact state"});
+    v("duration_s", duration_s,
+      {.unit = "s",
+       .min = 0.001,
+       .max = 100,
+       .help = "state length, or timeout of a contact state"});
     v("ends_on_contact", ends_on_contact, {.help = "end when the swing foot lands"});
-    v("min_duration_s", min_duration_s, {.unit = "s", .min = 0, .max = 100,
-                                         .help = "ignore swing-foot contact before this"});
+    v("min_duration_s", min_duration_s,
+      {.unit = "s", .min = 0, .max = 100, .help = "ignore swing-foot contact before this"});
     v("torso", torso, {.unit = "rad", .min = -3.2, .max = 3.2, .help = "torso pitch, world"});
-    v("swing_hip", swing_hip, {.unit = "rad", .min = -3.2, .max = 3.2,
-                               .help = "swing thigh angle from vertical, world"});
+    v("swing_hip", swing_hip,
+      {.unit = "rad", .min = -3.2, .max = 3.2, .help = "swing thigh angle from vertical, world"});
     v("swing_knee", swing_knee, {.unit = "rad", .min = -3.2, .max = 3.2});
     v("swing_ankle", swing_ankle, {.unit = "rad", .min = -3.2, .max = 3.2});
     v("stance_knee", stance_knee, {.unit = "rad", .min = -3.2, .max = 3.2});
     v("stance_ankle", stance_ankle, {.unit = "rad", .min = -3.2, .max = 3.2});
     v("cd", cd, {.unit = "rad/m", .min = -100, .max = 100, .help = "feedback on distance d"});
     v("cv", cv, {.unit = "rad s/m", .min = -100, .max = 100, .help = "feedback on velocity v"});
-    v("swing_hip_roll", swing_hip_roll, {.unit = "rad", .min = -1.5, .max = 1.5,
-                                         .help = "3D: swing thigh abduction, world, outward +"});
+    v("swing_hip_roll", swing_hip_roll,
+      {.unit = "rad",
+       .min = -1.5,
+       .max = 1.5,
+       .help = "3D: swing thigh abduction, world, outward +"});
     v("torso_roll", torso_roll, {.unit = "rad", .min = -1.5, .max = 1.5, .help = "3D"});
-    v("cd_lateral", cd_lateral, {.unit = "rad/m", .min = -100, .max = 100,
-                                 .help = "3D: coronal feedback on lateral distance"});
-    v("cv_lateral", cv_lateral, {.unit = "rad s/m", .min = -100, .max = 100,
-                                 .help = "3D: coronal feedback on lateral velocity"});
+    v("cd_lateral", cd_lateral,
+      {.unit = "rad/m",
+       .min = -100,
+       .max = 100,
+       .help = "3D: coronal feedback on lateral distance"});
+    v("cv_lateral", cv_lateral,
+      {.unit = "rad s/m",
+       .min = -100,
+       .max = 100,
+       .help = "3D: coronal feedback on lateral velocity"});
   }
 };
 
@@ -125,8 +137,8 @@ struct SimbiconGait {
 struct SimbiconSkeleton {
   std::string torso = "torso";
   std::string left_thigh = "left_thigh", right_thigh = "right_thigh";  // origin at the hip joint
-  std::string left_foot = "left_foot", right_foot = "right_foot";  // frame origin at the ankle
-  std::string left_hip = "left_hip", right_hip = "right_hip";      // dofs
+  std::string left_foot = "left_foot", right_foot = "right_foot";      // frame origin at the ankle
+  std::string left_hip = "left_hip", right_hip = "right_hip";          // dofs
   std::string left_knee = "left_knee", right_knee = "right_knee";
   std::string left_ankle = "left_ankle", right_ankle = "right_ankle";
   // 3D: set all six to control a spatial biped; empty = planar
@@ -171,10 +183,13 @@ struct SimbiconParams {
     v("gait", gait);
     v("balance_point", balance_point, {.help = "hip or com"});
     v("initial_state", initial_state, {.min = 0, .max = 3});
-    v("heading_rad", heading_rad, {.unit = "rad", .min = -3.2, .max = 3.2,
-                                   .help = "3D: desired heading about z"});
-    v("path_gain", path_gain, {.unit = "rad/m", .min = 0, .max = 10,
-                               .help = "3D: heading turn per metre left of the start line"});
+    v("heading_rad", heading_rad,
+      {.unit = "rad", .min = -3.2, .max = 3.2, .help = "3D: desired heading about z"});
+    v("path_gain", path_gain,
+      {.unit = "rad/m",
+       .min = 0,
+       .max = 10,
+       .help = "3D: heading turn per metre left of the start line"});
     v("max_steer_rad", max_steer_rad, {.unit = "rad", .min = 0, .max = 1.5});
     v("max_recorded_steps", max_recorded_steps, {.min = 1, .max = 10000000});
   }
@@ -198,8 +213,8 @@ class Simbicon final : public Controller {
     SimbiconParams params;
     int torso = -1;
     std::array<int, 2> thigh{}, foot{}, hip{}, knee{}, ankle{};  // by Side
-    std::array<SimbiconStateTargets, 4> targets;  // by FSM state
-    std::array<SimbiconGains, 4> gains;           // by FSM state
+    std::array<SimbiconStateTargets, 4> targets;                 // by FSM state
+    std::array<SimbiconGains, 4> gains;                          // by FSM state
     bool use_com = false;
     bool spatial = false;  // 3D: hip roll/yaw and ankle roll dofs present
     std::array<int, 2> hip_roll{{-1, -1}}, hip_yaw{{-1, -1}}, ankle_roll{{-1, -1}};
@@ -214,9 +229,9 @@ class Simbicon final : public Controller {
     double start_x = 0, last_x = 0, start_time = 0, last_time = 0;
     double last_strike_s = 0;
     double last_stance_ankle_x = 0;
-    double flight_time_s = 0;  // with neither foot on the ground (a run's flight phases)
-    std::vector<SimbiconStep> steps;            // reserved to max_recorded_steps
-    std::array<double, 4> state_time_sum{};     // s, completed states
+    double flight_time_s = 0;         // with neither foot on the ground (a run's flight phases)
+    std::vector<SimbiconStep> steps;  // reserved to max_recorded_steps
+    std::array<double, 4> state_time_sum{};  // s, completed states
     std::array<int, 4> state_count{};
     double lateral_start = 0, lateral_last = 0;  // m, hip along the heading's left axis
     Eigen::MatrixXd jac_rot, jac_none;           // 3 x nv, 3 x 0: work for the 3D hips

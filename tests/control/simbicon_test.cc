@@ -35,7 +35,9 @@ WalkOutcome run_scenario(const std::string& file, const std::vector<std::string>
   return out;
 }
 
-double metric(const RunResult& r, const char* name) { return r.metrics.at(name).get<double>(); }
+double metric(const RunResult& r, const char* name) {
+  return r.metrics.at(name).get<double>();
+}
 
 TEST(SimbiconPitch, MatchesHingeAngleAboutMinusY) {
   for (double a : {-1.2, -0.3, 0.0, 0.4, 2.0}) {
@@ -47,8 +49,8 @@ TEST(SimbiconPitch, MatchesHingeAngleAboutMinusY) {
 TEST(SimbiconGaitStats, MeansStdAndAsymmetry) {
   // right steps 0.6 m / 0.5 s, left steps 0.4 m / 0.3 s, after two start-up steps
   std::vector<SimbiconStep> steps = {{0.1, 0, 0, 5.0, 9.0}, {0.2, 1, 0, 5.0, 9.0}};
-  for (int i = 0; i < 10; ++i) steps.push_back({1.0 + i, i % 2, 0, i % 2 ? 0.4 : 0.6,
-                                                i % 2 ? 0.3 : 0.5});
+  for (int i = 0; i < 10; ++i)
+    steps.push_back({1.0 + i, i % 2, 0, i % 2 ? 0.4 : 0.6, i % 2 ? 0.3 : 0.5});
   SimbiconGaitStats s = simbicon_gait_stats(steps, 2);
   EXPECT_EQ(s.steps, 10);
   EXPECT_NEAR(s.step_length_mean, 0.5, 1e-12);
@@ -90,11 +92,10 @@ TEST(SimbiconWalk, WalksSixtySecondsAtHalfAMetrePerSecond) {
 
 // priority 2: without feedback the same gait is not stable
 TEST(SimbiconWalk, WithoutBalanceFeedbackFallsWithinFifteenSeconds) {
-  WalkOutcome w = run_scenario("simbicon_walk.yaml",
-                               {"duration=15", "controllers.0.gait.states.0.cd=0",
-                                "controllers.0.gait.states.0.cv=0",
-                                "controllers.0.gait.states.1.cd=0",
-                                "controllers.0.gait.states.1.cv=0"});
+  WalkOutcome w = run_scenario(
+      "simbicon_walk.yaml",
+      {"duration=15", "controllers.0.gait.states.0.cd=0", "controllers.0.gait.states.0.cv=0",
+       "controllers.0.gait.states.1.cd=0", "controllers.0.gait.states.1.cv=0"});
   ASSERT_FALSE(w.result.diverged) << w.result.divergence;
   EXPECT_TRUE(w.result.fell) << "speed " << metric(w.result, "mean_speed_mps");
   if (w.result.fell) EXPECT_LT(*w.result.fall_time, 15.0);
@@ -177,11 +178,10 @@ TEST(Simbicon3d, SurvivesFiftyNewtonLateralPushes) {
 
 // the coronal feedback is what keeps it up: without it the 3D walk falls
 TEST(Simbicon3d, WithoutCoronalFeedbackFalls) {
-  WalkOutcome w = run_scenario("simbicon_walk_3d.yaml",
-                               {"controllers.0.gait.states.0.cd_lateral=0",
-                                "controllers.0.gait.states.0.cv_lateral=0",
-                                "controllers.0.gait.states.1.cd_lateral=0",
-                                "controllers.0.gait.states.1.cv_lateral=0"});
+  WalkOutcome w = run_scenario(
+      "simbicon_walk_3d.yaml",
+      {"controllers.0.gait.states.0.cd_lateral=0", "controllers.0.gait.states.0.cv_lateral=0",
+       "controllers.0.gait.states.1.cd_lateral=0", "controllers.0.gait.states.1.cv_lateral=0"});
   EXPECT_TRUE(w.result.fell);
 }
 
