@@ -167,5 +167,22 @@ TEST_F(ViewerTest, PanelGainChangesBehaviourAndSaves) {
   EXPECT_GT(mean_abs_difference(frame_of(stiff), frame_of(soft)), 0.05);
 }
 
+TEST_F(ViewerTest, PhysicsThreadAdvancesAndPauses) {
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/pd_hold.yaml");
+  ViewerOptions o = test_options();
+  o.threaded = true;
+  Viewer v(loaded, o);
+  // the physics thread runs on its own while frames are drawn
+  for (int i = 0; i < 200 && v.sim_time() < 0.05; ++i) v.frame();
+  EXPECT_GE(v.sim_time(), 0.05);
+  v.key(GLFW_KEY_SPACE);
+  double t = v.sim_time();
+  for (int i = 0; i < 5; ++i) v.frame();
+  EXPECT_EQ(v.sim_time(), t);
+  v.key(GLFW_KEY_N);  // single steps go through the physics thread
+  for (int i = 0; i < 50 && v.sim_time() == t; ++i) v.frame();
+  EXPECT_GT(v.sim_time(), t);
+}
+
 }  // namespace
 }  // namespace stance
