@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 #include <functional>
+#include <limits>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -28,10 +29,16 @@ struct ControlOutput {
   Eigen::VectorXd tau;   // generalised forces, dim nv; summed over controllers
   Eigen::VectorXd ctrl;  // actuator controls, dim nu; summed over controllers
   bool ctrl_used = false;
+  // velocity servo commands per dof (Engine::set_dof_velocity_command), dim nv; NaN: none.
+  // Set by the controller that owns the dof, not summed; they persist until a controller
+  // changes them.
+  Eigen::VectorXd dof_velocity;
+  bool dof_velocity_used = false;
 
   void resize(int nv, int nu) {
     tau = Eigen::VectorXd::Zero(nv);
     ctrl = Eigen::VectorXd::Zero(nu);
+    dof_velocity = Eigen::VectorXd::Constant(nv, std::numeric_limits<double>::quiet_NaN());
   }
   void clear() {
     tau.setZero();

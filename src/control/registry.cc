@@ -8,6 +8,7 @@
 #include "control/lqr.h"
 #include "control/stable_pd.h"
 #include "control/simbicon.h"
+#include "control/skateboard_drive.h"
 #include "control/slope_walker.h"
 #include "core/error.h"
 
@@ -38,6 +39,8 @@ const std::vector<ControllerType>& controller_registry() {
        }},
       {"ankle_strategy", "heel/toe torques keeping the COM over the feet (DART biped tutorial)",
        factory_of<AnkleStrategy, AnkleStrategyParams>()},
+      {"skateboard_drive", "velocity commands on skateboard wheels, with a speed ramp (seed 000)",
+       factory_of<SkateboardDrive, SkateboardDriveParams>()},
       {"simbicon", "SIMBICON walking: FSM targets with swing-hip balance feedback",
        factory_of<Simbicon, SimbiconParams>()},
       {"slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)",

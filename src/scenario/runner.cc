@@ -108,6 +108,7 @@ struct ScenarioRun::Impl {
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   double com_height0 = 0;
   ControlOutput out;
+  Eigen::VectorXd velocity_sent;  // the velocity commands the engine holds, dim nv; NaN: none
   EngineState initial;
   // log
   std::ofstream log;
@@ -169,6 +170,7 @@ ScenarioRun::ScenarioRun(const LoadedScenario& loaded, const RunOptions& options
   else if (g.norm() > 0)
     impl_->up = -g.normalized();
   impl_->out.resize(e.nv(), e.nu());
+  impl_->velocity_sent = impl_->out.dof_velocity;
   e.save_state(impl_->initial);
   for (auto& c : controllers_) c->signal_names(impl_->signal_names);
   impl_->signal_values.reserve(impl_->signal_names.size());
@@ -181,6 +183,11 @@ void ScenarioRun::reset() {
   Engine& e = *engine_;
   e.restore_state(impl_->initial);
   e.forward();
+  // release velocity servos from an earlier run
+  for (int i = 0; i < impl_->velocity_sent.size(); ++i)
+    if (!std::isnan(impl_->velocity_sent[i])) e.set_dof_velocity_command(i, std::nan(""));
+  impl_->out.resize(e.nv(), e.nu());
+  impl_->velocity_sent = impl_->out.dof_velocity;
   for (auto& c : controllers_) c->reset(e);
   impl_->com0 = e.com();
   impl_->com_height0 = impl_->up.dot(impl_->com0) - scenario_.fall.ground_height;
@@ -204,6 +211,16 @@ bool ScenarioRun::step() {
   s.out.tau *= scenario_.torque_scale;
   e.set_generalized_forces(s.out.tau);
   if (s.out.ctrl_used) e.set_controls(s.out.ctrl);
+  if (s.out.dof_velocity_used) {
+    // velocity servos: pass on the commands that changed (NaN releases a dof)
+    for (int i = 0; i < s.out.dof_velocity.size(); ++i) {
+      double now = s.out.dof_velocity[i], before = s.velocity_sent[i];
+      if (now != before && !(std::isnan(now) && std::isnan(before))) {
+        e.set_dof_velocity_command(i, now);
+        s.velocity_sent[i] = now;
+      }
+    }
+  }
   double t = e.time();
   for (const auto& push : s.pushes)
     if (push.p.active_at(t)) e.apply_external_force(push.body, push.p.force, e.body_com(push.body));

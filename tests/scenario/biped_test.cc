@@ -1,0 +1,125 @@
+// S0, the standing biped (seed 000) on both engines with the seed's gains (SPD Kp 400, Kd 40):
+// stands, survives pushes on the spine, needs the ankle strategy, and the engines agree on the
+// standing COM height. DART runs near real time, so its runs are few and short.
+#include <gtest/gtest.h>
+
+#include "scenario/runner.h"
+#include "scenario/scenario.h"
+#include "test_support.h"
+
+namespace stance {
+namespace {
+
+std::string scenario_path(const char* name) {
+  return test::source_dir() + "/scenarios/" + name;
+}
+
+RunResult run_with_push(const std::string& engine, double fx, double duration,
+                        const std::vector<std::string>& sets = {}) {
+  RunOptions opt;
+  opt.engine = engine;
+  opt.duration = duration;
+  Perturbation p;
+  p.body = "h_spine";
+  p.force = Eigen::Vector3d(fx, 0, 0);
+  p.start = 2.0;
+  p.duration = 0.1;
+  opt.extra_pushes.push_back(p);
+  return ScenarioRun(load_scenario(scenario_path("biped_stand.yaml"), sets), opt).run();
+}
+
+// stands 10 s; returns the COM height after 5 s
+double stand_ten_seconds(const std::string& engine) {
+  RunOptions opt;
+  opt.engine = engine;
+  ScenarioRun run(load_scenario(scenario_path("biped_stand.yaml")), opt);
+  double com_height_5s = 0;
+  const int steps = static_cast<int>(std::lround(10.0 / run.engine().timestep()));
+  for (int k = 0; k < steps; ++k) {
+    EXPECT_TRUE(run.step()) << engine << ": " << run.result().divergence;
+    if (k + 1 == steps / 2) {
+      run.engine().forward();
+      com_height_5s = run.engine().com().y();  // the model is Y-up
+    }
+  }
+  run.engine().forward();
+  // upright: the COM stays near its standing height, not on the floor
+  EXPECT_GT(run.engine().com().y(), com_height_5s - 0.05) << engine;
+  EXPECT_NEAR(run.engine().com().y(), com_height_5s, 0.02) << engine;
+  return com_height_5s;
+}
+
+TEST(BipedStand, StandsTenSecondsOnBothEnginesAndTheyAgreeOnComHeight) {
+  double mujoco = stand_ten_seconds("mujoco");
+  double dart = stand_ten_seconds("dart");
+  // the ground's top face is at y = -0.895: the COM stands about 0.84 m above it
+  EXPECT_GT(mujoco + 0.895, 0.8);
+  EXPECT_NEAR(mujoco, dart, 0.02);
+}
+
+TEST(BipedStand, SurvivesFiftyNewtonsForwardOnBothEngines) {
+  for (const char* engine : {"mujoco", "dart"}) {
+    RunResult r = run_with_push(engine, 50, 4.5);
+    EXPECT_FALSE(r.fell) << engine << ": " << r.fall_reason;
+    EXPECT_EQ(r.metrics["pushes_survived"], 1) << engine;
+  }
+}
+
+TEST(BipedStand, SurvivesOneHundredNewtonsBackwardOnDart) {
+  RunResult r = run_with_push("dart", -100, 5.0);
+  EXPECT_FALSE(r.fell) << r.fall_reason;
+  EXPECT_EQ(r.metrics["pushes_survived"], 1);
+}
+
+// open (see docs/biped.md): on MuJoCo the backward band's 100 N m step tips the feet past
+// their rear edge and the biped falls backward about 1.2 s after the push
+TEST(BipedStand, DISABLED_SurvivesOneHundredNewtonsBackwardOnMujoco) {
+  RunResult r = run_with_push("mujoco", -100, 5.0);
+  EXPECT_FALSE(r.fell) << r.fall_reason;
+}
+
+TEST(BipedStand, FallsWithoutTheAnkleStrategy) {
+  for (const char* engine : {"mujoco", "dart"}) {
+    RunResult r = run_with_push(engine, 50, 4.0, {"controllers.1.enabled=false"});
+    EXPECT_TRUE(r.fell) << engine;
+    EXPECT_EQ(r.metrics["pushes_survived"], 0) << engine;
+  }
+}
+
+TEST(BipedStand, PushScheduleIsLoggedAndCounted) {
+  RunOptions opt;
+  opt.engine = "mujoco";
+  opt.duration = 5.0;
+  opt.out_dir = (std::filesystem::temp_directory_path() / "stance_tests" / "biped_push").string();
+  RunResult r = ScenarioRun(load_scenario(scenario_path("biped_push.yaml")), opt).run();
+  EXPECT_FALSE(r.fell) << r.fall_reason;
+  EXPECT_EQ(r.metrics["pushes_applied"], 3);
+  // the pushes at 2 s and 4 s are over by t = 5 s without a fall; the third is not applied yet
+  EXPECT_EQ(r.metrics["pushes_survived"], 2);
+  for (const char* key : {"max_com_offset_m", "mean_abs_ankle_offset_m", "torque_rms"})
+    EXPECT_TRUE(r.metrics.contains(key)) << key;
+  EXPECT_GT(r.metrics["max_com_offset_m"].get<double>(), 0.0);
+  EXPECT_LT(r.metrics["max_com_offset_m"].get<double>(), 0.2);
+}
+
+TEST(BipedSkateboard, BoardMovesForwardWithTheBipedUprightOnDart) {
+  RunOptions opt;
+  opt.engine = "dart";
+  opt.duration = 5.0;
+  RunResult r = ScenarioRun(load_scenario(scenario_path("biped_skateboard.yaml")), opt).run();
+  EXPECT_FALSE(r.fell) << r.fall_reason;
+  EXPECT_GT(r.metrics["board_distance_m"].get<double>(), 0.1);
+}
+
+// open: on MuJoCo the feet, half over the deck's side edges, roll the biped off sideways
+TEST(BipedSkateboard, DISABLED_BoardMovesForwardWithTheBipedUprightOnMujoco) {
+  RunOptions opt;
+  opt.engine = "mujoco";
+  opt.duration = 5.0;
+  RunResult r = ScenarioRun(load_scenario(scenario_path("biped_skateboard.yaml")), opt).run();
+  EXPECT_FALSE(r.fell) << r.fall_reason;
+  EXPECT_GT(r.metrics["board_distance_m"].get<double>(), 0.1);
+}
+
+}  // namespace
+}  // namespace stance
