@@ -167,6 +167,24 @@ TEST_F(ViewerTest, PanelGainChangesBehaviourAndSaves) {
   EXPECT_GT(mean_abs_difference(frame_of(stiff), frame_of(soft)), 0.05);
 }
 
+TEST_F(ViewerTest, DartRunsAreDrawn) {
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  ViewerOptions o = test_options();
+  o.engine = "dart";
+  Viewer dart(loaded, o);
+  o.engine = "mujoco";
+  Viewer mujoco(loaded, o);
+  for (int i = 0; i < 3; ++i) {
+    dart.frame();
+    mujoco.frame();
+  }
+  dart.screenshot((shot_dir() / "biped_stand_dart.png").string());
+  EXPECT_GT(non_background_fraction(frame_of(dart)), 0.2);
+  // the same model in the same pose: the pictures nearly agree (the panels' engine name and
+  // small state differences aside)
+  EXPECT_LT(mean_abs_difference(frame_of(dart), frame_of(mujoco)), 3.0);
+}
+
 TEST_F(ViewerTest, PhysicsThreadAdvancesAndPauses) {
   LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/pd_hold.yaml");
   ViewerOptions o = test_options();
