@@ -55,8 +55,7 @@ class ParamListBuilder {
     } else if constexpr (std::is_same_v<T, std::vector<double>>) {
       for (size_t i = 0; i < value.size(); ++i)
         out_.push_back({fmt::format("{}.{}", path, i), ParamEntry::Kind::kDouble, value[i], meta});
-    } else if constexpr (requires { typename T::value_type; } &&
-                         !std::is_same_v<T, std::string>) {
+    } else if constexpr (requires { typename T::value_type; } && !std::is_same_v<T, std::string>) {
       if constexpr (Visitable<typename T::value_type, ParamListBuilder>) {
         for (size_t i = 0; i < value.size(); ++i) {
           ParamListBuilder sub(out_, fmt::format("{}.{}", path, i));
@@ -96,7 +95,8 @@ inline void list_yaml_params(const YAML::Node& node, const std::string& prefix,
       list_yaml_params(kv.second, join(key), out);
     }
   } else if (node.IsSequence()) {
-    for (size_t i = 0; i < node.size(); ++i) list_yaml_params(node[i], join(std::to_string(i)), out);
+    for (size_t i = 0; i < node.size(); ++i)
+      list_yaml_params(node[i], join(std::to_string(i)), out);
   } else if (node.IsScalar()) {
     const std::string& s = node.Scalar();
     if (s == "true" || s == "false") {

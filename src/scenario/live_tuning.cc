@@ -11,8 +11,8 @@ void retune_controller(ScenarioRun& run, const LoadedScenario& loaded, int index
                        const std::string& path, double value) {
   auto& controllers = run.controllers();
   if (index < 0 || index >= static_cast<int>(controllers.size()))
-    throw InputError(fmt::format("controller {} does not exist ({} controllers)", index,
-                                 controllers.size()));
+    throw InputError(
+        fmt::format("controller {} does not exist ({} controllers)", index, controllers.size()));
   Controller& old = *controllers[index];
   std::vector<ParamEntry> entries = old.tunable_params();
   const ParamEntry* entry = nullptr;

@@ -19,10 +19,12 @@ struct OffscreenGlContext::Impl {
     if (d == EGL_NO_DISPLAY) return false;
     EGLint major = 0, minor = 0;
     if (!eglInitialize(d, &major, &minor)) return false;
-    const EGLint config_attribs[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT, EGL_RED_SIZE, 8,
-                                     EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_ALPHA_SIZE, 8,
-                                     EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8,
+    // clang-format off
+    const EGLint config_attribs[] = {EGL_SURFACE_TYPE, EGL_PBUFFER_BIT,
+                                     EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8,
+                                     EGL_ALPHA_SIZE, 8, EGL_DEPTH_SIZE, 24, EGL_STENCIL_SIZE, 8,
                                      EGL_RENDERABLE_TYPE, EGL_OPENGL_BIT, EGL_NONE};
+    // clang-format on
     EGLConfig config;
     EGLint n = 0;
     if (!eglChooseConfig(d, config_attribs, &config, 1, &n) || n < 1) {
@@ -57,9 +59,8 @@ OffscreenGlContext::OffscreenGlContext() : impl_(std::make_unique<Impl>()) {
   // 1. EGL on Mesa's surfaceless platform: no display server at all
   auto get_platform_display = reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(
       eglGetProcAddress("eglGetPlatformDisplayEXT"));
-  if (get_platform_display &&
-      impl_->try_egl(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY,
-                                          nullptr))) {
+  if (get_platform_display && impl_->try_egl(get_platform_display(EGL_PLATFORM_SURFACELESS_MESA,
+                                                                  EGL_DEFAULT_DISPLAY, nullptr))) {
     backend_ = "egl";
     return;
   }

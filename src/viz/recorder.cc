@@ -19,8 +19,8 @@ void parse_frame_size(const std::string& text, int& width, int& height) {
   char x = 0, extra = 0;
   if (std::sscanf(text.c_str(), "%d%c%d%c", &w, &x, &h, &extra) != 3 || (x != 'x' && x != 'X') ||
       w < 16 || h < 16 || w > 7680 || h > 4320)
-    throw InputError(fmt::format("--size '{}': expected WxH, e.g. 1280x720 (16..7680 x 16..4320)",
-                                 text));
+    throw InputError(
+        fmt::format("--size '{}': expected WxH, e.g. 1280x720 (16..7680 x 16..4320)", text));
   width = w;
   height = h;
 }
@@ -70,7 +70,8 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
                              const RecordOptions& o) {
   if (o.video.empty() && o.screenshot.empty())
     throw InputError("recording: give --record FILE.mp4 and/or --screenshot FILE.png");
-  if (!(o.fps > 0 && o.fps <= 1000)) throw InputError(fmt::format("--fps {}: expected 0..1000", o.fps));
+  if (!(o.fps > 0 && o.fps <= 1000))
+    throw InputError(fmt::format("--fps {}: expected 0..1000", o.fps));
   if (!o.video.empty() && (o.width % 2 || o.height % 2))
     throw InputError(fmt::format("--size {}x{}: video sizes must be even", o.width, o.height));
 
@@ -83,8 +84,8 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
   Engine& engine = run.engine();
   double duration = run.scenario().duration;
   if (!o.screenshot.empty() && (o.screenshot_time < 0 || o.screenshot_time > duration))
-    throw InputError(fmt::format("--at {}: expected a time in 0..{} s", o.screenshot_time,
-                                 duration));
+    throw InputError(
+        fmt::format("--at {}: expected a time in 0..{} s", o.screenshot_time, duration));
   if (o.camera == CameraMode::kFree) {
     // a fixed camera where the character starts
     view.options.camera = CameraMode::kFollow;

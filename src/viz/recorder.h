@@ -13,11 +13,11 @@
 namespace stance {
 
 struct RecordOptions {
-  std::string video;       // .mp4 to write; empty: none
-  std::string screenshot;  // .png to write; empty: none
+  std::string video;           // .mp4 to write; empty: none
+  std::string screenshot;      // .png to write; empty: none
   double screenshot_time = 0;  // s, simulated
   double fps = 60;
-  int width = 1280;   // even (the H.264 encoder's 4:2:0 chroma needs it)
+  int width = 1280;  // even (the H.264 encoder's 4:2:0 chroma needs it)
   int height = 720;
   CameraMode camera = CameraMode::kFollow;
 };

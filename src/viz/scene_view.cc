@@ -172,8 +172,8 @@ void SceneView::update(ScenarioRun& run, const std::vector<ForceArrow>& extra_fo
       Contact c = engine.contact(i);
       add_sphere(c.pos, 0.02, kContactColor);
       // the force on body2, scaled as the pushes: one body weight = 1 m
-      if (c.force.norm() > 1e-6) add_arrow(c.pos, c.pos + c.force / body_weight_n_,
-                                           kContactColor, 0.012);
+      if (c.force.norm() > 1e-6)
+        add_arrow(c.pos, c.pos + c.force / body_weight_n_, kContactColor, 0.012);
     }
   }
   if (options.com) {

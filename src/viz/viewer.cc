@@ -1,10 +1,10 @@
 #include "viz/viewer.h"
 
 #include <GLFW/glfw3.h>
-#include <imgui.h>
 #include <backends/imgui_impl_glfw.h>
 #include <backends/imgui_impl_opengl3.h>
 #include <fmt/format.h>
+#include <imgui.h>
 
 #include <algorithm>
 #include <atomic>
@@ -72,9 +72,9 @@ struct Viewer::Impl {
   std::atomic<bool> quit{false};
   bool paused = false;
   int single_steps = 0;
-  double speed = 1.0;          // requested sim/wall factor
-  double achieved_speed = 0;   // measured
-  bool anchor_dirty = true;    // re-anchor sim time to wall time
+  double speed = 1.0;         // requested sim/wall factor
+  double achieved_speed = 0;  // measured
+  bool anchor_dirty = true;   // re-anchor sim time to wall time
   struct KeyPush {
     int body = -1;
     Eigen::Vector3d force = Eigen::Vector3d::Zero();
@@ -199,9 +199,9 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
   if (!glfwInit()) throw std::runtime_error("cannot initialise GLFW (no display? try xvfb-run)");
   glfwWindowHint(GLFW_VISIBLE, options.visible ? GLFW_TRUE : GLFW_FALSE);
   glfwWindowHint(GLFW_SAMPLES, 4);
-  s.window = glfwCreateWindow(options.width, options.height,
-                              fmt::format("stance: {}", loaded.scenario.name).c_str(), nullptr,
-                              nullptr);
+  s.window =
+      glfwCreateWindow(options.width, options.height,
+                       fmt::format("stance: {}", loaded.scenario.name).c_str(), nullptr, nullptr);
   if (!s.window) throw std::runtime_error("cannot open a window (no display? try xvfb-run)");
   glfwMakeContextCurrent(s.window);
   glfwSwapInterval(options.threaded ? 1 : 0);
@@ -363,8 +363,8 @@ void Viewer::key(int k) {
       s.anchor_dirty = true;
       break;
     case GLFW_KEY_F:
-      s.view->options.camera = s.view->options.camera == CameraMode::kFollow ? CameraMode::kFree
-                                                                            : CameraMode::kFollow;
+      s.view->options.camera =
+          s.view->options.camera == CameraMode::kFollow ? CameraMode::kFree : CameraMode::kFollow;
       break;
     case GLFW_KEY_C:
       s.view->options.contacts = !s.view->options.contacts;
@@ -455,8 +455,7 @@ void Viewer::Impl::draw_panels() {
   std::string changed_path;
   double changed_value = 0;
   for (size_t i = 0; i < entries.size(); ++i) {
-    std::string header =
-        fmt::format("{} [{}]", run->controllers()[i]->type(), i);
+    std::string header = fmt::format("{} [{}]", run->controllers()[i]->type(), i);
     if (!ImGui::CollapsingHeader(header.c_str(), ImGuiTreeNodeFlags_DefaultOpen)) continue;
     for (auto& entry : entries[i]) {
       std::string label = fmt::format("{}##{}", entry.path, i);
@@ -573,7 +572,9 @@ void Viewer::set_param(int index, const std::string& path, double value) {
   impl_->refresh_entries();
 }
 
-const std::vector<std::vector<ParamEntry>>& Viewer::param_panel() const { return impl_->entries; }
+const std::vector<std::vector<ParamEntry>>& Viewer::param_panel() const {
+  return impl_->entries;
+}
 
 std::string Viewer::save_scenario(const std::string& path) {
   std::lock_guard<std::mutex> lock(impl_->mutex);
@@ -588,7 +589,9 @@ bool Viewer::paused() const {
   std::lock_guard<std::mutex> lock(impl_->mutex);
   return impl_->paused;
 }
-double Viewer::speed_factor() const { return impl_->speed; }
+double Viewer::speed_factor() const {
+  return impl_->speed;
+}
 bool Viewer::follow_camera() const {
   return impl_->view->options.camera == CameraMode::kFollow;
 }
@@ -608,6 +611,8 @@ Eigen::Vector3d Viewer::com_velocity() const {
   impl_->run->engine().forward();
   return impl_->run->engine().com_velocity();
 }
-const std::string& Viewer::status() const { return impl_->status; }
+const std::string& Viewer::status() const {
+  return impl_->status;
+}
 
 }  // namespace stance

@@ -4,9 +4,9 @@
 // GUI code), live plots over a rolling window and the key reference.
 //
 // Keys: space pause, n single step, p replay, , and . push back and forth, a and s skateboard
-// speed (a controller parameter "speed", stepped by "speed_step"), - and = slow down / speed up, f camera
-// follow/free, c contacts, m COM markers, h help, Esc quit. Mouse: left drag rotates, right drag
-// pans, wheel zooms.
+// speed (a controller parameter "speed", stepped by "speed_step"), - and = slow down / speed up, f
+// camera follow/free, c contacts, m COM markers, h help, Esc quit. Mouse: left drag rotates, right
+// drag pans, wheel zooms.
 //
 // Tests drive the same code without a person: key() is what a key press does, frame() is one
 // window frame, and with threaded = false each frame() advances the physics by frame_dt so that
@@ -27,9 +27,9 @@ struct ViewerOptions {
   std::string engine;  // overrides the scenario's
   int width = 1400, height = 900;
   bool visible = true;
-  bool threaded = true;         // physics thread paced to real time
-  double frame_dt = 1.0 / 60;   // s of simulated time per frame() when not threaded
-  std::string save_path;        // scenario file; "save scenario" writes <stem>_tuned.yaml beside it
+  bool threaded = true;        // physics thread paced to real time
+  double frame_dt = 1.0 / 60;  // s of simulated time per frame() when not threaded
+  std::string save_path;       // scenario file; "save scenario" writes <stem>_tuned.yaml beside it
 };
 
 class Viewer {

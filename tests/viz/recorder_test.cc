@@ -109,7 +109,8 @@ TEST_F(RecorderTest, Mp4HasTheExpectedLength) {
   std::string probe = run_capture(
       "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
       "stream=nb_read_frames,width,height,codec_name -show_entries format=duration -of "
-      "default=noprint_wrappers=1 '" + o.video + "'");
+      "default=noprint_wrappers=1 '" +
+      o.video + "'");
   EXPECT_NE(probe.find("codec_name=h264"), std::string::npos) << probe;
   EXPECT_NE(probe.find("width=320"), std::string::npos) << probe;
   EXPECT_NE(probe.find("height=240"), std::string::npos) << probe;

@@ -18,7 +18,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool have_display() { return std::getenv("DISPLAY") != nullptr; }
+bool have_display() {
+  return std::getenv("DISPLAY") != nullptr;
+}
 
 fs::path shot_dir() {
   fs::path d = fs::temp_directory_path() / "stance_viewer_tests";
