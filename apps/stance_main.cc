@@ -1,6 +1,7 @@
 // stance: the command-line front end. Argument parsing only; the work is in the library.
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
 #include <iostream>
 
 #include "app/commands.h"
@@ -64,6 +65,21 @@ int main(int argc, char** argv) {
   bvh_info_cmd->add_option("file", bvh_file, "BVH file")->required();
   bvh_info_cmd->add_flag("--json", bvh_json, "print JSON");
 
+  std::string synth_out;
+  auto* bvh_synth_cmd = bvh_cmd->add_subcommand("synth-walk", "write the synthetic walking clip");
+  bvh_synth_cmd->add_option("output", synth_out, "BVH file to write")->required();
+
+  stance::Bvh2MjcfCommand bvh2mjcf;
+  auto* bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");
+  bvh2mjcf_cmd->add_option("input", bvh2mjcf.bvh, "BVH file")->required();
+  bvh2mjcf_cmd->add_option("output", bvh2mjcf.mjcf, "MJCF file to write")->required();
+  bvh2mjcf_cmd->add_option("--mass", bvh2mjcf.mass_kg, "total mass, kg");
+  bvh2mjcf_cmd->add_option("--first-frame", bvh2mjcf.first_frame, "frame of the start keyframe");
+  bvh2mjcf_cmd->add_option("--timestep", bvh2mjcf.timestep_s, "simulation timestep, s");
+  // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion
+  std::string export_bvh;
+  run_cmd->add_option("--export-bvh", export_bvh, "mocap_tracker: write the simulated motion");
+
   std::string list_dir = "scenarios";
   auto* list_cmd = app.add_subcommand("list", "controllers and scenarios");
   list_cmd->add_option("dir", list_dir, "scenario folder");
@@ -112,6 +128,9 @@ int main(int argc, char** argv) {
     return stance::kExitBadInput;
 #endif
   }
+  if (*run_cmd && !export_bvh.empty())
+    run.sets.push_back("controllers.0.export_bvh=" +
+                       std::filesystem::absolute(export_bvh).string());
   if (*run_cmd) return stance::run_command(run);
   if (*view_cmd || *shots_cmd) {
 #ifdef STANCE_HAVE_VIEWER
@@ -125,6 +144,8 @@ int main(int argc, char** argv) {
   if (*info_cmd) return stance::info_command(info);
   if (*convert_cmd) return stance::convert_command(convert_in, convert_out);
   if (*bvh_info_cmd) return stance::bvh_info_command(bvh_file, bvh_json);
+  if (*bvh2mjcf_cmd) return stance::bvh2mjcf_command(bvh2mjcf);
+  if (*bvh_synth_cmd) return stance::bvh_synth_walk_command(synth_out);
   if (*list_cmd) return stance::list_command(list_dir);
   if (*sweep_cmd) return stance::sweep_command(sweep);
   if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);

@@ -6,14 +6,17 @@
 #include <algorithm>
 #include <chrono>
 #include <filesystem>
+#include <fstream>
 #include <iostream>
 
 #include "control/controller.h"
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "model/bvh_to_mjcf.h"
 #include "model/skel_to_mjcf.h"
 #include "motion/bvh.h"
+#include "motion/reference_motion.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
 #include "scenario/sweep.h"
@@ -121,6 +124,33 @@ int bvh_info_command(const std::string& path, bool json) {
       std::cout << bvh_info_json(clip).dump(2) << "\n";
     else
       std::cout << bvh_info_text(clip);
+    return kExitOk;
+  });
+}
+
+int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
+  return guarded([&] {
+    BvhCharacterOptions o;
+    o.total_mass_kg = cmd.mass_kg;
+    o.timestep_s = cmd.timestep_s;
+    o.reference.first_frame = cmd.first_frame;
+    BvhClip clip = read_bvh(cmd.bvh);
+    BvhCharacter ch = make_bvh_character(clip, o);
+    std::ofstream f(cmd.mjcf, std::ios::binary);
+    if (!f || !(f << ch.mjcf)) throw InputError(cmd.mjcf + ": cannot write");
+    std::cout << fmt::format("wrote {}: {} bodies, {:.6g} kg, {:.6g} m per file unit\n", cmd.mjcf,
+                             ch.skeleton.segment_count(), cmd.mass_kg,
+                             ch.skeleton.scale_to_meters);
+    return kExitOk;
+  });
+}
+
+int bvh_synth_walk_command(const std::string& out_path) {
+  return guarded([&] {
+    BvhClip clip = make_synthetic_walk_clip();
+    write_bvh(clip, out_path);
+    std::cout << fmt::format("wrote {}: {} frames at {:.6g} s\n", out_path, clip.frame_count,
+                             clip.frame_time_s);
     return kExitOk;
   });
 }

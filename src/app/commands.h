@@ -51,6 +51,19 @@ int convert_command(const std::string& in_path, const std::string& out_path);
 // `stance bvh info FILE [--json]`
 int bvh_info_command(const std::string& path, bool json);
 
+// `stance bvh2mjcf IN.bvh OUT.xml [--mass KG] [--first-frame N] [--timestep S]`: a character
+// for the clip (model/bvh_to_mjcf.h) whose "start" keyframe is the clip at first_frame
+struct Bvh2MjcfCommand {
+  std::string bvh, mjcf;
+  double mass_kg = 70;
+  int first_frame = 0;
+  double timestep_s = 0.002;
+};
+int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
+
+// `stance bvh synth-walk OUT.bvh`: the synthetic walking clip (motion/reference_motion.h)
+int bvh_synth_walk_command(const std::string& out_path);
+
 // list scenarios in a folder and the registered controllers
 int list_command(const std::string& scenario_dir);
 

@@ -6,6 +6,7 @@
 #include "control/control_noise.h"
 #include "control/hold_pose_pd.h"
 #include "control/lqr.h"
+#include "control/mocap_tracker.h"
 #include "control/stable_pd.h"
 #include "control/simbicon.h"
 #include "control/skateboard_drive.h"
@@ -47,6 +48,7 @@ const std::vector<ControllerType>& controller_registry() {
        factory_of<SlopeWalker, SlopeWalkerParams>()},
       {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
        factory_of<Lqr, LqrParams>()},
+      {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root", make_mocap_tracker},
       {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
          return std::unique_ptr<Controller>(

@@ -1,0 +1,465 @@
+#include "control/mocap_tracker.h"
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "math/rotations.h"
+#include "model/bvh_to_mjcf.h"
+
+namespace stance {
+
+namespace {
+
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+
+std::string lower(std::string s) {
+  for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return s;
+}
+
+Eigen::Quaterniond read_quat(const Eigen::VectorXd& q, int adr) {
+  return Eigen::Quaterniond(q[adr], q[adr + 1], q[adr + 2], q[adr + 3]);
+}
+void write_quat(Eigen::VectorXd& q, int adr, const Eigen::Quaterniond& r) {
+  q[adr] = r.w();
+  q[adr + 1] = r.x();
+  q[adr + 2] = r.y();
+  q[adr + 3] = r.z();
+}
+
+}  // namespace
+
+MocapRootMode parse_mocap_root_mode(const std::string& mode) {
+  if (mode == "kinematic") return MocapRootMode::kKinematic;
+  if (mode == "assisted") return MocapRootMode::kAssisted;
+  if (mode == "free") return MocapRootMode::kFree;
+  throw InputError(fmt::format("mode: expected kinematic, assisted or free, found '{}'", mode));
+}
+
+std::unique_ptr<Controller> make_mocap_tracker(const YAML::Node& node, const ControllerContext& ctx,
+                                               const Engine& engine) {
+  std::string dir = std::filesystem::path(ctx.source.file).parent_path().string();
+  return std::make_unique<MocapTracker>(read_params<MocapTrackerParams>(node, ctx), engine, dir);
+}
+
+MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engine,
+                           const std::string& base_dir) {
+  MocapTrackerModel& m = model_;
+  m.params = params;
+  m.mode = parse_mocap_root_mode(params.mode);
+  if (params.bvh.empty()) throw InputError("bvh: a BVH file is required");
+  std::filesystem::path path(params.bvh);
+  if (path.is_relative() && !base_dir.empty()) path = std::filesystem::path(base_dir) / path;
+  auto clip = std::make_shared<BvhClip>(read_bvh(path.string()));
+  MotionSkeletonOptions so;
+  so.scale_to_meters = params.scale_to_meters;
+  if (params.up_axis.size() != 1) throw InputError("up_axis: expected y or z");
+  so.up_axis = params.up_axis[0];
+  ReferenceOptions ro;
+  ro.first_frame = params.first_frame;
+  ro.last_frame = params.last_frame;
+  ro.start_s = params.start_s;
+  ro.end_s = params.end_s;
+  ro.loop = params.loop;
+  ro.align_ground = params.align_ground;
+  ro.align_whole_clip = params.ground == "clip";
+  if (params.ground != "clip" && params.ground != "start")
+    throw InputError("ground: expected start or clip, found '" + params.ground + "'");
+  m.first_frame = params.start_s >= 0
+                      ? static_cast<int>(std::lround(params.start_s / clip->frame_time_s))
+                      : params.first_frame;
+  auto ref = std::make_shared<ReferenceMotion>(*clip, make_motion_skeleton(*clip, so), ro);
+  m.clip = clip;
+  m.reference = ref;
+  const MotionSkeleton& sk = ref->skeleton();
+  const int n = sk.segment_count();
+
+  // engine indices: bodies named after segments, ball joints likewise, free joint on the root
+  m.body.resize(n);
+  m.qpos_adr.resize(n);
+  m.dof_adr.resize(n);
+  for (int k = 0; k < n; ++k) {
+    const std::string& name = sk.segments[k].name;
+    m.body[k] = engine.body_index(name);
+    if (m.body[k] < 0)
+      throw InputError(fmt::format("bvh: the model has no body '{}' for the clip's joint (build the "
+                                   "model with `stance bvh2mjcf`){}",
+                                   name, did_you_mean(name, engine.body_names())));
+    int joint = -1;
+    for (int j = 0; j < engine.njoint(); ++j)
+      if (engine.joint(j).body == m.body[k]) joint = j;
+    if (joint < 0) throw InputError("body '" + name + "' has no joint");
+    const JointInfo& info = engine.joint(joint);
+    JointType want = k == 0 ? JointType::kFree : JointType::kBall;
+    int want_nq = k == 0 ? 7 : 4;
+    if (info.type != want || info.nq != want_nq)
+      throw InputError(fmt::format("joint '{}': expected a {} joint with a quaternion (MuJoCo)",
+                                   info.name, k == 0 ? "free" : "ball"));
+    m.qpos_adr[k] = info.qpos_adr;
+    m.dof_adr[k] = info.dof_adr;
+  }
+  if (engine.nv() != 3 * n + 3)
+    throw InputError(fmt::format("the model has {} dofs; the clip's character has {}", engine.nv(),
+                                 3 * n + 3));
+
+  // gains: joints, then the root in assisted mode
+  const int nv = engine.nv();
+  m.kp = Eigen::VectorXd::Zero(nv);
+  m.kd = Eigen::VectorXd::Zero(nv);
+  for (int k = 1; k < n; ++k) {
+    const std::string& name = sk.segments[k].name;
+    double kp = params.kp, kd = params.kd;
+    if (auto it = params.kp_joints.find(name); it != params.kp_joints.end()) kp = it->second;
+    if (auto it = params.kd_joints.find(name); it != params.kd_joints.end()) kd = it->second;
+    m.kp.segment<3>(m.dof_adr[k]).setConstant(kp);
+    m.kd.segment<3>(m.dof_adr[k]).setConstant(kd);
+  }
+  for (const auto& table : {params.kp_joints, params.kd_joints})
+    for (const auto& [name, value] : table)
+      if (sk.find_segment(name) < 1)
+        throw InputError(fmt::format("kp_joints/kd_joints: unknown joint '{}'", name));
+  if (m.mode == MocapRootMode::kAssisted) {
+    m.kp.segment<3>(m.dof_adr[0]).setConstant(params.root_kp);
+    m.kd.segment<3>(m.dof_adr[0]).setConstant(params.root_kd);
+    m.kp.segment<3>(m.dof_adr[0] + 3).setConstant(params.root_kp_rot);
+    m.kd.segment<3>(m.dof_adr[0] + 3).setConstant(params.root_kd_rot);
+  }
+
+  // end effectors: leaf segments, at their furthest bone end
+  for (int k : sk.end_effectors()) {
+    Eigen::Vector3d tip = Eigen::Vector3d::Zero();
+    for (const auto& e : sk.segments[k].bone_ends)
+      if (e.norm() > tip.norm()) tip = e;
+    m.end_effectors.push_back(k);
+    m.end_points.push_back(tip);
+  }
+
+  // legs: the topmost foot segment of each chain, and the root's child above it
+  auto find = [&](const std::string& name, const char* what) {
+    int k = sk.find_segment(name);
+    if (k < 0) throw InputError(fmt::format("{}: unknown joint '{}'", what, name));
+    return k;
+  };
+  std::vector<int> feet;
+  for (int k = 1; k < n; ++k) {
+    if (!is_foot_segment_name(sk.segments[k].name)) continue;
+    bool top = true;
+    for (int a = sk.segments[k].parent; a > 0; a = sk.segments[a].parent)
+      if (is_foot_segment_name(sk.segments[a].name)) top = false;
+    if (top) feet.push_back(k);
+  }
+  for (int k : feet) {
+    int side = lower(sk.segments[k].name).find("right") != std::string::npos ||
+                       sk.segments[k].name[0] == 'R'
+                   ? 1
+                   : 0;
+    if (m.foot[side] < 0) m.foot[side] = k;
+  }
+  if (!params.left_foot.empty()) m.foot[0] = find(params.left_foot, "left_foot");
+  if (!params.right_foot.empty()) m.foot[1] = find(params.right_foot, "right_foot");
+  for (int side = 0; side < 2; ++side) {
+    int k = m.foot[side];
+    while (k > 0 && sk.segments[k].parent > 0) k = sk.segments[k].parent;
+    m.hip[side] = k > 0 ? k : -1;
+  }
+  if (!params.left_hip.empty()) m.hip[0] = find(params.left_hip, "left_hip");
+  if (!params.right_hip.empty()) m.hip[1] = find(params.right_hip, "right_hip");
+  if (m.mode == MocapRootMode::kFree && params.balance &&
+      (m.hip[0] < 0 || m.hip[1] < 0 || m.foot[0] < 0 || m.foot[1] < 0 || m.hip[0] == m.hip[1]))
+    throw InputError("free mode balance: cannot find both legs; set left_hip, right_hip, "
+                     "left_foot and right_foot");
+
+  // walking direction in the root frame: the mean horizontal root velocity over one pass
+  ReferencePose a = ref->make_pose();
+  Eigen::Vector3d fwd = Eigen::Vector3d::Zero();
+  for (int f = 0; f + 1 < ref->frame_count(); ++f) {
+    ref->frame_pose(f, a);
+    Eigen::Vector3d vel = a.root_velocity;
+    vel.z() = 0;
+    fwd += a.rotations[0].conjugate() * vel;
+  }
+  fwd.z() = 0;
+  if (fwd.norm() > 1e-9) m.forward_in_root = fwd.normalized();
+}
+
+void MocapTracker::reset(const Engine& engine) {
+  const ReferenceMotion& ref = *model_.reference;
+  pose_ = ref.make_pose();
+  pose_now_ = ref.make_pose();
+  const int n = ref.skeleton().segment_count();
+  fk_pos_.assign(n, Eigen::Vector3d::Zero());
+  fk_rot_.assign(n, Eigen::Quaterniond::Identity());
+  const int nq = engine.nq(), nv = engine.nv();
+  for (Eigen::VectorXd* x : {&q_, &q_ref_, &q_pred_}) x->setZero(nq);
+  for (Eigen::VectorXd* x : {&v_, &v_ref_, &err_, &p_, &d_, &c_, &f_, &rhs_, &tau_}) x->setZero(nv);
+  m_.setZero(nv, nv);
+  llt_ = Eigen::LLT<Eigen::MatrixXd>(nv);
+  recorded_.clear();
+  recorded_frames_ = 0;
+  next_record_t_ = 0;
+  if (!model_.params.export_bvh.empty())
+    recorded_.reserve(static_cast<size_t>(nq) * static_cast<size_t>(120.0 / ref.frame_time_s()));
+  stance_ = 0;
+  error_sum_deg_ = max_error_deg_ = 0;
+  error_samples_ = 0;
+  root_error_sum_ = root_error_max_ = ee_error_sum_ = ee_error_max_ = 0;
+  steps_ = 0;
+  helper_impulse_ = helper_angular_impulse_ = 0;
+  fall_time_ = -1;
+  last_error_deg_ = last_root_error_ = 0;
+  last_helper_force_.setZero();
+}
+
+// q_ref_, v_ref_ <- the reference pose at time t (pose_ holds it)
+void MocapTracker::track_state(const Engine& engine, double t) {
+  const MocapTrackerModel& m = model_;
+  m.reference->sample(t, pose_);
+  const int n = static_cast<int>(m.body.size());
+  q_ref_.segment<3>(m.qpos_adr[0]) = pose_.root_position;
+  write_quat(q_ref_, m.qpos_adr[0] + 3, pose_.rotations[0]);
+  v_ref_.segment<3>(m.dof_adr[0]) = pose_.root_velocity;
+  v_ref_.segment<3>(m.dof_adr[0] + 3) = pose_.angular_velocities[0];
+  for (int k = 1; k < n; ++k) {
+    write_quat(q_ref_, m.qpos_adr[k], pose_.rotations[k]);
+    v_ref_.segment<3>(m.dof_adr[k]) = pose_.angular_velocities[k];
+  }
+}
+
+// SIMBICON-style feedback on the swing thigh (world frame) and the stance hip's torso torque
+void MocapTracker::balance(const Engine& engine, double t_target) {
+  const MocapTrackerModel& m = model_;
+  const MocapTrackerParams& p = m.params;
+  const ReferenceMotion& ref = *m.reference;
+  ref.forward_kinematics(pose_, fk_pos_, fk_rot_);
+  // stance: the foot lower in the reference
+  stance_ = fk_pos_[m.foot[0]].z() <= fk_pos_[m.foot[1]].z() ? 0 : 1;
+  const int swing = 1 - stance_;
+  // heading frames of the simulation and the reference
+  const int root_body = m.body[0];
+  BodyPose root = engine.body_pose(root_body);
+  auto heading = [&](const Eigen::Quaterniond& r) {
+    Eigen::Vector3d f = r * m.forward_in_root;
+    f.z() = 0;
+    return f.norm() > 1e-9 ? Eigen::Vector3d(f.normalized()) : Eigen::Vector3d::UnitX();
+  };
+  Eigen::Vector3d fwd = heading(root.quat), fwd_ref = heading(pose_.rotations[0]);
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d lat = up.cross(fwd), lat_ref = up.cross(fwd_ref);
+  // d: root offset from the stance ankle; v: root velocity; both against the reference's
+  Eigen::Vector3d d = root.pos - engine.body_pose(m.body[m.foot[stance_]]).pos;
+  Eigen::Vector3d d_ref = pose_.root_position - fk_pos_[m.foot[stance_]];
+  Eigen::Vector3d vel = engine.body_velocity(root_body).tail<3>();
+  Eigen::Vector3d vel_ref = pose_.root_velocity;
+  double th_sag = p.cd_sagittal * (d.dot(fwd) - d_ref.dot(fwd_ref)) +
+                  p.cv_sagittal * (vel.dot(fwd) - vel_ref.dot(fwd_ref));
+  double th_cor = p.cd_coronal * (d.dot(lat) - d_ref.dot(lat_ref)) +
+                  p.cv_coronal * (vel.dot(lat) - vel_ref.dot(lat_ref));
+  th_sag = std::clamp(th_sag, -0.8, 0.8);
+  th_cor = std::clamp(th_cor, -0.5, 0.5);
+  // the reference thigh in the world, turned onto the simulated heading, then the feedback
+  Eigen::Quaterniond yaw_fix = Eigen::Quaterniond::FromTwoVectors(fwd_ref, fwd);
+  Eigen::Quaterniond delta = Eigen::Quaterniond(Eigen::AngleAxisd(th_sag, -lat)) *
+                             Eigen::Quaterniond(Eigen::AngleAxisd(th_cor, fwd));
+  const int hip = m.hip[swing];
+  Eigen::Quaterniond thigh_des = delta * yaw_fix * fk_rot_[hip];
+  Eigen::Quaterniond parent = engine.body_pose(m.body[ref.skeleton().segments[hip].parent]).quat;
+  Eigen::Quaterniond local = (parent.conjugate() * thigh_des).normalized();
+  if (local.coeffs().dot(pose_.rotations[hip].coeffs()) < 0) local.coeffs() *= -1;
+  write_quat(q_ref_, m.qpos_adr[hip], local);
+  // pelvis servo: world torque T wanted on the root; the stance hip applies -T to its thigh
+  Eigen::Quaterniond root_des = yaw_fix * pose_.rotations[0];
+  Eigen::Vector3d rot_err = quaternion_log((root_des * root.quat.conjugate()).normalized());
+  Eigen::Vector3d w = engine.body_velocity(root_body).head<3>();
+  Eigen::Vector3d w_ref = root_des * pose_.angular_velocities[0];
+  Eigen::Vector3d torque = p.torso_kp * rot_err + p.torso_kd * (w_ref - w);
+  const int stance_hip = m.hip[stance_];
+  Eigen::Quaterniond thigh = engine.body_pose(m.body[stance_hip]).quat;
+  tau_.segment<3>(m.dof_adr[stance_hip]) -= thigh.conjugate() * torque;
+}
+
+void MocapTracker::compute(const Engine& engine, ControlOutput& out) {
+  const MocapTrackerModel& m = model_;
+  const double dt = engine.timestep();
+  const double t = engine.time();
+  engine.get_positions(q_);
+  engine.get_velocities(v_);
+  accumulate_metrics(engine);
+  // record the simulated pose at the clip's frame rate
+  if (!m.params.export_bvh.empty() && t + 1e-9 >= next_record_t_) {
+    recorded_.insert(recorded_.end(), q_.data(), q_.data() + q_.size());
+    ++recorded_frames_;
+    next_record_t_ = recorded_frames_ * m.reference->frame_time_s();
+  }
+  // targets for the end of this step
+  track_state(engine, t + dt);
+  tau_.setZero();
+  engine.mass_matrix(m_);
+  engine.bias_forces(c_);
+  engine.constraint_forces(f_);
+  if (m.mode == MocapRootMode::kKinematic) {
+    // deadbeat: q + dt v' = q_ref(t + dt) with v' = v + dt M^-1 (tau - c + f)
+    engine.difference_positions(q_, q_ref_, err_);
+    rhs_ = (err_ / dt - v_) / dt;
+    // contact forces are not fed back: from the last step they alternate with the new ones
+    tau_.noalias() = m_ * rhs_;
+    tau_ += c_;
+  } else {
+    if (m.mode == MocapRootMode::kFree && m.params.balance) balance(engine, t + dt);
+    // SPD with target velocities: p = -Kp (q + v dt (-) q_ref), d = -Kd (v - v_ref)
+    engine.integrate_positions(q_, v_, dt, q_pred_);
+    engine.difference_positions(q_ref_, q_pred_, err_);
+    p_ = -m.kp.cwiseProduct(err_);
+    d_ = -m.kd.cwiseProduct(v_ - v_ref_);
+    m_.diagonal() += m.kd * dt;
+    llt_.compute(m_);
+    rhs_ = p_ + d_ - c_ + f_;
+    llt_.solveInPlace(rhs_);
+    Eigen::VectorXd& spd = err_;  // reuse: tau of the SPD
+    spd = p_ + d_ - (m.kd * dt).cwiseProduct(rhs_);
+    if (m.params.max_torque > 0)
+      for (int i = 6; i < spd.size(); ++i)
+        spd[i] = std::clamp(spd[i], -m.params.max_torque, m.params.max_torque);
+    tau_ += spd;
+    if (m.mode == MocapRootMode::kFree) tau_.segment<6>(m.dof_adr[0]).setZero();
+  }
+  // helper: whatever lands on the root dofs
+  if (m.mode != MocapRootMode::kFree) {
+    last_helper_force_ = tau_.segment<3>(m.dof_adr[0]);
+    helper_impulse_ += last_helper_force_.norm() * dt;
+    helper_angular_impulse_ += tau_.segment<3>(m.dof_adr[0] + 3).norm() * dt;
+  }
+  out.tau += tau_;
+  ++steps_;
+}
+
+void MocapTracker::accumulate_metrics(const Engine& engine) {
+  const MocapTrackerModel& m = model_;
+  const double t = engine.time();
+  m.reference->sample(t, pose_now_);
+  const int n = static_cast<int>(m.body.size());
+  double sum = 0;
+  for (int k = 1; k < n; ++k) {
+    double e = geodesic_angle(read_quat(q_, m.qpos_adr[k]), pose_now_.rotations[k]) * kRadToDeg;
+    sum += e;
+    max_error_deg_ = std::max(max_error_deg_, e);
+  }
+  if (n > 1) {
+    error_sum_deg_ += sum;
+    error_samples_ += n - 1;
+    last_error_deg_ = sum / (n - 1);
+  }
+  Eigen::Vector3d root = q_.segment<3>(m.qpos_adr[0]);
+  last_root_error_ = (root - pose_now_.root_position).norm();
+  root_error_sum_ += last_root_error_;
+  root_error_max_ = std::max(root_error_max_, last_root_error_);
+  m.reference->forward_kinematics(pose_now_, fk_pos_, fk_rot_);
+  double ee = 0;
+  for (size_t i = 0; i < m.end_effectors.size(); ++i) {
+    int k = m.end_effectors[i];
+    BodyPose b = engine.body_pose(m.body[k]);
+    Eigen::Vector3d sim = b.pos + b.quat * m.end_points[i];
+    Eigen::Vector3d want = fk_pos_[k] + fk_rot_[k] * m.end_points[i];
+    double e = (sim - want).norm();
+    ee += e;
+    ee_error_max_ = std::max(ee_error_max_, e);
+  }
+  if (!m.end_effectors.empty()) ee_error_sum_ += ee / m.end_effectors.size();
+  if (fall_time_ < 0 && root.z() < 0.5 * pose_now_.root_position.z()) fall_time_ = t;
+}
+
+double MocapTracker::mean_joint_error_deg() const {
+  return error_samples_ ? error_sum_deg_ / error_samples_ : 0.0;
+}
+
+void MocapTracker::signal_names(std::vector<std::string>& names) const {
+  for (const char* s : {"mocap_joint_error_deg", "mocap_root_error_m", "mocap_helper_fx",
+                        "mocap_helper_fy", "mocap_helper_fz", "mocap_stance"})
+    names.emplace_back(s);
+}
+
+void MocapTracker::signals(std::vector<double>& values) const {
+  values.push_back(last_error_deg_);
+  values.push_back(last_root_error_);
+  for (int i = 0; i < 3; ++i) values.push_back(last_helper_force_[i]);
+  values.push_back(stance_);
+}
+
+void MocapTracker::add_metrics(nlohmann::json& metrics) const {
+  const double steps = std::max<long>(steps_, 1);
+  nlohmann::json j;
+  j["mode"] = model_.params.mode;
+  j["mean_joint_error_deg"] = mean_joint_error_deg();
+  j["max_joint_error_deg"] = max_error_deg_;
+  j["mean_root_error_m"] = root_error_sum_ / steps;
+  j["max_root_error_m"] = root_error_max_;
+  j["mean_end_effector_error_m"] = ee_error_sum_ / steps;
+  j["max_end_effector_error_m"] = ee_error_max_;
+  nlohmann::json names = nlohmann::json::array();
+  for (int k : model_.end_effectors) names.push_back(model_.reference->skeleton().segments[k].name);
+  j["end_effectors"] = names;
+  j["helper_impulse_Ns"] = helper_impulse_;
+  j["helper_angular_impulse_Nms"] = helper_angular_impulse_;
+  j["root_fall_time_s"] = fall_time_ >= 0 ? nlohmann::json(fall_time_) : nlohmann::json(nullptr);
+  j["clip_frames"] = model_.reference->frame_count();
+  j["clip_duration_s"] = model_.reference->duration_s();
+  metrics["mocap"] = j;
+}
+
+BvhClip MocapTracker::recorded_clip() const {
+  const MocapTrackerModel& m = model_;
+  const BvhClip& src = *m.clip;
+  const MotionSkeleton& sk = m.reference->skeleton();
+  BvhClip out;
+  out.source = src.source;
+  out.joints = src.joints;
+  out.channel_count = src.channel_count;
+  out.frame_time_s = src.frame_time_s;
+  out.position_joint_count = src.position_joint_count;
+  const int frames = recorded_frames_;
+  out.frame_count = frames;
+  const size_t nj = src.joints.size();
+  out.rotations.resize(nj * frames);
+  out.positions.resize(static_cast<size_t>(src.position_joint_count) * frames);
+  const Eigen::Quaterniond c = sk.to_z_up, ct = c.conjugate();
+  const int nq = q_.size();
+  const int range = m.reference->frame_count();
+  for (int f = 0; f < frames; ++f) {
+    const double* q = recorded_.data() + static_cast<size_t>(f) * nq;
+    Eigen::Map<const Eigen::VectorXd> qf(q, nq);
+    // joints that are no segment keep the clip's own values at the matching frame
+    int sf = m.first_frame + (f % range);
+    for (size_t j = 0; j < nj; ++j) out.rotation(f, j) = src.rotation(sf, j);
+    for (int s = 0; s < src.position_joint_count; ++s)
+      out.positions[static_cast<size_t>(f) * src.position_joint_count + s] =
+          src.positions[static_cast<size_t>(sf) * src.position_joint_count + s];
+    for (int k = 0; k < sk.segment_count(); ++k) {
+      const MotionSegment& seg = sk.segments[k];
+      Eigen::Quaterniond r = ct * read_quat(qf, m.qpos_adr[k]).normalized() * c;
+      // merged helpers keep their clip rotation; the segment's own joint takes the rest
+      Eigen::Quaterniond helpers = Eigen::Quaterniond::Identity();
+      for (size_t i = 0; i + 1 < seg.rotation_chain.size(); ++i)
+        helpers = helpers * src.rotation(sf, seg.rotation_chain[i]);
+      out.rotation(f, seg.bvh_joint) = (helpers.conjugate() * r).normalized();
+    }
+    const BvhJoint& root = src.joints[sk.segments[0].bvh_joint];
+    if (root.position_slot >= 0)
+      out.positions[static_cast<size_t>(f) * src.position_joint_count + root.position_slot] =
+          (ct * Eigen::Vector3d(qf.segment<3>(m.qpos_adr[0]))) / sk.scale_to_meters;
+  }
+  return out;
+}
+
+void MocapTracker::write_outputs(const std::string& out_dir) const {
+  if (model_.params.export_bvh.empty() || recorded_frames_ == 0) return;
+  std::filesystem::path path(model_.params.export_bvh);
+  if (path.is_relative() && !out_dir.empty()) path = std::filesystem::path(out_dir) / path;
+  write_bvh(recorded_clip(), path.string());
+}
+
+}  // namespace stance

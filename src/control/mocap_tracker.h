@@ -1,0 +1,182 @@
+// Motion-capture tracking: stable PD on every ball joint towards a BVH reference (with target
+// velocities), on a character built by `stance bvh2mjcf` (bodies and ball joints named after the
+// BVH joints, free joint "root"). MuJoCo models only (quaternion ball joints).
+//
+// Root modes:
+//  - kinematic: every dof, root included, is driven deadbeat by inverse dynamics:
+//      tau = M (v_des - v) / dt + c - f_c,  v_des = (q_ref(t + dt) (-) q) / dt
+//    so the character follows the reference up to the change of contact forces in one step;
+//    the joint error is that of the resampling alone.
+//  - assisted: SPD on the joints, plus root gains inside the same SPD solve; the root's share of
+//    tau is the helper force and torque, integrated into helper impulses (N s, N m s).
+//  - free: no root help. A SIMBICON-style balance layer (Yin et al. 2007) servoes the swing
+//    thigh in the world frame and moves its target by theta = cd (d - d_ref) + cv (v - v_ref),
+//    about the lateral axis (sagittal) and the heading axis (coronal), with d the root's
+//    horizontal offset from the stance ankle; the stance hip adds the torque that servoes the
+//    pelvis towards the reference orientation (tau_stance_hip = -tau_torso).
+//
+// Metrics: joint angle error (geodesic, deg, mean and max over joints and time), root position
+// error, end-effector error (leaf segments' bone ends), helper impulse (assisted), and the time
+// the root fell below half its reference height. With export_bvh set, the simulated motion is
+// written back on the clip's own skeleton at the clip's frame rate.
+#pragma once
+
+#include <Eigen/Cholesky>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "control/controller.h"
+#include "engine/engine.h"
+#include "motion/bvh.h"
+#include "motion/reference_motion.h"
+
+namespace stance {
+
+struct MocapTrackerParams {
+  std::string bvh;                 // clip; relative paths start at the scenario's folder
+  std::string mode = "assisted";   // kinematic, assisted or free
+  double scale_to_meters = 0;      // 0: detect from the leg length
+  std::string up_axis = "y";       // the file's up axis
+  int first_frame = 0;
+  int last_frame = -1;             // -1: the last
+  double start_s = -1;             // >= 0: overrides first_frame
+  double end_s = -1;               // >= 0: overrides last_frame
+  bool loop = true;
+  bool align_ground = true;
+  std::string ground = "start";    // align at the start, or the lowest point of the whole clip
+  double kp = 1000;                // N m/rad on every ball joint
+  double kd = 100;                 // N m s/rad
+  NamedValues kp_joints;           // per-joint kp (joint name)
+  NamedValues kd_joints;
+  double root_kp = 20000;          // assisted: N/m on the root position
+  double root_kd = 2000;           // N s/m
+  double root_kp_rot = 2000;       // N m/rad on the root orientation
+  double root_kd_rot = 200;        // N m s/rad
+  // free mode balance layer
+  bool balance = true;
+  double cd_sagittal = 0.5;        // rad/m
+  double cv_sagittal = 0.2;        // rad s/m
+  double cd_coronal = 0.5;
+  double cv_coronal = 0.2;
+  double torso_kp = 1500;          // N m/rad, stance-hip torque servoing the pelvis
+  double torso_kd = 150;
+  std::string left_hip;            // thigh joints; empty: found from the foot chains
+  std::string right_hip;
+  std::string left_foot;           // feet; empty: the first foot/toe/ankle segment per leg
+  std::string right_foot;
+  double max_torque = 0;           // N m clamp on joint torques; 0: none
+  std::string export_bvh;          // write the simulated motion here (relative: to the output)
+
+  template <class V>
+  void visit(V& v) {
+    v("bvh", bvh, {.help = "BVH clip to track"});
+    v("mode", mode, {.help = "kinematic, assisted or free"});
+    v("scale_to_meters", scale_to_meters, {.unit = "m", .min = 0, .help = "0: detect"});
+    v("up_axis", up_axis, {.help = "the file's up axis, y or z"});
+    v("first_frame", first_frame, {.min = 0});
+    v("last_frame", last_frame, {.min = -1, .help = "-1: the last frame"});
+    v("start_s", start_s, {.unit = "s", .min = -1, .help = ">= 0: overrides first_frame"});
+    v("end_s", end_s, {.unit = "s", .min = -1, .help = ">= 0: overrides last_frame"});
+    v("loop", loop, {.help = "repeat the clip, accumulating the root displacement"});
+    v("align_ground", align_ground, {.help = "lowest point on the floor at the start"});
+    v("ground", ground, {.help = "start: lowest point at the start on the floor; clip: over the clip"});
+    v("kp", kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
+    v("kd", kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
+    v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-joint kp"});
+    v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-joint kd"});
+    v("root_kp", root_kp, {.unit = "N/m", .min = 0, .max = 1e8, .help = "assisted mode"});
+    v("root_kd", root_kd, {.unit = "N s/m", .min = 0, .max = 1e7});
+    v("root_kp_rot", root_kp_rot, {.unit = "N m/rad", .min = 0, .max = 1e8});
+    v("root_kd_rot", root_kd_rot, {.unit = "N m s/rad", .min = 0, .max = 1e7});
+    v("balance", balance, {.help = "free mode: SIMBICON balance layer"});
+    v("cd_sagittal", cd_sagittal, {.unit = "rad/m", .min = -100, .max = 100});
+    v("cv_sagittal", cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
+    v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("torso_kp", torso_kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
+    v("torso_kd", torso_kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
+    v("left_hip", left_hip);
+    v("right_hip", right_hip);
+    v("left_foot", left_foot);
+    v("right_foot", right_foot);
+    v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
+    v("export_bvh", export_bvh, {.help = "write the simulated motion as BVH"});
+  }
+};
+
+enum class MocapRootMode { kKinematic, kAssisted, kFree };
+
+// the immutable part: the clip, its reference motion and the engine indices
+struct MocapTrackerModel {
+  MocapTrackerParams params;
+  MocapRootMode mode = MocapRootMode::kAssisted;
+  std::shared_ptr<const BvhClip> clip;
+  std::shared_ptr<const ReferenceMotion> reference;
+  int first_frame = 0;                 // of the clip range, in the clip
+  std::vector<int> body;               // per segment: engine body
+  std::vector<int> qpos_adr, dof_adr;  // per segment: its joint's (free for the root)
+  Eigen::VectorXd kp, kd;              // dim nv
+  std::vector<int> end_effectors;      // segments
+  std::vector<Eigen::Vector3d> end_points;  // per end effector: point in its frame, m
+  int hip[2] = {-1, -1};               // segments: left, right thigh
+  int foot[2] = {-1, -1};              // segments: left, right foot
+  Eigen::Vector3d forward_in_root = Eigen::Vector3d::UnitX();  // walking direction, root frame
+};
+
+class MocapTracker final : public Controller {
+ public:
+  // base_dir resolves a relative params.bvh
+  MocapTracker(const MocapTrackerParams& params, const Engine& engine,
+               const std::string& base_dir = "");
+  std::string_view type() const override { return "mocap_tracker"; }
+  void reset(const Engine& engine) override;
+  void compute(const Engine& engine, ControlOutput& out) override;
+  void signal_names(std::vector<std::string>& names) const override;
+  void signals(std::vector<double>& values) const override;
+  void add_metrics(nlohmann::json& metrics) const override;
+  void write_outputs(const std::string& out_dir) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+
+  const MocapTrackerModel& model() const { return model_; }
+  // the simulated motion so far as a clip on the reference's skeleton (file units, Y-up as read)
+  BvhClip recorded_clip() const;
+  double mean_joint_error_deg() const;
+  double max_joint_error_deg() const { return max_error_deg_; }
+  double helper_impulse_ns() const { return helper_impulse_; }
+
+ private:
+  void track_state(const Engine& engine, double t);
+  void balance(const Engine& engine, double t_target);
+  void accumulate_metrics(const Engine& engine);
+
+  MocapTrackerModel model_;
+  // per-run state
+  ReferencePose pose_, pose_now_;
+  std::vector<Eigen::Vector3d> fk_pos_;
+  std::vector<Eigen::Quaterniond> fk_rot_;
+  Eigen::VectorXd q_, v_, q_ref_, v_ref_, q_pred_, err_, p_, d_, c_, f_, rhs_, tau_;
+  Eigen::MatrixXd m_;
+  Eigen::LLT<Eigen::MatrixXd> llt_;
+  std::vector<double> recorded_;  // recorded frames of q, nq each
+  int recorded_frames_ = 0;
+  double next_record_t_ = 0;
+  int stance_ = 0;  // 0 left, 1 right
+  double error_sum_deg_ = 0, max_error_deg_ = 0;
+  long error_samples_ = 0;
+  double root_error_sum_ = 0, root_error_max_ = 0, ee_error_sum_ = 0, ee_error_max_ = 0;
+  long steps_ = 0;
+  double helper_impulse_ = 0, helper_angular_impulse_ = 0;
+  double fall_time_ = -1;
+  double last_error_deg_ = 0, last_root_error_ = 0;
+  Eigen::Vector3d last_helper_force_ = Eigen::Vector3d::Zero();
+};
+
+// the registry's factory: relative bvh paths start at the scenario file's folder
+std::unique_ptr<Controller> make_mocap_tracker(const YAML::Node& node, const ControllerContext& ctx,
+                                               const Engine& engine);
+
+// "kinematic", "assisted", "free"; throws InputError otherwise
+MocapRootMode parse_mocap_root_mode(const std::string& mode);
+
+}  // namespace stance

@@ -1,0 +1,341 @@
+#include "motion/reference_motion.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+
+namespace stance {
+
+namespace {
+
+bool name_matches(const std::string& name, const std::vector<std::string>& patterns) {
+  for (const auto& p : patterns)
+    if (!p.empty() && name.find(p) != std::string::npos) return true;
+  return false;
+}
+
+}  // namespace
+
+int MotionSkeleton::find_segment(const std::string& name) const {
+  for (int i = 0; i < segment_count(); ++i)
+    if (segments[i].name == name) return i;
+  return -1;
+}
+
+std::vector<int> MotionSkeleton::end_effectors() const {
+  std::vector<int> out;
+  for (int i = 0; i < segment_count(); ++i)
+    if (segments[i].children.empty()) out.push_back(i);
+  return out;
+}
+
+Eigen::Quaterniond yaw_of(const Eigen::Quaterniond& q) {
+  Eigen::Matrix3d r = q.toRotationMatrix();
+  double yaw = std::atan2(r(1, 0), r(0, 0));
+  return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
+}
+
+MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOptions& options) {
+  const int n = clip.joint_count();
+  if (n == 0) throw InputError(clip.source + ": no joints");
+  MotionSkeleton sk;
+  sk.scale_to_meters =
+      options.scale_to_meters > 0 ? options.scale_to_meters : detect_bvh_scale_to_meters(clip);
+  if (options.up_axis == 'y' || options.up_axis == 'Y')
+    sk.to_z_up = Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()));
+  else if (options.up_axis != 'z' && options.up_axis != 'Z')
+    throw InputError(fmt::format("up axis: expected y or z, found '{}'", options.up_axis));
+  const Eigen::Matrix3d c = sk.to_z_up.toRotationMatrix();
+  const double s = sk.scale_to_meters;
+  auto end_site_kept = [&](const BvhJoint& jt) {
+    double len = jt.end_site_offset.norm() * s;
+    return jt.has_end_site && len >= options.min_end_site_m && len <= options.max_end_site_m;
+  };
+  auto convert = [&](const Eigen::Vector3d& v) -> Eigen::Vector3d { return s * (c * v); };
+
+  // classify: skipped by name (with the subtree), end-point leaves, merged helpers, segments
+  enum class Role { kSegment, kMerged, kEndPoint, kSkipped };
+  std::vector<Role> role(n, Role::kSegment);
+  std::vector<int> kept_children(n, 0);
+  for (int j = 0; j < n; ++j) {
+    const BvhJoint& jt = clip.joints[j];
+    if ((jt.parent >= 0 && role[jt.parent] == Role::kSkipped) ||
+        (jt.parent >= 0 && name_matches(jt.name, options.skip_name_patterns)))
+      role[j] = Role::kSkipped;
+  }
+  if (role[0] == Role::kSkipped) throw InputError(clip.source + ": the root is skipped");
+  for (int j = n - 1; j >= 0; --j) {
+    const BvhJoint& jt = clip.joints[j];
+    if (role[j] == Role::kSkipped) continue;
+    if (jt.parent >= 0 && kept_children[j] == 0 && !end_site_kept(jt)) role[j] = Role::kEndPoint;
+    if (jt.parent >= 0) ++kept_children[jt.parent];
+  }
+  for (int j = 1; j < n; ++j) {
+    const BvhJoint& jt = clip.joints[j];
+    if (role[j] == Role::kSegment && jt.offset.norm() * s < options.zero_length_m)
+      role[j] = Role::kMerged;
+  }
+
+  // owner[j]: the segment a joint's frame belongs to; chain[j]: helpers merged above j
+  sk.segment_of_joint.assign(n, -1);
+  std::vector<int> owner(n, -1);
+  std::vector<std::vector<int>> pending_chain(n);   // merged helpers between parent segment and j
+  std::vector<Eigen::Vector3d> pending_offset(n, Eigen::Vector3d::Zero());  // file units
+  for (int j = 0; j < n; ++j) {
+    const BvhJoint& jt = clip.joints[j];
+    if (role[j] == Role::kSkipped) continue;
+    std::vector<int> chain;
+    Eigen::Vector3d offset = jt.offset;
+    if (jt.parent >= 0 && role[jt.parent] == Role::kMerged) {
+      chain = pending_chain[jt.parent];
+      chain.push_back(jt.parent);
+      offset += pending_offset[jt.parent];
+    }
+    int parent_segment = jt.parent >= 0 ? owner[jt.parent] : -1;
+    if (role[j] == Role::kEndPoint) {
+      sk.segments[parent_segment].bone_ends.push_back(convert(offset));
+      continue;
+    }
+    if (role[j] == Role::kMerged) {
+      owner[j] = parent_segment;
+      pending_chain[j] = chain;
+      pending_offset[j] = offset;
+      if (end_site_kept(jt))
+        sk.segments[parent_segment].bone_ends.push_back(convert(offset + jt.end_site_offset));
+      continue;
+    }
+    MotionSegment seg;
+    seg.name = jt.name;
+    seg.bvh_joint = j;
+    seg.parent = parent_segment;
+    seg.rotation_chain = chain;
+    seg.rotation_chain.push_back(j);
+    seg.offset = jt.parent >= 0 ? convert(offset) : Eigen::Vector3d::Zero();
+    if (end_site_kept(jt)) seg.bone_ends.push_back(convert(jt.end_site_offset));
+    int index = static_cast<int>(sk.segments.size());
+    owner[j] = index;
+    sk.segment_of_joint[j] = index;
+    if (parent_segment >= 0) {
+      sk.segments[parent_segment].children.push_back(index);
+      sk.segments[parent_segment].bone_ends.push_back(seg.offset);
+    }
+    sk.segments.push_back(std::move(seg));
+  }
+  return sk;
+}
+
+ReferenceMotion::ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton,
+                                 const ReferenceOptions& options)
+    : skeleton_(std::move(skeleton)), options_(options) {
+  if (clip.frame_count < 1) throw InputError(clip.source + ": no frames");
+  frame_time_ = clip.frame_time_s;
+  if (!(frame_time_ > 0)) throw InputError(clip.source + ": frame time must be > 0");
+  int first = options.first_frame, last = options.last_frame;
+  if (options.start_s >= 0) first = static_cast<int>(std::lround(options.start_s / frame_time_));
+  if (options.end_s >= 0) last = static_cast<int>(std::lround(options.end_s / frame_time_));
+  if (last < 0) last = clip.frame_count - 1;
+  if (first < 0 || first >= clip.frame_count || last < first || last >= clip.frame_count)
+    throw InputError(fmt::format("{}: clip range frames {}..{} is outside 0..{}", clip.source,
+                                 first, last, clip.frame_count - 1));
+  frame_count_ = last - first + 1;
+  segments_ = skeleton_.segment_count();
+  const Eigen::Quaterniond c = skeleton_.to_z_up;
+  const Eigen::Quaterniond ct = c.conjugate();
+  rotations_.resize(static_cast<size_t>(frame_count_) * segments_);
+  root_positions_.resize(frame_count_);
+  const int root_joint = skeleton_.segments[0].bvh_joint;
+  for (int f = 0; f < frame_count_; ++f) {
+    for (int k = 0; k < segments_; ++k) {
+      Eigen::Quaterniond r = Eigen::Quaterniond::Identity();
+      for (int j : skeleton_.segments[k].rotation_chain) r = r * clip.rotation(first + f, j);
+      Eigen::Quaterniond q = (c * r * ct).normalized();
+      // keep each joint's quaternion on one hemisphere over time, for clean slerp and logs
+      if (f > 0 && q.coeffs().dot(rotations_[(f - 1) * segments_ + k].coeffs()) < 0)
+        q.coeffs() = -q.coeffs();
+      rotations_[static_cast<size_t>(f) * segments_ + k] = q;
+    }
+    root_positions_[f] = skeleton_.scale_to_meters * (c * clip.translation(first + f, root_joint));
+  }
+  // ground alignment and start above the origin
+  Eigen::Vector3d shift = Eigen::Vector3d::Zero();
+  if (options.root_to_origin) shift.head<2>() = -root_positions_[0].head<2>();
+  if (options.align_ground) {
+    ReferencePose pose = make_pose();
+    std::vector<Eigen::Vector3d> pos;
+    std::vector<Eigen::Quaterniond> rot;
+    double lowest = 1e300;
+    for (int f = 0; f < (options.align_whole_clip ? frame_count_ : 1); ++f) {
+      frame_pose(f, pose);
+      forward_kinematics(pose, pos, rot);
+      for (int k = 0; k < segments_; ++k) {
+        lowest = std::min(lowest, pos[k].z());
+        for (const auto& e : skeleton_.segments[k].bone_ends)
+          lowest = std::min(lowest, (pos[k] + rot[k] * e).z());
+      }
+    }
+    shift.z() = options.ground_height_m - lowest;
+  }
+  for (auto& p : root_positions_) p += shift;
+  // the loop transform: yaw and horizontal shift from the first frame's root to the last's
+  Eigen::Quaterniond yaw0 = yaw_of(rotations_[0]);
+  Eigen::Quaterniond yaw1 = yaw_of(rotations_[static_cast<size_t>(frame_count_ - 1) * segments_]);
+  cycle_yaw_ = (yaw1 * yaw0.conjugate()).normalized();
+  Eigen::Vector3d p0 = root_positions_.front(), p1 = root_positions_.back();
+  p0.z() = p1.z() = 0;
+  cycle_shift_ = p1 - cycle_yaw_ * p0;
+}
+
+ReferencePose ReferenceMotion::make_pose() const {
+  ReferencePose p;
+  p.rotations.assign(segments_, Eigen::Quaterniond::Identity());
+  p.angular_velocities.assign(segments_, Eigen::Vector3d::Zero());
+  return p;
+}
+
+void ReferenceMotion::frame_pose(int frame, ReferencePose& out) const {
+  frame = std::clamp(frame, 0, frame_count_ - 1);
+  sample(frame * frame_time_, out);
+}
+
+void ReferenceMotion::sample(double t, ReferencePose& out) const {
+  const double period = duration_s();
+  long cycle = 0;
+  double local = t;
+  if (options_.loop && period > 0) {
+    cycle = static_cast<long>(std::floor(t / period));
+    local = t - cycle * period;
+  }
+  local = std::clamp(local, 0.0, period);
+  // bracketing frames; the derivative is the slerp's own (constant within a frame interval)
+  double u = frame_count_ > 1 ? local / frame_time_ : 0.0;
+  int i0 = std::min(static_cast<int>(std::floor(u)), std::max(frame_count_ - 2, 0));
+  int i1 = std::min(i0 + 1, frame_count_ - 1);
+  double a = std::clamp(u - i0, 0.0, 1.0);
+  bool moving = i1 != i0 && (options_.loop || (t >= 0 && t <= period));
+  const Eigen::Quaterniond* r0 = &rotations_[static_cast<size_t>(i0) * segments_];
+  const Eigen::Quaterniond* r1 = &rotations_[static_cast<size_t>(i1) * segments_];
+  for (int k = 0; k < segments_; ++k) {
+    out.rotations[k] = slerp(r0[k], r1[k], a);
+    out.angular_velocities[k] =
+        moving ? angular_velocity_body(r0[k], r1[k], frame_time_) : Eigen::Vector3d::Zero();
+  }
+  out.root_position = (1 - a) * root_positions_[i0] + a * root_positions_[i1];
+  out.root_velocity = moving ? Eigen::Vector3d((root_positions_[i1] - root_positions_[i0]) /
+                                               frame_time_)
+                             : Eigen::Vector3d::Zero();
+  // accumulate whole loops: p -> Y p + s, R_root -> Y R_root, v -> Y v
+  for (long k = 0; k < cycle; ++k) {
+    out.root_position = cycle_yaw_ * out.root_position + cycle_shift_;
+    out.root_velocity = cycle_yaw_ * out.root_velocity;
+    out.rotations[0] = cycle_yaw_ * out.rotations[0];
+  }
+}
+
+std::vector<ReferencePose> ReferenceMotion::resample(double dt_s, double duration) const {
+  if (!(dt_s > 0)) throw InputError("resample: dt must be > 0");
+  long n = static_cast<long>(std::floor(duration / dt_s + 1e-9)) + 1;
+  std::vector<ReferencePose> out(n, make_pose());
+  for (long i = 0; i < n; ++i) sample(i * dt_s, out[i]);
+  return out;
+}
+
+void ReferenceMotion::forward_kinematics(const ReferencePose& pose,
+                                         std::vector<Eigen::Vector3d>& positions,
+                                         std::vector<Eigen::Quaterniond>& orientations) const {
+  positions.resize(segments_);
+  orientations.resize(segments_);
+  for (int k = 0; k < segments_; ++k) {
+    const MotionSegment& seg = skeleton_.segments[k];
+    if (seg.parent < 0) {
+      positions[k] = pose.root_position;
+      orientations[k] = pose.rotations[k];
+    } else {
+      positions[k] = positions[seg.parent] + orientations[seg.parent] * seg.offset;
+      orientations[k] = orientations[seg.parent] * pose.rotations[k];
+    }
+  }
+}
+
+BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
+  // the skeleton, as BVH text (then parsed, so the clip is exactly what a file would give)
+  std::string text =
+      "HIERARCHY\n"
+      "ROOT Hips\n{\n  OFFSET 0 0 0\n"
+      "  CHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation\n"
+      "  JOINT Spine\n  {\n    OFFSET 0 12 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "    JOINT Chest\n    {\n      OFFSET 0 22 0\n"
+      "      CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "      JOINT Head\n      {\n        OFFSET 0 24 0\n"
+      "        CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "        End Site\n        {\n          OFFSET 0 20 0\n        }\n      }\n";
+  for (const char* side : {"Left", "Right"}) {
+    double x = side[0] == 'L' ? 1 : -1;
+    text += fmt::format(
+        "      JOINT {0}Arm\n      {{\n        OFFSET {1} 20 0\n"
+        "        CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "        JOINT {0}ForeArm\n        {{\n          OFFSET 0 -28 0\n"
+        "          CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "          End Site\n          {{\n            OFFSET 0 -30 0\n          }}\n"
+        "        }}\n      }}\n",
+        side, 18 * x);
+  }
+  text += "    }\n  }\n";
+  for (const char* side : {"Left", "Right"}) {
+    double x = side[0] == 'L' ? 1 : -1;
+    text += fmt::format(
+        "  JOINT {0}UpLeg\n  {{\n    OFFSET {1} -6 0\n"
+        "    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "    JOINT {0}Leg\n    {{\n      OFFSET 0 -44 0\n"
+        "      CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "      JOINT {0}Foot\n      {{\n        OFFSET 0 -42 0\n"
+        "        CHANNELS 3 Zrotation Xrotation Yrotation\n"
+        "        End Site\n        {{\n          OFFSET 0 -7 16\n        }}\n"
+        "      }}\n    }}\n  }}\n",
+        side, 9 * x);
+  }
+  text += "}\n";
+  const int frames = static_cast<int>(std::lround(o.period_s / o.frame_time_s)) + 1;
+  const double dt = o.period_s / (frames - 1);
+  text += fmt::format("MOTION\nFrames: {}\nFrame Time: {:.9g}\n", frames, dt);
+  // leg length (cm) hip to sole, and the stride that keeps the stance foot roughly planted:
+  // per step the stance hip swings from +A to -A, the hip moves 2 L sin(A) forward
+  const double leg = 44 + 42 + 7, pi = std::numbers::pi;
+  const double a_hip = o.hip_amplitude_deg * pi / 180;
+  const double stride = 2 * 2 * leg * std::sin(a_hip);  // cm per cycle
+  const double stand = 6 + leg;
+  for (int f = 0; f < frames; ++f) {
+    double phase = 2 * pi * f / (frames - 1);
+    std::string row;
+    double z = stride * f / (frames - 1);
+    double y = stand * std::cos(a_hip * 0.7) + 1.2 * std::cos(2 * phase);
+    row += fmt::format("0 {:.6f} {:.6f} 0 {:.6f} {:.6f}", y, z, 2.0 * std::sin(2 * phase),
+                       4.0 * std::sin(phase));
+    row += fmt::format(" 0 {:.6f} 0", 3.0);              // spine: slight lean
+    row += fmt::format(" 0 {:.6f} {:.6f}", 2.0, -6.0 * std::sin(phase));  // chest counter-twist
+    row += " 0 -5 0";                                    // head
+    for (int s = 0; s < 2; ++s) {
+      // arms swing against the same-side leg
+      double ph = phase + (s == 0 ? 0 : pi);
+      double sign = s == 0 ? 1 : -1;
+      row += fmt::format(" {:.6f} {:.6f} 0", sign * 8.0, o.arm_amplitude_deg * std::sin(ph));
+      row += fmt::format(" 0 {:.6f} 0", -15.0 - 10 * std::max(0.0, -std::sin(ph)));
+    }
+    for (int s = 0; s < 2; ++s) {
+      double ph = phase + (s == 0 ? 0 : pi);
+      // hip flexion is a negative X rotation (the leg swings towards +Z)
+      double hip = -o.hip_amplitude_deg * std::sin(ph);
+      double swing = std::max(0.0, std::sin(ph + 0.6));  // swing half, peaks after mid-swing
+      double knee = 5 + o.knee_swing_deg * swing * swing;
+      double ankle = -0.3 * hip - 0.35 * knee + 3;
+      row += fmt::format(" 0 {:.6f} 0 0 {:.6f} 0 0 {:.6f} 0", hip, knee, ankle);
+    }
+    text += row + "\n";
+  }
+  return parse_bvh(text, "synthetic_walk.bvh");
+}
+
+}  // namespace stance

@@ -1,0 +1,153 @@
+// A BVH clip made ready to track: the skeleton reduced to simulated segments, units and axes
+// converted (metres, Z-up), and a pose at any time t with slerp for rotations, linear
+// interpolation for the root, target velocities from the quaternion derivative, optional looping
+// with the root displacement accumulated, a clip range and ground alignment.
+//
+// Segments. Every BVH joint becomes one simulated segment (body), except:
+//  - joints whose name contains one of `skip_name_patterns` ("_RIGMESH" helpers), with their
+//    subtree, are dropped;
+//  - a leaf joint without a usable End Site (MASS toes: zero length) is not a body: its offset becomes
+//    an end point of its parent's geometry;
+//  - a joint at zero distance from its parent (CMU LHipJoint, lowerneck, lhand) is merged into
+//    the parent segment: its children hang off the parent at the rest-pose offsets and its
+//    rotation is composed into each child's local rotation (exact when, as in the CMU files,
+//    the helper's rotation channels stay 0).
+//
+// Frames. BVH coordinates are converted by the constant rotation C taking the file's up axis to
+// +z (Y-up: +90 deg about x): offsets become s C o and local rotations C R C^T, so the rest pose
+// is the identity in the Z-up world.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "motion/bvh.h"
+
+namespace stance {
+
+struct MotionSkeletonOptions {
+  double scale_to_meters = 0;  // metres per file unit; 0: detect_bvh_scale_to_meters
+  char up_axis = 'y';          // the file's up axis: 'y' (BVH default) or 'z'
+  std::vector<std::string> skip_name_patterns = {"_RIGMESH"};
+  double zero_length_m = 1e-3;  // offsets shorter than this count as zero length
+  // end sites outside [min, max] are ignored: shorter ones are markers, longer ones rig
+  // artefacts (MASS's right hand: 1.6 m)
+  double min_end_site_m = 0.02;
+  double max_end_site_m = 0.5;
+};
+
+// one simulated body
+struct MotionSegment {
+  std::string name;     // the BVH joint's name
+  int bvh_joint = -1;   // index into BvhClip::joints
+  int parent = -1;      // segment index; -1 for the root
+  // BVH joints whose local rotations, multiplied in this order, give this segment's rotation
+  // relative to its parent segment: merged helper joints first, the joint itself last
+  std::vector<int> rotation_chain;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // m, Z-up, in the parent frame at rest
+  // end points of this segment's bones, m, in its own frame: children, end sites, and the
+  // children and end sites of merged helpers (the geometry of bvh2mjcf)
+  std::vector<Eigen::Vector3d> bone_ends;
+  std::vector<int> children;  // segment indices
+};
+
+struct MotionSkeleton {
+  std::vector<MotionSegment> segments;  // parents precede children; segments[0] is the root
+  std::vector<int> segment_of_joint;    // per BVH joint: its segment, or -1 (merged/skipped)
+  double scale_to_meters = 1;
+  Eigen::Quaterniond to_z_up = Eigen::Quaterniond::Identity();  // C
+
+  int segment_count() const { return static_cast<int>(segments.size()); }
+  // index of the segment called `name`, or -1
+  int find_segment(const std::string& name) const;
+  // segments without children: feet/toes, hands, head
+  std::vector<int> end_effectors() const;
+};
+
+// throws InputError when the clip has no joints or its root is skipped
+MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOptions& options);
+
+struct ReferenceOptions {
+  // clip range, inclusive, in frames; last_frame < 0: to the end. start_s/end_s (>= 0) override.
+  int first_frame = 0;
+  int last_frame = -1;
+  double start_s = -1;
+  double end_s = -1;
+  bool loop = false;          // repeat the clip, accumulating the root's displacement and yaw
+  bool align_ground = true;   // shift so that the lowest point touches ground_height at start
+  double ground_height_m = 0;
+  bool align_whole_clip = false;  // align the lowest point over all frames, not the first's
+  bool root_to_origin = true;  // start the root above the world origin (x = y = 0)
+};
+
+// a pose of the segments at one time
+struct ReferencePose {
+  Eigen::Vector3d root_position = Eigen::Vector3d::Zero();  // m, world
+  Eigen::Vector3d root_velocity = Eigen::Vector3d::Zero();  // m/s, world
+  // local rotation of each segment relative to its parent (segment 0: world orientation)
+  std::vector<Eigen::Quaterniond> rotations;
+  // angular velocity of each local rotation in the segment's own frame (q' = q [0, w] / 2):
+  // what a MuJoCo ball joint's qvel, and the free joint's angular qvel, hold. rad/s.
+  std::vector<Eigen::Vector3d> angular_velocities;
+};
+
+class ReferenceMotion {
+ public:
+  ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton, const ReferenceOptions& options);
+
+  const MotionSkeleton& skeleton() const { return skeleton_; }
+  int frame_count() const { return frame_count_; }  // frames in the clip range
+  double frame_time_s() const { return frame_time_; }
+  double duration_s() const { return (frame_count_ - 1) * frame_time_; }  // one pass
+  bool loops() const { return options_.loop; }
+
+  // a pose with its vectors sized for sample()
+  ReferencePose make_pose() const;
+  // the pose at time t (s from the range's first frame); clamps to the ends unless looping.
+  // Allocates nothing when `out` came from make_pose().
+  void sample(double t, ReferencePose& out) const;
+  // the poses at t = 0, dt, 2 dt, ... up to duration_s (the simulation-rate table)
+  std::vector<ReferencePose> resample(double dt_s, double duration_s) const;
+
+  // world position (m) and orientation of each segment's frame; vectors sized segment_count
+  void forward_kinematics(const ReferencePose& pose, std::vector<Eigen::Vector3d>& positions,
+                          std::vector<Eigen::Quaterniond>& orientations) const;
+
+  // the pose at a stored frame of the range (no interpolation)
+  void frame_pose(int frame, ReferencePose& out) const;
+
+ private:
+  MotionSkeleton skeleton_;
+  ReferenceOptions options_;
+  int frame_count_ = 0;
+  double frame_time_ = 0;
+  int segments_ = 0;
+  std::vector<Eigen::Quaterniond> rotations_;  // frame-major, converted and chained
+  std::vector<Eigen::Vector3d> root_positions_;  // m, world (aligned)
+  // one loop: the yaw and horizontal translation taking the first frame's root onto the last's
+  Eigen::Quaterniond cycle_yaw_ = Eigen::Quaterniond::Identity();
+  Eigen::Vector3d cycle_shift_ = Eigen::Vector3d::Zero();
+};
+
+// A synthetic walking clip, generated by code so that demos and tests need no captured data:
+// a 13-joint skeleton in centimetres, Y-up, walking along +Z, ZXY channels, one gait cycle of
+// period_s plus the closing frame (the last frame is the first one a stride further on). Hips,
+// knees, ankles, arms and the root height follow smooth periodic curves; the root advances at
+// the speed the stance leg's swing implies, so the feet slide only a little. Not a captured
+// human walk: a stand-in with the right structure.
+struct SyntheticWalkOptions {
+  double period_s = 1.1;          // one full cycle (two steps)
+  double frame_time_s = 1.0 / 60;
+  double hip_amplitude_deg = 22;
+  double knee_swing_deg = 55;     // extra knee flexion at mid-swing
+  double arm_amplitude_deg = 15;
+};
+BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& options = {});
+
+// the yaw (rotation about +z) part of an orientation whose body axes are a Z-up rest frame
+Eigen::Quaterniond yaw_of(const Eigen::Quaterniond& q);
+
+}  // namespace stance

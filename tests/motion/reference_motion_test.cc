@@ -1,0 +1,204 @@
+// Reference motion: skeleton reduction, units and axes, resampling with slerp, target
+// velocities, looping, clip ranges and ground alignment.
+#include "motion/reference_motion.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <numbers>
+
+#include "core/error.h"
+#include "math/rotations.h"
+
+namespace stance {
+namespace {
+
+std::string shared_bvh(const std::string& file) {
+  return std::string(STANCE_SOURCE_DIR) + "/../shared/data/bvh/" + file;
+}
+
+ReferenceMotion synthetic_reference(ReferenceOptions ro = {}) {
+  BvhClip clip = make_synthetic_walk_clip();
+  return ReferenceMotion(clip, make_motion_skeleton(clip, {}), ro);
+}
+
+TEST(MotionSkeleton, SyntheticWalkIsCentimetresAndYUp) {
+  BvhClip clip = make_synthetic_walk_clip();
+  MotionSkeleton sk = make_motion_skeleton(clip, {});
+  EXPECT_EQ(sk.segment_count(), clip.joint_count());
+  EXPECT_DOUBLE_EQ(sk.scale_to_meters, 0.01);
+  // Y-up offsets become Z-up metres: the left thigh's knee offset (0,-44,0) cm -> (0,0,-0.44) m
+  int knee = sk.find_segment("LeftLeg");
+  ASSERT_GE(knee, 0);
+  EXPECT_NEAR(sk.segments[knee].offset.z(), -0.44, 1e-12);
+  EXPECT_NEAR(sk.segments[knee].offset.y(), 0.0, 1e-12);
+  std::vector<int> ends = sk.end_effectors();
+  EXPECT_EQ(ends.size(), 5u);  // head, two forearms, two feet
+}
+
+TEST(ReferenceMotion, FramesAreTheClipsRotationsTurnedZUp) {
+  BvhClip clip = make_synthetic_walk_clip();
+  MotionSkeleton sk = make_motion_skeleton(clip, {});
+  ReferenceMotion ref(clip, sk, {});
+  ReferencePose pose = ref.make_pose();
+  const Eigen::Quaterniond c = sk.to_z_up;
+  for (int f : {0, 7, 33, ref.frame_count() - 1}) {
+    ref.frame_pose(f, pose);
+    for (int k = 0; k < sk.segment_count(); ++k) {
+      Eigen::Quaterniond want = c * clip.rotation(f, sk.segments[k].bvh_joint) * c.conjugate();
+      EXPECT_LT(geodesic_angle(pose.rotations[k], want), 1e-9) << "frame " << f << " seg " << k;
+    }
+  }
+}
+
+TEST(ReferenceMotion, SlerpBetweenFramesAndVelocityIsItsDerivative) {
+  ReferenceMotion ref = synthetic_reference();
+  ReferencePose a = ref.make_pose(), b = ref.make_pose(), mid = ref.make_pose();
+  const double ft = ref.frame_time_s();
+  ref.frame_pose(10, a);
+  ref.frame_pose(11, b);
+  ref.sample(10.5 * ft, mid);
+  for (size_t k = 0; k < a.rotations.size(); ++k) {
+    double whole = geodesic_angle(a.rotations[k], b.rotations[k]);
+    EXPECT_NEAR(geodesic_angle(a.rotations[k], mid.rotations[k]), 0.5 * whole, 1e-9);
+  }
+  EXPECT_NEAR((mid.root_position - 0.5 * (a.root_position + b.root_position)).norm(), 0, 1e-12);
+  // the velocity is the derivative of the sampled curve (finite difference inside the interval)
+  const double h = 1e-6, t = 10.3 * ft;
+  ReferencePose p0 = ref.make_pose(), p1 = ref.make_pose();
+  ref.sample(t, p0);
+  ref.sample(t + h, p1);
+  bool any_moving = false;
+  for (size_t k = 0; k < p0.rotations.size(); ++k) {
+    Eigen::Vector3d fd = angular_velocity_body(p0.rotations[k], p1.rotations[k], h);
+    EXPECT_NEAR((fd - p0.angular_velocities[k]).norm(), 0, 1e-5) << k;
+    any_moving |= p0.angular_velocities[k].norm() > 0.1;
+  }
+  EXPECT_TRUE(any_moving);
+  EXPECT_NEAR((p0.root_velocity - (p1.root_position - p0.root_position) / h).norm(), 0, 1e-6);
+}
+
+TEST(ReferenceMotion, ResampleGivesTheSimulationRateTable) {
+  ReferenceMotion ref = synthetic_reference();
+  auto table = ref.resample(0.002, 1.0);
+  ASSERT_EQ(table.size(), 501u);
+  ReferencePose p = ref.make_pose();
+  ref.sample(0.25, p);
+  EXPECT_LT(geodesic_angle(table[125].rotations[3], p.rotations[3]), 1e-12);
+  EXPECT_THROW(ref.resample(0, 1.0), InputError);
+}
+
+TEST(ReferenceMotion, GroundAlignmentAndStartAtOrigin) {
+  ReferenceMotion ref = synthetic_reference();
+  ReferencePose p = ref.make_pose();
+  ref.sample(0, p);
+  EXPECT_NEAR(p.root_position.x(), 0, 1e-12);
+  EXPECT_NEAR(p.root_position.y(), 0, 1e-12);
+  std::vector<Eigen::Vector3d> pos;
+  std::vector<Eigen::Quaterniond> rot;
+  ref.forward_kinematics(p, pos, rot);
+  double lowest = 1e9;
+  const MotionSkeleton& sk = ref.skeleton();
+  for (int k = 0; k < sk.segment_count(); ++k)
+    for (const auto& e : sk.segments[k].bone_ends) lowest = std::min(lowest, (pos[k] + rot[k] * e).z());
+  EXPECT_NEAR(lowest, 0.0, 1e-12);
+  // Z-up: the head is above the hips, which stand near a leg length up
+  EXPECT_GT(pos[sk.find_segment("Head")].z(), pos[0].z() + 0.3);
+  EXPECT_GT(pos[0].z(), 0.8);
+  ReferenceOptions raised;
+  raised.ground_height_m = 0.25;
+  ReferencePose q = ref.make_pose();
+  synthetic_reference(raised).sample(0, q);
+  EXPECT_NEAR(q.root_position.z() - p.root_position.z(), 0.25, 1e-12);
+}
+
+TEST(ReferenceMotion, LoopingAccumulatesTheRootDisplacement) {
+  ReferenceOptions ro;
+  ro.loop = true;
+  ReferenceMotion ref = synthetic_reference(ro);
+  const double period = ref.duration_s();
+  ReferencePose a = ref.make_pose(), b = ref.make_pose(), c = ref.make_pose();
+  ref.sample(0.3, a);
+  ref.sample(0.3 + period, b);
+  ref.sample(0.3 + 2 * period, c);
+  Eigen::Vector3d step1 = b.root_position - a.root_position;
+  Eigen::Vector3d step2 = c.root_position - b.root_position;
+  EXPECT_GT(step1.norm(), 0.5);  // the synthetic walk covers over a metre per cycle
+  EXPECT_NEAR((step1 - step2).norm(), 0, 1e-9);  // no yaw drift in this clip
+  EXPECT_NEAR(step1.z(), 0, 1e-12);
+  for (size_t k = 1; k < a.rotations.size(); ++k)
+    EXPECT_LT(geodesic_angle(a.rotations[k], b.rotations[k]), 1e-12);
+  // continuous across the loop seam
+  ReferencePose before = ref.make_pose(), after = ref.make_pose();
+  ref.sample(period - 1e-7, before);
+  ref.sample(period + 1e-7, after);
+  EXPECT_LT((before.root_position - after.root_position).norm(), 1e-3);
+  // without looping the clip holds its last pose with zero velocity
+  ReferenceMotion once = synthetic_reference();
+  ReferencePose end = once.make_pose();
+  once.sample(period + 1.0, end);
+  EXPECT_EQ(end.root_velocity.norm(), 0.0);
+}
+
+TEST(ReferenceMotion, ClipRangeInFramesOrSeconds) {
+  BvhClip clip = make_synthetic_walk_clip();
+  MotionSkeleton sk = make_motion_skeleton(clip, {});
+  ReferenceOptions frames;
+  frames.first_frame = 12;
+  frames.last_frame = 42;
+  ReferenceOptions seconds;
+  seconds.start_s = 12 * clip.frame_time_s;
+  seconds.end_s = 42 * clip.frame_time_s;
+  ReferenceMotion a(clip, sk, frames), b(clip, sk, seconds);
+  EXPECT_EQ(a.frame_count(), 31);
+  EXPECT_EQ(b.frame_count(), 31);
+  ReferencePose pa = a.make_pose(), pb = b.make_pose();
+  a.sample(0.1, pa);
+  b.sample(0.1, pb);
+  for (size_t k = 0; k < pa.rotations.size(); ++k)
+    EXPECT_LT(geodesic_angle(pa.rotations[k], pb.rotations[k]), 1e-12);
+  // frame 0 of the range is clip frame 12
+  a.frame_pose(0, pa);
+  Eigen::Quaterniond want =
+      sk.to_z_up * clip.rotation(12, sk.segments[4].bvh_joint) * sk.to_z_up.conjugate();
+  EXPECT_LT(geodesic_angle(pa.rotations[4], want), 1e-9);
+  ReferenceOptions bad;
+  bad.first_frame = 50;
+  bad.last_frame = 10;
+  EXPECT_THROW(ReferenceMotion(clip, sk, bad), InputError);
+}
+
+TEST(MotionSkeleton, MassWalkSkipsRigMeshHelpers) {
+  const std::string path = shared_bvh("mass_walk.bvh");
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
+  BvhClip clip = read_bvh(path);
+  MotionSkeleton sk = make_motion_skeleton(clip, {});
+  EXPECT_DOUBLE_EQ(sk.scale_to_meters, 0.01);
+  for (const auto& seg : sk.segments) EXPECT_EQ(seg.name.find("_RIGMESH"), std::string::npos);
+  // the toes have a zero-length end site: they are the feet's end points, not bodies
+  EXPECT_LT(sk.find_segment("Character1_LeftToeBase"), 0);
+  int foot = sk.find_segment("Character1_LeftFoot");
+  ASSERT_GE(foot, 0);
+  EXPECT_EQ(sk.segments[foot].bone_ends.size(), 1u);
+  EXPECT_EQ(sk.segment_count(), 16);  // hands and head end at their parents: tiny end sites
+}
+
+TEST(MotionSkeleton, CmuMergesZeroLengthHelpers) {
+  const std::string path = shared_bvh("cmu_131_01.bvh");
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
+  BvhClip clip = read_bvh(path);
+  MotionSkeleton sk = make_motion_skeleton(clip, {});
+  EXPECT_LT(sk.find_segment("LHipJoint"), 0);
+  EXPECT_LT(sk.find_segment("lowerback"), 0);
+  int hip = sk.find_segment("LeftHip");
+  ASSERT_GE(hip, 0);
+  EXPECT_EQ(sk.segments[hip].parent, 0);
+  ASSERT_EQ(sk.segments[hip].rotation_chain.size(), 2u);
+  EXPECT_EQ(clip.joints[sk.segments[hip].rotation_chain[0]].name, "LHipJoint");
+  // LeftHip sits at the LHipJoint bone's end: 1.24777 cm-ish CMU units from the hips
+  EXPECT_NEAR(sk.segments[hip].offset.norm(),
+              sk.scale_to_meters * Eigen::Vector3d(1.24777, -1.64261, 0.71711).norm(), 1e-9);
+}
+
+}  // namespace
+}  // namespace stance
