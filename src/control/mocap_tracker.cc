@@ -272,14 +272,25 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   Eigen::Quaterniond local = (parent.conjugate() * thigh_des).normalized();
   if (local.coeffs().dot(pose_.rotations[hip].coeffs()) < 0) local.coeffs() *= -1;
   write_quat(q_ref_, m.qpos_adr[hip], local);
-  // pelvis servo: world torque T wanted on the root; the stance hip applies -T to its thigh
+  // pelvis servo through the stance hip's SPD: its target is the rotation that would put the
+  // pelvis at the reference orientation over the thigh as it is (implicit, hence stable)
   Eigen::Quaterniond root_des = yaw_fix * pose_.rotations[0];
+  const int stance_hip = m.hip[stance_];
+  Eigen::Quaterniond thigh = engine.body_pose(m.body[stance_hip]).quat;
+  if (p.stance_hip_world) {
+    Eigen::Quaterniond between = Eigen::Quaterniond::Identity();
+    for (int a = ref.skeleton().segments[stance_hip].parent; a > 0;
+         a = ref.skeleton().segments[a].parent)
+      between = pose_.rotations[a] * between;  // merged-away segments between root and hip
+    Eigen::Quaterniond target = ((root_des * between).conjugate() * thigh).normalized();
+    if (target.coeffs().dot(pose_.rotations[stance_hip].coeffs()) < 0) target.coeffs() *= -1;
+    write_quat(q_ref_, m.qpos_adr[stance_hip], target);
+  }
+  // optional explicit torque T on the pelvis; the stance hip applies -T to its thigh
   Eigen::Vector3d rot_err = quaternion_log((root_des * root.quat.conjugate()).normalized());
   Eigen::Vector3d w = engine.body_velocity(root_body).head<3>();
   Eigen::Vector3d w_ref = root_des * pose_.angular_velocities[0];
   Eigen::Vector3d torque = p.torso_kp * rot_err + p.torso_kd * (w_ref - w);
-  const int stance_hip = m.hip[stance_];
-  Eigen::Quaterniond thigh = engine.body_pose(m.body[stance_hip]).quat;
   tau_.segment<3>(m.dof_adr[stance_hip]) -= thigh.conjugate() * torque;
 }
 

@@ -12,8 +12,9 @@
 //  - free: no root help. A SIMBICON-style balance layer (Yin et al. 2007) servoes the swing
 //    thigh in the world frame and moves its target by theta = cd (d - d_ref) + cv (v - v_ref),
 //    about the lateral axis (sagittal) and the heading axis (coronal), with d the root's
-//    horizontal offset from the stance ankle; the stance hip adds the torque that servoes the
-//    pelvis towards the reference orientation (tau_stance_hip = -tau_torso).
+//    horizontal offset from the stance ankle; the stance hip's SPD target is the rotation that
+//    puts the pelvis at the reference orientation over the current thigh (an implicit form of
+//    SIMBICON's tau_stance_hip = -tau_torso - tau_swing_hip).
 //
 // Metrics: joint angle error (geodesic, deg, mean and max over joints and time), root position
 // error, end-effector error (leaf segments' bone ends), helper impulse (assisted), and the time
@@ -59,8 +60,9 @@ struct MocapTrackerParams {
   double cv_sagittal = 0.2;        // rad s/m
   double cd_coronal = 0.5;
   double cv_coronal = 0.2;
-  double torso_kp = 1500;          // N m/rad, stance-hip torque servoing the pelvis
-  double torso_kd = 150;
+  bool stance_hip_world = true;    // stance hip target puts the pelvis at the reference
+  double torso_kp = 0;             // N m/rad, extra explicit stance-hip torque on the pelvis
+  double torso_kd = 0;
   std::string left_hip;            // thigh joints; empty: found from the foot chains
   std::string right_hip;
   std::string left_foot;           // feet; empty: the first foot/toe/ankle segment per leg
@@ -94,6 +96,7 @@ struct MocapTrackerParams {
     v("cv_sagittal", cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
     v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
     v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("stance_hip_world", stance_hip_world, {.help = "free mode: pelvis servo via stance hip"});
     v("torso_kp", torso_kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
     v("torso_kd", torso_kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
     v("left_hip", left_hip);
