@@ -38,7 +38,6 @@ struct ViewCommand {
   int width = 1400, height = 900;
 };
 
-
 struct InfoCommand {
   std::string model;
   std::string engine = "mujoco";
