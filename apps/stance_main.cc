@@ -114,6 +114,24 @@ int main(int argc, char** argv) {
       app.add_subcommand("sweep-gain", "slope walker bifurcation diagram over hip_kp");
   add_sweep_options(sweep_gain_cmd, sweep_gain);
 
+  stance::PushThresholdCommand push_threshold;
+  auto* push_threshold_cmd = app.add_subcommand(
+      "push-threshold", "largest push survived along +axis and -axis, by bisection");
+  push_threshold_cmd->add_option("scenario", push_threshold.scenario, "scenario YAML")->required();
+  push_threshold_cmd->add_option("--body", push_threshold.body, "body to push")->required();
+  push_threshold_cmd->add_option("--axis", push_threshold.axis, "x, y or z (world)");
+  push_threshold_cmd->add_option("--engine", push_threshold.engine, "mujoco or dart");
+  push_threshold_cmd->add_option("--duration", push_threshold.duration, "seconds per run");
+  push_threshold_cmd->add_option("--set", push_threshold.sets, "override: key.path=value")
+      ->allow_extra_args(false);
+  push_threshold_cmd->add_option("--max", push_threshold.max_force, "largest force tried, N");
+  push_threshold_cmd->add_option("--duration-push", push_threshold.push_duration, "push, s");
+  push_threshold_cmd->add_option("--at", push_threshold.at, "push start, s");
+  push_threshold_cmd->add_option("--tolerance", push_threshold.tolerance, "bracket width, N");
+  push_threshold_cmd->add_option("--threads", push_threshold.threads,
+                                 "2: both directions at once, 1: one after the other");
+  push_threshold_cmd->add_flag("--quiet", push_threshold.quiet, "no line per trial");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -149,5 +167,6 @@ int main(int argc, char** argv) {
   if (*list_cmd) return stance::list_command(list_dir);
   if (*sweep_cmd) return stance::sweep_command(sweep);
   if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);
+  if (*push_threshold_cmd) return stance::push_threshold_command(push_threshold);
   return stance::kExitBadInput;
 }

@@ -17,6 +17,7 @@
 #include "model/skel_to_mjcf.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
+#include "scenario/push_threshold.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
 #include "scenario/sweep.h"
@@ -226,6 +227,50 @@ int sweep_command(const SweepCommand& cmd) {
                                  p.error);
         return kExitBadInput;
       }
+    return kExitOk;
+  });
+}
+
+int push_threshold_command(const PushThresholdCommand& cmd) {
+  return guarded([&] {
+    PushThresholdOptions o;
+    if (cmd.axis == "x") o.axis = 0;
+    else if (cmd.axis == "y") o.axis = 1;
+    else if (cmd.axis == "z") o.axis = 2;
+    else throw InputError(fmt::format("--axis '{}': use x, y or z", cmd.axis));
+    o.body = cmd.body;
+    o.engine = cmd.engine;
+    o.duration = cmd.duration;
+    o.max_force = cmd.max_force;
+    o.push_duration = cmd.push_duration;
+    o.at = cmd.at;
+    o.tolerance = cmd.tolerance;
+    o.threads = cmd.threads;
+    LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
+    auto wall0 = std::chrono::steady_clock::now();
+    PushThresholdResult r = find_push_threshold(loaded, o, [&](double f, bool survived) {
+      if (!cmd.quiet)
+        std::cout << fmt::format("  {:+.1f} N along {}: {}\n", f, cmd.axis,
+                                 survived ? "survived" : "fell")
+                  << std::flush;
+    });
+    double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    std::string engine = cmd.engine.empty() ? loaded.scenario.engine : cmd.engine;
+    std::cout << fmt::format("{} on {}: {} s push on {} at t = {} s, bisection on 0..{} N\n",
+                             loaded.scenario.name, engine, o.push_duration, o.body, o.at,
+                             o.max_force);
+    for (const PushBracket* b : {&r.positive, &r.negative}) {
+      std::string dir = fmt::format("{}{}", b->sign > 0 ? '+' : '-', cmd.axis);
+      if (b->falls_unpushed)
+        std::cout << fmt::format("  {}: falls without the push\n", dir);
+      else if (!b->fell)
+        std::cout << fmt::format("  {}: survives the maximum, {:.1f} N\n", dir, b->survived);
+      else
+        std::cout << fmt::format("  {}: survives {:.1f} N, falls at {:.1f} N ({} trials)\n", dir,
+                                 b->survived, *b->fell, b->trials);
+    }
+    std::cout << fmt::format("{} trials in {:.2f} s wall\n",
+                             r.positive.trials + r.negative.trials, wall);
     return kExitOk;
   });
 }

@@ -86,4 +86,22 @@ struct SweepCommand {
 };
 int sweep_command(const SweepCommand& cmd);
 
+// `stance push-threshold SCENARIO --body B [--axis x|y|z] ...`: the largest push survived along
+// +axis and -axis, by bisection (scenario/push_threshold.h)
+struct PushThresholdCommand {
+  std::string scenario;
+  std::string body;
+  std::string axis = "x";
+  std::string engine;
+  std::optional<double> duration;  // s, of each run
+  std::vector<std::string> sets;
+  double max_force = 400;      // N
+  double push_duration = 0.1;  // s
+  double at = 2.0;             // s
+  double tolerance = 2.0;      // N
+  int threads = 2;
+  bool quiet = false;
+};
+int push_threshold_command(const PushThresholdCommand& cmd);
+
 }  // namespace stance

@@ -1,0 +1,56 @@
+// The largest push a scenario survives, by bisection: each trial is a fresh ScenarioRun with one
+// extra Perturbation (a force along +axis or -axis on one body) and asks whether the run fell.
+// The two directions are independent bisections and can run on two threads.
+// Survival need not be monotone in the force near the edge; the bracket is then one edge of
+// possibly several, the one that bisection from [0, max] finds.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+
+#include "scenario/scenario.h"
+
+namespace stance {
+
+struct PushThresholdOptions {
+  std::string body;                // body pushed
+  int axis = 0;                    // 0, 1, 2: world x, y, z
+  std::string engine;              // overrides the scenario's when set
+  std::optional<double> duration;  // s, of each run; overrides the scenario's
+  double max_force = 400;          // N, upper end of the search
+  double push_duration = 0.1;      // s
+  double at = 2.0;                 // s, push start
+  double tolerance = 2.0;          // N, final bracket width
+  int threads = 2;                 // 1: the two directions one after the other
+};
+
+// the outcome of one direction's bisection
+struct PushBracket {
+  double sign = 1;              // +1 along +axis, -1 along -axis
+  double survived = 0;          // N, largest magnitude survived (0 when even 0 falls)
+  std::optional<double> fell;   // N, smallest magnitude found to fall; none: max survived
+  bool falls_unpushed = false;  // the run falls without the push: no threshold
+  int trials = 0;
+};
+
+struct PushThresholdResult {
+  PushBracket positive, negative;
+};
+
+// bisection on [0, max_force] of a predicate survives(force magnitude), assumed true at 0 until
+// shown otherwise: tests max first, then 0, then halves until fell - survived <= tolerance
+PushBracket bisect_push(const std::function<bool(double)>& survives, double max_force,
+                        double tolerance);
+
+// one trial: the scenario with the extra push of `signed_force` N along options.axis
+bool survives_push(const LoadedScenario& loaded, const PushThresholdOptions& options,
+                   double signed_force);
+
+// both directions. Bad input (body, axis, bounds) throws InputError before any thread starts.
+// on_trial (optional) is called under a lock after each trial.
+PushThresholdResult find_push_threshold(
+    const LoadedScenario& loaded, const PushThresholdOptions& options,
+    const std::function<void(double signed_force, bool survived)>& on_trial = {});
+
+}  // namespace stance
