@@ -1,5 +1,6 @@
 #include "control/ankle_strategy.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "core/error.h"
@@ -18,6 +19,9 @@ AnkleStrategy::AnkleStrategy(const AnkleStrategyParams& params, const Engine& en
     throw InputError("ankle_strategy.derivative: expected velocity or per_step, found '" +
                      params.derivative + "'");
   model_.per_step = params.derivative == "per_step";
+  double mass = params.supported_mass > 0 ? params.supported_mass : engine.total_mass();
+  if (!model_.heel_dofs.empty())
+    model_.foot_weight = mass * engine.gravity().norm() / model_.heel_dofs.size();
   for (const AnkleBand* b : {&params.forward, &params.backward})
     if (b->lower >= b->upper)
       throw InputError("ankle_strategy: a band needs lower < upper");
@@ -55,6 +59,19 @@ void AnkleStrategy::compute(const Model& model, State& s, const Engine& engine,
   if (band && p.enabled) {
     double heel = -band->k1 * s.offset - band->kd * rate;
     double toe = -band->k2 * s.offset - band->kd * rate;
+    if (band->ramp > 0) {
+      double depth = std::abs(band->lower) < std::abs(band->upper) ? s.offset - band->lower
+                                                                     : band->upper - s.offset;
+      double w = std::min(1.0, depth / band->ramp);
+      heel *= w;
+      toe *= w;
+    }
+    if (band->tip_lever > 0) {
+      // past this moment the foot pivots about its edge instead of pushing the body
+      double limit = model.foot_weight * band->tip_lever;
+      heel = std::clamp(heel, -limit, limit);
+      toe = std::clamp(toe, -limit, limit);
+    }
     for (int i : model.heel_dofs) out.tau[i] += heel;
     for (int i : model.toe_dofs) out.tau[i] += toe;
   }

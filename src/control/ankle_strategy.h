@@ -5,6 +5,9 @@
 //   in the forward band:  tau_heel += -k1 offset - kd rate,  tau_toe += -k2 offset - kd rate
 //   in the backward band: the same with the backward gains
 // where rate is d(offset)/dt (from velocities), or the seed's per-step change of the offset.
+// A band with tip_lever > 0 clamps each of its torques to |tau| <= (m g / feet) * tip_lever, the
+// moment a foot carrying its share of the weight transmits before it tips about its edge (an
+// extension to the seed, which applies the band's torques unclamped).
 #pragma once
 
 #include "control/controller.h"
@@ -17,6 +20,12 @@ struct AnkleBand {
   double k1 = 200;                // heel gain, N m/m
   double k2 = 100;                // toe gain, N m/m
   double kd = 10;                 // derivative gain
+  // m, distance from the ankle to the foot's edge it tips about under this band's torques;
+  // 0 leaves the torques unclamped (the seed)
+  double tip_lever = 0;
+  // m, the torques ramp in linearly over this distance from the band's inner edge (the one
+  // nearer zero offset); 0 switches them on as a step (the seed)
+  double ramp = 0;
 
   template <class V>
   void visit(V& v) {
@@ -25,6 +34,10 @@ struct AnkleBand {
     v("k1", k1, {.unit = "N m/m", .min = 0, .help = "heel gain"});
     v("k2", k2, {.unit = "N m/m", .min = 0, .help = "toe gain"});
     v("kd", kd, {.min = 0, .help = "derivative gain on the offset's change"});
+    v("tip_lever", tip_lever,
+      {.unit = "m", .min = 0,
+       .help = "ankle-to-tipping-edge distance; clamps torques to (m g / feet) * lever, 0 = off"});
+    v("ramp", ramp, {.unit = "m", .min = 0, .help = "ramp-in distance from the inner edge"});
   }
 };
 
@@ -40,6 +53,8 @@ struct AnkleStrategyParams {
   // "velocity": rate = d(offset)/dt (DART's C++ tutorial); "per_step": the change of the offset
   // since the last step (the dartpy seed), which is dt times smaller
   std::string derivative = "velocity";
+  // kg, the mass the feet carry, for the bands' tip_lever clamps; 0 = the engine's total mass
+  double supported_mass = 0;
 
   template <class V>
   void visit(V& v) {
@@ -52,6 +67,8 @@ struct AnkleStrategyParams {
     v("forward", forward, {.help = "band and gains for a COM ahead of the heel point"});
     v("backward", backward, {.help = "band and gains for a COM behind it"});
     v("derivative", derivative, {.help = "velocity or per_step"});
+    v("supported_mass", supported_mass,
+      {.unit = "kg", .min = 0, .help = "mass on the feet for tip_lever; 0 = total mass"});
   }
 };
 
@@ -63,6 +80,7 @@ class AnkleStrategy final : public Controller {
     std::vector<int> heel_dofs, toe_dofs;
     Eigen::Vector3d axis;  // unit
     bool per_step = false;
+    double foot_weight = 0;  // N, the weight each foot carries (supported mass g / heel dofs)
   };
   struct State {
     double offset = 0, prev_offset = 0, rate = 0;

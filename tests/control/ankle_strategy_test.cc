@@ -106,6 +106,49 @@ TEST(AnkleStrategy, BandsSetTheHeelAndToeTorques) {
   EXPECT_EQ(s4.band, 1);  // still measured and logged
 }
 
+TEST(AnkleStrategy, TipLeverClampsAndRampScalesTheBandTorques) {
+  auto e = standing_biped();
+  AnkleStrategyParams p;
+  AnkleStrategy::State s0;
+  run_once(p, *e, s0);
+  p.forward = {s0.offset - 0.01, s0.offset + 0.01, 2000, 1000, 100};
+  AnkleStrategy::State s;
+  ControlOutput free = run_once(p, *e, s);
+  const int heel = e->require_dof("j_heel_left_1"), toe = e->require_dof("j_toe_right");
+
+  // clamp: each foot carries half the weight, the limit is that weight times the lever
+  AnkleStrategyParams clamped = p;
+  clamped.forward.tip_lever = 0.002;
+  clamped.supported_mass = 40;
+  AnkleStrategy clamp_ctrl(clamped, *e);
+  AnkleStrategy::Model m;
+  m.params = clamped;
+  m.heel_body = e->require_body(clamped.heel_body);
+  for (const auto& n : clamped.heel_dofs) m.heel_dofs.push_back(e->require_dof(n));
+  for (const auto& n : clamped.toe_dofs) m.toe_dofs.push_back(e->require_dof(n));
+  m.axis = Eigen::Vector3d::UnitX();
+  m.foot_weight = 40 * e->gravity().norm() / 2;
+  ControlOutput out;
+  out.resize(e->nv(), e->nu());
+  AnkleStrategy::State sc;
+  AnkleStrategy::compute(m, sc, *e, out);
+  const double limit = 40 * e->gravity().norm() / 2 * 0.002;
+  ASSERT_GT(std::abs(free.tau[heel]), limit);
+  EXPECT_NEAR(std::abs(out.tau[heel]), limit, 1e-12);
+  EXPECT_EQ(std::signbit(out.tau[heel]), std::signbit(free.tau[heel]));
+  EXPECT_LE(std::abs(out.tau[toe]), limit + 1e-12);
+
+  // ramp: 1 cm into a band ramped over 4 cm gives a quarter of the torque
+  AnkleStrategyParams ramped = p;
+  ramped.forward.lower = s.offset - 0.01;
+  ramped.forward.upper = s.offset + 0.5;
+  ramped.forward.ramp = 0.04;
+  AnkleStrategy::State sr;
+  ControlOutput r = run_once(ramped, *e, sr);
+  EXPECT_NEAR(r.tau[heel], 0.25 * free.tau[heel], 1e-9 * std::abs(free.tau[heel]));
+  EXPECT_NEAR(r.tau[toe], 0.25 * free.tau[toe], 1e-9 * std::abs(free.tau[toe]));
+}
+
 TEST(AnkleStrategy, PerStepDerivativeIsTheOffsetChange) {
   auto e = standing_biped();
   AnkleStrategyParams p;
