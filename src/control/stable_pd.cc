@@ -41,9 +41,7 @@ void StablePdState::resize(int nq, int nv) {
   q_target.resize(nq);
   q.resize(nq);
   q_pred.resize(nq);
-  for (Eigen::VectorXd* x : {&v, &err, &p, &d, &c, &f, &rhs}) x->setZero(nv);
-  m.resize(nv, nv);
-  llt = Eigen::LLT<Eigen::MatrixXd>(nv);
+  for (Eigen::VectorXd* x : {&v, &err, &p, &d, &c, &f, &rhs, &kd_dt}) x->setZero(nv);
 }
 
 namespace {
@@ -66,17 +64,16 @@ void compute_stable_pd(const JointPdModel& model, StablePdState& s, const Engine
   engine.difference_positions(s.q_target, s.q_pred, s.err);
   s.p.noalias() = -model.kp.cwiseProduct(s.err);
   s.d.noalias() = -model.kd.cwiseProduct(s.v);
-  // (M + Kd dt) v' = -C + p + d + tau_c
-  engine.mass_matrix(s.m);
-  s.m.diagonal() += model.kd * dt;
-  s.llt.compute(s.m);
+  // (M + Kd dt) v' = -C + p + d + tau_c, solved with the engine's own factorisation when it has
+  // one that takes a shifted diagonal (MuJoCo's sparse tree LDL)
   engine.bias_forces(s.c);
   s.rhs = s.p + s.d - s.c;
   if (model.params.constraint_forces) {
     engine.constraint_forces(s.f);
     s.rhs += s.f;
   }
-  s.llt.solveInPlace(s.rhs);
+  s.kd_dt = model.kd * dt;
+  engine.solve_mass_shifted(s.kd_dt, s.rhs);
   // tau = p + d - Kd v' dt  (s.rhs now holds v')
   s.p += s.d;
   s.p.noalias() -= (model.kd * dt).cwiseProduct(s.rhs);

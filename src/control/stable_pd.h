@@ -6,8 +6,8 @@
 //   tau = p + d - Kd v' dt
 //
 // Root (free-joint) dofs get zero gains. Positions are differenced by the engine, so ball and
-// free joints are handled. M + Kd dt is factored with a Cholesky decomposition whose storage is
-// made once: a step allocates nothing.
+// free joints are handled. M + Kd dt is solved by Engine::solve_mass_shifted (MuJoCo: its sparse
+// factorisation; otherwise a dense Cholesky whose storage is made once): no allocation per step.
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -50,9 +50,7 @@ struct JointPdModel {
 JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engine);
 
 struct StablePdState {
-  Eigen::VectorXd q_target, q, v, q_pred, err, p, d, c, f, rhs;  // nq or nv
-  Eigen::MatrixXd m;                                              // nv x nv
-  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::VectorXd q_target, q, v, q_pred, err, p, d, c, f, rhs, kd_dt;  // nq or nv
   double last_error_norm = 0;
 
   void resize(int nq, int nv);

@@ -72,6 +72,19 @@ int Engine::require_actuator(std::string_view name) const {
   return i;
 }
 
+void Engine::solve_mass_shifted(const Eigen::Ref<const Eigen::VectorXd>& d,
+                                Eigen::Ref<Eigen::VectorXd> x) const {
+  const int n = nv();
+  if (shifted_mass_.rows() != n) {
+    shifted_mass_.resize(n, n);
+    shifted_llt_ = Eigen::LLT<Eigen::MatrixXd>(n);
+  }
+  mass_matrix(shifted_mass_);
+  shifted_mass_.diagonal() += d;
+  shifted_llt_.compute(shifted_mass_);
+  shifted_llt_.solveInPlace(x);
+}
+
 bool Engine::dof_is_root(int dof) const {
   return joint(dof_joint(dof)).type == JointType::kFree;
 }

@@ -15,6 +15,7 @@
 //    and then cleared; actuator controls persist until changed.
 #pragma once
 
+#include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <memory>
@@ -114,6 +115,10 @@ class Engine {
   virtual void mass_matrix(Eigen::Ref<Eigen::MatrixXd> m) const = 0;
   // x <- M^-1 x using the engine's own factorisation. dim nv.
   virtual void solve_mass(Eigen::Ref<Eigen::VectorXd> x) const = 0;
+  // x <- (M + diag(d))^-1 x, dims nv (stable PD's solve). The default factors a dense copy;
+  // MuJoCo refactors its sparse tree factorisation with the shifted diagonal instead.
+  virtual void solve_mass_shifted(const Eigen::Ref<const Eigen::VectorXd>& d,
+                                  Eigen::Ref<Eigen::VectorXd> x) const;
   virtual void bias_forces(Eigen::Ref<Eigen::VectorXd> c) const = 0;        // Coriolis + gravity
   virtual void constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const = 0;  // last step's
 
@@ -172,6 +177,11 @@ class Engine {
 
   // the joints with a free/root role (dofs a PD on joints should leave alone)
   bool dof_is_root(int dof) const;
+
+ private:
+  // scratch of the default solve_mass_shifted, sized on first use
+  mutable Eigen::MatrixXd shifted_mass_;
+  mutable Eigen::LLT<Eigen::MatrixXd> shifted_llt_;
 };
 
 }  // namespace stance

@@ -71,6 +71,29 @@ TEST(MujocoEngine, MassSolveMatchesDenseSolve) {
   }
 }
 
+// the sparse shifted solve equals a dense one, and leaves MuJoCo's own factorisation intact
+TEST(MujocoEngine, ShiftedMassSolveMatchesDenseAndRestoresTheFactor) {
+  auto e = load_chain();
+  std::mt19937 rng(7);
+  randomize(*e, rng);
+  Eigen::MatrixXd m(e->nv(), e->nv());
+  e->mass_matrix(m);
+  Eigen::VectorXd shift = Eigen::VectorXd::Random(e->nv()).cwiseAbs() * 0.05;
+  Eigen::VectorXd b = Eigen::VectorXd::Random(e->nv());
+  Eigen::VectorXd x = b;
+  e->solve_mass_shifted(shift, x);
+  Eigen::MatrixXd shifted = m;
+  shifted.diagonal() += shift;
+  Eigen::VectorXd dense = shifted.ldlt().solve(b);
+  EXPECT_LT((x - dense).norm() / dense.norm(), 1e-10);
+  Eigen::MatrixXd after(e->nv(), e->nv());
+  e->mass_matrix(after);
+  EXPECT_EQ(after, m);
+  Eigen::VectorXd y = b;
+  e->solve_mass(y);
+  EXPECT_LT((y - m.ldlt().solve(b)).norm(), 1e-10);
+}
+
 TEST(MujocoEngine, DifferenceInvertsIntegrate) {
   auto e = load_chain();
   std::mt19937 rng(4);

@@ -125,6 +125,7 @@ MujocoEngine::MujocoEngine(mjModel* model, std::string source)
   jac_scratch_.resize(3, m_->nv);
   jac_scratch2_.resize(3, m_->nv);
   vec_scratch_.resize(std::max(1, m_->nv));
+  diag_scratch_.resize(std::max(1, m_->nv));
   mj_forward(m_, d_);
   warnings_seen_ = d_->warning[mjWARN_BADQACC].number + d_->warning[mjWARN_BADQPOS].number +
                    d_->warning[mjWARN_BADQVEL].number;
@@ -307,6 +308,22 @@ void MujocoEngine::mass_matrix(Eigen::Ref<Eigen::MatrixXd> mm) const {
 void MujocoEngine::solve_mass(Eigen::Ref<Eigen::VectorXd> x) const {
   std::memcpy(vec_scratch_.data(), x.data(), sizeof(double) * m_->nv);
   mj_solveM(m_, d_, x.data(), vec_scratch_.data(), 1);
+}
+
+void MujocoEngine::solve_mass_shifted(const Eigen::Ref<const Eigen::VectorXd>& d,
+                                      Eigen::Ref<Eigen::VectorXd> x) const {
+  // shift qM's diagonal, refactor the sparse tree LDL, solve; then put qM and its factor back
+  // exactly (the constraint solver of mj_step2 uses them)
+  for (int i = 0; i < m_->nv; ++i) {
+    double& mii = d_->qM[m_->dof_Madr[i]];
+    diag_scratch_[i] = mii;
+    mii += d[i];
+  }
+  mj_factorM(m_, d_);
+  std::memcpy(vec_scratch_.data(), x.data(), sizeof(double) * m_->nv);
+  mj_solveM(m_, d_, x.data(), vec_scratch_.data(), 1);
+  for (int i = 0; i < m_->nv; ++i) d_->qM[m_->dof_Madr[i]] = diag_scratch_[i];
+  mj_factorM(m_, d_);
 }
 
 void MujocoEngine::bias_forces(Eigen::Ref<Eigen::VectorXd> c) const {

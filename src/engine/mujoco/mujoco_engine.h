@@ -61,6 +61,8 @@ class MujocoEngine final : public Engine {
   void forward() override;
   void mass_matrix(Eigen::Ref<Eigen::MatrixXd> m) const override;
   void solve_mass(Eigen::Ref<Eigen::VectorXd> x) const override;
+  void solve_mass_shifted(const Eigen::Ref<const Eigen::VectorXd>& d,
+                          Eigen::Ref<Eigen::VectorXd> x) const override;
   void bias_forces(Eigen::Ref<Eigen::VectorXd> c) const override;
   void constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const override;
 
@@ -119,7 +121,7 @@ class MujocoEngine final : public Engine {
   bool has_velocity_commands_ = false;
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jac_scratch_,
       jac_scratch2_;
-  mutable std::vector<double> vec_scratch_;
+  mutable std::vector<double> vec_scratch_, diag_scratch_;
   int warnings_seen_ = 0;
   bool diverged_ = false;
   std::string last_warning_;
