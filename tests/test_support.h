@@ -16,8 +16,12 @@ inline std::string write_temp_file(const std::string& name, const std::string& t
   return path.string();
 }
 
-inline std::string source_dir() { return STANCE_SOURCE_DIR; }
-inline std::string shared_dir() { return std::string(STANCE_SOURCE_DIR) + "/../shared"; }
+inline std::string source_dir() {
+  return STANCE_SOURCE_DIR;
+}
+inline std::string shared_dir() {
+  return std::string(STANCE_SOURCE_DIR) + "/../shared";
+}
 
 // a floating body with a ball-jointed and a hinged child: covers nq != nv
 inline const char* kFloatingChainMjcf = R"(

@@ -60,9 +60,10 @@ int run_command(const RunCommand& cmd) {
     ScenarioRun run(loaded, opt);
     RunResult r = run.run();
     if (!cmd.quiet) {
-      std::cout << fmt::format("{} on {}: {:.3f} s simulated in {:.3f} s wall ({:.1f}x real time)\n",
-                               r.scenario, r.engine, r.sim_time, r.wall_time_s,
-                               r.wall_time_s > 0 ? r.sim_time / r.wall_time_s : 0.0);
+      std::cout << fmt::format(
+          "{} on {}: {:.3f} s simulated in {:.3f} s wall ({:.1f}x real time)\n", r.scenario,
+          r.engine, r.sim_time, r.wall_time_s,
+          r.wall_time_s > 0 ? r.sim_time / r.wall_time_s : 0.0);
       if (r.diverged)
         std::cout << "  DIVERGED: " << r.divergence << "\n";
       else if (r.fell)
@@ -140,8 +141,7 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
     std::ofstream f(cmd.mjcf, std::ios::binary);
     if (!f || !(f << ch.mjcf)) throw InputError(cmd.mjcf + ": cannot write");
     std::cout << fmt::format("wrote {}: {} bodies, {:.6g} kg, {:.6g} m per file unit\n", cmd.mjcf,
-                             ch.skeleton.segment_count(), cmd.mass_kg,
-                             ch.skeleton.scale_to_meters);
+                             ch.skeleton.segment_count(), cmd.mass_kg, ch.skeleton.scale_to_meters);
     return kExitOk;
   });
 }
@@ -188,36 +188,39 @@ int sweep_command(const SweepCommand& cmd) {
       o.values = linspace(*cmd.from, *cmd.to, cmd.steps);
     }
     auto wall0 = std::chrono::steady_clock::now();
-    std::vector<SweepPoint> points =
-        run_sweep(o, [&](const SweepPoint& p, int done, int total) {
-          if (cmd.quiet) return;
-          std::string what = !p.error.empty() ? "error: " + p.error
-                             : p.result.diverged ? "diverged"
-                             : p.result.fell     ? "fell"
-                                                 : "ok";
-          std::cout << fmt::format("  [{}/{}] {}={} {}\n", done, total, cmd.param,
-                                   format_sweep_value(p.value), what)
-                    << std::flush;
-        });
+    std::vector<SweepPoint> points = run_sweep(o, [&](const SweepPoint& p, int done, int total) {
+      if (cmd.quiet) return;
+      std::string what = !p.error.empty()    ? "error: " + p.error
+                         : p.result.diverged ? "diverged"
+                         : p.result.fell     ? "fell"
+                                             : "ok";
+      std::cout << fmt::format("  [{}/{}] {}={} {}\n", done, total, cmd.param,
+                               format_sweep_value(p.value), what)
+                << std::flush;
+    });
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     write_sweep_outputs(cmd.out_dir, cmd.param, points);
-    std::cout << fmt::format("swept {} over {} values in {:.2f} s wall; wrote {}/sweep.csv and "
-                             "points.csv\n",
-                             cmd.param, points.size(), wall, cmd.out_dir);
+    std::cout << fmt::format(
+        "swept {} over {} values in {:.2f} s wall; wrote {}/sweep.csv and "
+        "points.csv\n",
+        cmd.param, points.size(), wall, cmd.out_dir);
     if (cmd.plot) {
       std::string metric = cmd.plot_metric;
       std::vector<std::string> lists = sweep_list_metrics(points);
       if (metric.empty()) {
         // the slope walker's bifurcation points when present, else the first list metric
         auto it = std::find(lists.begin(), lists.end(), "steady_step_lengths_m");
-        if (it != lists.end()) metric = *it;
-        else if (!lists.empty()) metric = lists.front();
-        else throw InputError("--plot: the runs report no list metric to plot");
+        if (it != lists.end())
+          metric = *it;
+        else if (!lists.empty())
+          metric = lists.front();
+        else
+          throw InputError("--plot: the runs report no list metric to plot");
       }
-      std::string title = fmt::format("{}: {} vs {}", points.front().result.scenario.empty()
-                                                          ? cmd.scenario
-                                                          : points.front().result.scenario,
-                                      metric, cmd.param);
+      std::string title = fmt::format(
+          "{}: {} vs {}",
+          points.front().result.scenario.empty() ? cmd.scenario : points.front().result.scenario,
+          metric, cmd.param);
       std::string png = plot_sweep(cmd.out_dir, cmd.param, metric, title, metric + ".png");
       std::cout << "wrote " << png << "\n";
     }
@@ -234,10 +237,14 @@ int sweep_command(const SweepCommand& cmd) {
 int push_threshold_command(const PushThresholdCommand& cmd) {
   return guarded([&] {
     PushThresholdOptions o;
-    if (cmd.axis == "x") o.axis = 0;
-    else if (cmd.axis == "y") o.axis = 1;
-    else if (cmd.axis == "z") o.axis = 2;
-    else throw InputError(fmt::format("--axis '{}': use x, y or z", cmd.axis));
+    if (cmd.axis == "x")
+      o.axis = 0;
+    else if (cmd.axis == "y")
+      o.axis = 1;
+    else if (cmd.axis == "z")
+      o.axis = 2;
+    else
+      throw InputError(fmt::format("--axis '{}': use x, y or z", cmd.axis));
     o.body = cmd.body;
     o.engine = cmd.engine;
     o.duration = cmd.duration;
@@ -269,8 +276,8 @@ int push_threshold_command(const PushThresholdCommand& cmd) {
         std::cout << fmt::format("  {}: survives {:.1f} N, falls at {:.1f} N ({} trials)\n", dir,
                                  b->survived, *b->fell, b->trials);
     }
-    std::cout << fmt::format("{} trials in {:.2f} s wall\n",
-                             r.positive.trials + r.negative.trials, wall);
+    std::cout << fmt::format("{} trials in {:.2f} s wall\n", r.positive.trials + r.negative.trials,
+                             wall);
     return kExitOk;
   });
 }

@@ -21,8 +21,8 @@ struct RunCommand {
   std::string out_dir = "out";
   bool quiet = false;
   // offscreen recording (src/viz/viz_commands.h): a video and/or one frame at screenshot_at
-  std::string record;      // .mp4
-  std::string screenshot;  // .png
+  std::string record;        // .mp4
+  std::string screenshot;    // .png
   double screenshot_at = 0;  // s
   double fps = 60;
   std::string size = "1280x720";

@@ -23,12 +23,11 @@ AnkleStrategy::AnkleStrategy(const AnkleStrategyParams& params, const Engine& en
   if (!model_.heel_dofs.empty())
     model_.foot_weight = mass * engine.gravity().norm() / model_.heel_dofs.size();
   for (const AnkleBand* b : {&params.forward, &params.backward})
-    if (b->lower >= b->upper)
-      throw InputError("ankle_strategy: a band needs lower < upper");
+    if (b->lower >= b->upper) throw InputError("ankle_strategy: a band needs lower < upper");
 }
 
-void AnkleStrategy::measure(const Model& model, const Engine& engine, double& offset,
-                            double& rate, double& heel_point) {
+void AnkleStrategy::measure(const Model& model, const Engine& engine, double& offset, double& rate,
+                            double& heel_point) {
   BodyPose heel = engine.body_pose(model.heel_body);
   Eigen::Vector3d point = heel.pos + heel.quat * model.params.heel_point;
   heel_point = model.axis.dot(point);
@@ -61,7 +60,7 @@ void AnkleStrategy::compute(const Model& model, State& s, const Engine& engine,
     double toe = -band->k2 * s.offset - band->kd * rate;
     if (band->ramp > 0) {
       double depth = std::abs(band->lower) < std::abs(band->upper) ? s.offset - band->lower
-                                                                     : band->upper - s.offset;
+                                                                   : band->upper - s.offset;
       double w = std::min(1.0, depth / band->ramp);
       heel *= w;
       toe *= w;

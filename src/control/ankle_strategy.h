@@ -35,7 +35,8 @@ struct AnkleBand {
     v("k2", k2, {.unit = "N m/m", .min = 0, .help = "toe gain"});
     v("kd", kd, {.min = 0, .help = "derivative gain on the offset's change"});
     v("tip_lever", tip_lever,
-      {.unit = "m", .min = 0,
+      {.unit = "m",
+       .min = 0,
        .help = "ankle-to-tipping-edge distance; clamps torques to (m g / feet) * lever, 0 = off"});
     v("ramp", ramp, {.unit = "m", .min = 0, .help = "ramp-in distance from the inner edge"});
   }

@@ -6,8 +6,8 @@
 // allocate.
 #pragma once
 
-#include <nlohmann/json.hpp>
 #include <yaml-cpp/yaml.h>
+#include <nlohmann/json.hpp>
 
 #include <Eigen/Core>
 #include <functional>

@@ -59,6 +59,8 @@ void HoldPosePd::compute(const Engine& engine, ControlOutput& out) {
 void HoldPosePd::signal_names(std::vector<std::string>& names) const {
   names.push_back("hold_error_rad");
 }
-void HoldPosePd::signals(std::vector<double>& values) const { values.push_back(last_error_norm_); }
+void HoldPosePd::signals(std::vector<double>& values) const {
+  values.push_back(last_error_norm_);
+}
 
 }  // namespace stance

@@ -9,8 +9,8 @@
 namespace stance {
 
 struct HoldPosePdParams {
-  double kp = 100;  // N m/rad
-  double kd = 10;   // N m s/rad
+  double kp = 100;                // N m/rad
+  double kd = 10;                 // N m s/rad
   std::vector<std::string> dofs;  // empty: every non-root dof
   NamedValues target;             // dof -> value; unnamed dofs hold their initial value
   double max_torque = 1e9;        // N m, symmetric clamp

@@ -88,9 +88,10 @@ MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engin
     const std::string& name = sk.segments[k].name;
     m.body[k] = engine.body_index(name);
     if (m.body[k] < 0)
-      throw InputError(fmt::format("bvh: the model has no body '{}' for the clip's joint (build the "
-                                   "model with `stance bvh2mjcf`){}",
-                                   name, did_you_mean(name, engine.body_names())));
+      throw InputError(
+          fmt::format("bvh: the model has no body '{}' for the clip's joint (build the "
+                      "model with `stance bvh2mjcf`){}",
+                      name, did_you_mean(name, engine.body_names())));
     int joint = -1;
     for (int j = 0; j < engine.njoint(); ++j)
       if (engine.joint(j).body == m.body[k]) joint = j;
@@ -105,8 +106,8 @@ MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engin
     m.dof_adr[k] = info.dof_adr;
   }
   if (engine.nv() != 3 * n + 3)
-    throw InputError(fmt::format("the model has {} dofs; the clip's character has {}", engine.nv(),
-                                 3 * n + 3));
+    throw InputError(
+        fmt::format("the model has {} dofs; the clip's character has {}", engine.nv(), 3 * n + 3));
 
   // gains: joints, then the root in assisted mode
   const int nv = engine.nv();
@@ -172,8 +173,9 @@ MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engin
   if (!params.right_hip.empty()) m.hip[1] = find(params.right_hip, "right_hip");
   if (m.mode == MocapRootMode::kFree && params.balance &&
       (m.hip[0] < 0 || m.hip[1] < 0 || m.foot[0] < 0 || m.foot[1] < 0 || m.hip[0] == m.hip[1]))
-    throw InputError("free mode balance: cannot find both legs; set left_hip, right_hip, "
-                     "left_foot and right_foot");
+    throw InputError(
+        "free mode balance: cannot find both legs; set left_hip, right_hip, "
+        "left_foot and right_foot");
 
   // walking direction in the root frame: the mean horizontal root velocity over one pass
   ReferencePose a = ref->make_pose();

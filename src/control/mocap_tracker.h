@@ -35,40 +35,40 @@
 namespace stance {
 
 struct MocapTrackerParams {
-  std::string bvh;                 // clip; relative paths start at the scenario's folder
-  std::string mode = "assisted";   // kinematic, assisted or free
-  double scale_to_meters = 0;      // 0: detect from the leg length
-  std::string up_axis = "y";       // the file's up axis
+  std::string bvh;                // clip; relative paths start at the scenario's folder
+  std::string mode = "assisted";  // kinematic, assisted or free
+  double scale_to_meters = 0;     // 0: detect from the leg length
+  std::string up_axis = "y";      // the file's up axis
   int first_frame = 0;
-  int last_frame = -1;             // -1: the last
-  double start_s = -1;             // >= 0: overrides first_frame
-  double end_s = -1;               // >= 0: overrides last_frame
+  int last_frame = -1;  // -1: the last
+  double start_s = -1;  // >= 0: overrides first_frame
+  double end_s = -1;    // >= 0: overrides last_frame
   bool loop = true;
   bool align_ground = true;
-  std::string ground = "start";    // align at the start, or the lowest point of the whole clip
-  double kp = 1000;                // N m/rad on every ball joint
-  double kd = 100;                 // N m s/rad
-  NamedValues kp_joints;           // per-joint kp (joint name)
+  std::string ground = "start";  // align at the start, or the lowest point of the whole clip
+  double kp = 1000;              // N m/rad on every ball joint
+  double kd = 100;               // N m s/rad
+  NamedValues kp_joints;         // per-joint kp (joint name)
   NamedValues kd_joints;
-  double root_kp = 20000;          // assisted: N/m on the root position
-  double root_kd = 2000;           // N s/m
-  double root_kp_rot = 2000;       // N m/rad on the root orientation
-  double root_kd_rot = 200;        // N m s/rad
+  double root_kp = 20000;     // assisted: N/m on the root position
+  double root_kd = 2000;      // N s/m
+  double root_kp_rot = 2000;  // N m/rad on the root orientation
+  double root_kd_rot = 200;   // N m s/rad
   // free mode balance layer
   bool balance = true;
-  double cd_sagittal = 0.5;        // rad/m
-  double cv_sagittal = 0.2;        // rad s/m
+  double cd_sagittal = 0.5;  // rad/m
+  double cv_sagittal = 0.2;  // rad s/m
   double cd_coronal = 0.5;
   double cv_coronal = 0.2;
-  bool stance_hip_world = true;    // stance hip target puts the pelvis at the reference
-  double torso_kp = 0;             // N m/rad, extra explicit stance-hip torque on the pelvis
+  bool stance_hip_world = true;  // stance hip target puts the pelvis at the reference
+  double torso_kp = 0;           // N m/rad, extra explicit stance-hip torque on the pelvis
   double torso_kd = 0;
-  std::string left_hip;            // thigh joints; empty: found from the foot chains
+  std::string left_hip;  // thigh joints; empty: found from the foot chains
   std::string right_hip;
-  std::string left_foot;           // feet; empty: the first foot/toe/ankle segment per leg
+  std::string left_foot;  // feet; empty: the first foot/toe/ankle segment per leg
   std::string right_foot;
-  double max_torque = 0;           // N m clamp on joint torques; 0: none
-  std::string export_bvh;          // write the simulated motion here (relative: to the output)
+  double max_torque = 0;   // N m clamp on joint torques; 0: none
+  std::string export_bvh;  // write the simulated motion here (relative: to the output)
 
   template <class V>
   void visit(V& v) {
@@ -82,7 +82,8 @@ struct MocapTrackerParams {
     v("end_s", end_s, {.unit = "s", .min = -1, .help = ">= 0: overrides last_frame"});
     v("loop", loop, {.help = "repeat the clip, accumulating the root displacement"});
     v("align_ground", align_ground, {.help = "lowest point on the floor at the start"});
-    v("ground", ground, {.help = "start: lowest point at the start on the floor; clip: over the clip"});
+    v("ground", ground,
+      {.help = "start: lowest point at the start on the floor; clip: over the clip"});
     v("kp", kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
     v("kd", kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
     v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-joint kp"});
@@ -116,14 +117,14 @@ struct MocapTrackerModel {
   MocapRootMode mode = MocapRootMode::kAssisted;
   std::shared_ptr<const BvhClip> clip;
   std::shared_ptr<const ReferenceMotion> reference;
-  int first_frame = 0;                 // of the clip range, in the clip
-  std::vector<int> body;               // per segment: engine body
-  std::vector<int> qpos_adr, dof_adr;  // per segment: its joint's (free for the root)
-  Eigen::VectorXd kp, kd;              // dim nv
-  std::vector<int> end_effectors;      // segments
+  int first_frame = 0;                      // of the clip range, in the clip
+  std::vector<int> body;                    // per segment: engine body
+  std::vector<int> qpos_adr, dof_adr;       // per segment: its joint's (free for the root)
+  Eigen::VectorXd kp, kd;                   // dim nv
+  std::vector<int> end_effectors;           // segments
   std::vector<Eigen::Vector3d> end_points;  // per end effector: point in its frame, m
-  int hip[2] = {-1, -1};               // segments: left, right thigh
-  int foot[2] = {-1, -1};              // segments: left, right foot
+  int hip[2] = {-1, -1};                    // segments: left, right thigh
+  int foot[2] = {-1, -1};                   // segments: left, right foot
   Eigen::Vector3d forward_in_root = Eigen::Vector3d::UnitX();  // walking direction, root frame
 };
 

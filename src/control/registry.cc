@@ -1,16 +1,16 @@
 // The controller registry: adding a controller means one folder/file pair and one line here.
 #include <fmt/format.h>
 
-#include "control/controller.h"
 #include "control/ankle_strategy.h"
 #include "control/control_noise.h"
+#include "control/controller.h"
 #include "control/hold_pose_pd.h"
 #include "control/lqr.h"
 #include "control/mocap_tracker.h"
-#include "control/stable_pd.h"
 #include "control/simbicon.h"
 #include "control/skateboard_drive.h"
 #include "control/slope_walker.h"
+#include "control/stable_pd.h"
 #include "core/error.h"
 
 namespace stance {
@@ -48,7 +48,8 @@ const std::vector<ControllerType>& controller_registry() {
        factory_of<SlopeWalker, SlopeWalkerParams>()},
       {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
        factory_of<Lqr, LqrParams>()},
-      {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root", make_mocap_tracker},
+      {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root",
+       make_mocap_tracker},
       {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
          return std::unique_ptr<Controller>(

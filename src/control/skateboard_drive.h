@@ -24,8 +24,8 @@ struct SkateboardDriveParams {
   void visit(V& v) {
     v("wheel_dofs", wheel_dofs, {.help = "dofs given velocity commands"});
     v("speed", speed, {.unit = "rad/s", .min = -100, .max = 100, .help = "wheel velocity"});
-    v("speed_step", speed_step, {.unit = "rad/s", .min = 0, .max = 100,
-                                 .help = "increase/decrease step (viewer keys a/s)"});
+    v("speed_step", speed_step,
+      {.unit = "rad/s", .min = 0, .max = 100, .help = "increase/decrease step (viewer keys a/s)"});
     v("start_s", start_s, {.unit = "s", .min = 0, .help = "when the ramp starts"});
     v("ramp_s", ramp_s, {.unit = "s", .min = 0, .max = 100, .help = "ramp time to speed"});
     v("board_body", board_body, {.help = "body whose travel is reported"});

@@ -61,8 +61,7 @@ void SlopeWalker::reset(const Engine& engine) {
   state_.last_step_time = engine.time();
 }
 
-void SlopeWalker::compute(const Model& model, State& s, const Engine& engine,
-                          ControlOutput& out) {
+void SlopeWalker::compute(const Model& model, State& s, const Engine& engine, ControlOutput& out) {
   const SlopeWalkerParams& p = model.params;
   const double t = engine.time();
 
@@ -121,8 +120,8 @@ void SlopeWalker::compute(const Model& model, State& s, const Engine& engine,
   out.tau[model.hip] += std::clamp(hip_tau, -p.max_hip_torque, p.max_hip_torque);
   auto knee_force = [&](int dof, KneeState k) {
     const double target = k == kKneeRetract ? p.knee_retract_m : 0.0;
-    const double f = p.knee_kp * (target - engine.dof_position(dof)) -
-                     p.knee_kv * engine.dof_velocity(dof);
+    const double f =
+        p.knee_kp * (target - engine.dof_position(dof)) - p.knee_kv * engine.dof_velocity(dof);
     out.tau[dof] += std::clamp(f, -p.max_knee_force, p.max_knee_force);
   };
   knee_force(model.knee1, s.knee1);
@@ -154,9 +153,8 @@ void SlopeWalker::compute(const Engine& engine, ControlOutput& out) {
 }
 
 void SlopeWalker::signal_names(std::vector<std::string>& names) const {
-  for (const char* n :
-       {"hip_vx", "hip_vz", "leg1_angle", "leg2_angle", "foot1_z", "foot2_z", "hip_fsm",
-        "knee1_fsm", "knee2_fsm", "step_count", "last_step_length_m"})
+  for (const char* n : {"hip_vx", "hip_vz", "leg1_angle", "leg2_angle", "foot1_z", "foot2_z",
+                        "hip_fsm", "knee1_fsm", "knee2_fsm", "step_count", "last_step_length_m"})
     names.emplace_back(n);
 }
 

@@ -33,16 +33,16 @@ struct SlopeWalkerParams {
   Eigen::Vector3d hinge_axis{0, -1, 0};  // leg angles are measured about this axis
 
   // servos
-  double hip_kp = 10;     // N m/rad
-  double hip_kv = 1;      // N m s/rad
-  double knee_kp = 1000;  // N/m
-  double knee_kv = 10;    // N s/m
+  double hip_kp = 10;            // N m/rad
+  double hip_kv = 1;             // N m s/rad
+  double knee_kp = 1000;         // N/m
+  double knee_kv = 10;           // N s/m
   double max_hip_torque = 100;   // N m
   double max_knee_force = 1000;  // N
 
   // state machines
-  double hip_target_rad = 0.5;      // swing leg ahead of the stance leg
-  double knee_retract_m = -0.25;    // knee slide while retracted (negative: shorter leg)
+  double hip_target_rad = 0.5;          // swing leg ahead of the stance leg
+  double knee_retract_m = -0.25;        // knee slide while retracted (negative: shorter leg)
   double foot_contact_height_m = 0.05;  // a foot below this is "near the ground"
   double stance_past_vertical_rad = 0;  // stance leg angle below this has passed vertical
   double knee_extend_angle_rad = 0.1;   // a retracted leg re-extends past this angle
@@ -50,11 +50,11 @@ struct SlopeWalkerParams {
   int first_swing_leg = 2;              // 1 or 2
 
   // analysis
-  int transient_steps = 30;        // steps ignored before the gait is analysed
-  int max_period = 16;             // longest period looked for
+  int transient_steps = 30;          // steps ignored before the gait is analysed
+  int max_period = 16;               // longest period looked for
   double period_tolerance_m = 0.04;  // step lengths this close count as equal
-  double fall_hip_height_m = 0.5;  // hip below this height above the floor: fell
-  double stall_time_s = 3;         // no step for this long: stalled
+  double fall_hip_height_m = 0.5;    // hip below this height above the floor: fell
+  double stall_time_s = 3;           // no step for this long: stalled
 
   template <class V>
   void visit(V& v) {
@@ -91,7 +91,7 @@ struct SlopeWalkerParams {
 // one step: the hip FSM switched and a new stance foot landed
 struct WalkerStep {
   double time_s = 0;
-  int stance_leg = 0;  // 1 or 2: the leg that just landed
+  int stance_leg = 0;     // 1 or 2: the leg that just landed
   double length_m = 0;    // x distance from the previous stance foot to this one
   double duration_s = 0;  // since the previous step (or the start)
 };

@@ -18,14 +18,14 @@
 namespace stance {
 
 struct JointPdParams {
-  double kp = 400;  // N m/rad (N/m on slides)
-  double kd = 40;   // N m s/rad
-  NamedValues kp_dofs;                // per-dof overrides of kp
-  NamedValues kd_dofs;                // per-dof overrides of kd
+  double kp = 400;                     // N m/rad (N/m on slides)
+  double kd = 40;                      // N m s/rad
+  NamedValues kp_dofs;                 // per-dof overrides of kp
+  NamedValues kd_dofs;                 // per-dof overrides of kd
   std::vector<std::string> free_dofs;  // dofs left alone (zero gains), e.g. skateboard wheels
-  NamedValues target;                 // dof -> target; unnamed dofs hold their initial value
-  bool constraint_forces = true;      // include last step's constraint forces (SPD only)
-  double max_torque = 0;              // N m, symmetric clamp; 0: none
+  NamedValues target;                  // dof -> target; unnamed dofs hold their initial value
+  bool constraint_forces = true;       // include last step's constraint forces (SPD only)
+  double max_torque = 0;               // N m, symmetric clamp; 0: none
 
   template <class V>
   void visit(V& v) {
@@ -43,7 +43,7 @@ struct JointPdParams {
 // the Model shared by SPD and PD: gains per dof, fixed once built
 struct JointPdModel {
   JointPdParams params;
-  Eigen::VectorXd kp, kd;  // dim nv; zero on root and free dofs
+  Eigen::VectorXd kp, kd;                       // dim nv; zero on root and free dofs
   std::vector<std::pair<int, double>> targets;  // (qpos index, value) for named targets
 };
 

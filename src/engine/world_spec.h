@@ -18,8 +18,8 @@ struct ModelFile {
 
 struct WorldSpec {
   std::vector<ModelFile> models;
-  std::optional<double> timestep;            // s; default: the model file's own
-  std::optional<Eigen::Vector3d> gravity;    // m/s^2; default: the model file's own
+  std::optional<double> timestep;          // s; default: the model file's own
+  std::optional<Eigen::Vector3d> gravity;  // m/s^2; default: the model file's own
 };
 
 // backends. Throw stance::InputError (see core/error.h) for bad files.

@@ -133,8 +133,9 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
   out += "  </default>\n";
   out += "  <worldbody>\n";
   out += "    <light pos=\"0 0 4\" dir=\"0 0 -1\" directional=\"true\"/>\n";
-  out += "    <geom name=\"floor\" type=\"plane\" size=\"100 100 0.1\" contype=\"1\" "
-         "conaffinity=\"1\" rgba=\"0.8 0.85 0.9 1\"/>\n";
+  out +=
+      "    <geom name=\"floor\" type=\"plane\" size=\"100 100 0.1\" contype=\"1\" "
+      "conaffinity=\"1\" rgba=\"0.8 0.85 0.9 1\"/>\n";
   // bodies, depth first: segments are in parent-first order, so recurse on children
   std::function<void(int, int)> emit = [&](int k, int depth) {
     const MotionSegment& seg = sk.segments[k];
@@ -149,11 +150,13 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
       const Geom& geom = geoms[k][g];
       std::string gname = fmt::format("{}_{}", seg.name, g);
       if (geom.box)
-        out += fmt::format("{}  <geom name=\"{}\" type=\"box\" pos=\"{}\" quat=\"{}\" size=\"{}\"/>\n",
-                           pad, gname, vec(geom.pos), quat(geom.quat), vec(geom.half));
+        out +=
+            fmt::format("{}  <geom name=\"{}\" type=\"box\" pos=\"{}\" quat=\"{}\" size=\"{}\"/>\n",
+                        pad, gname, vec(geom.pos), quat(geom.quat), vec(geom.half));
       else if ((geom.to - geom.from).norm() > 0)
-        out += fmt::format("{}  <geom name=\"{}\" type=\"capsule\" fromto=\"{} {}\" size=\"{:.6g}\"/>\n",
-                           pad, gname, vec(geom.from), vec(geom.to), geom.radius);
+        out += fmt::format(
+            "{}  <geom name=\"{}\" type=\"capsule\" fromto=\"{} {}\" size=\"{:.6g}\"/>\n", pad,
+            gname, vec(geom.from), vec(geom.to), geom.radius);
       else
         out += fmt::format("{}  <geom name=\"{}\" type=\"sphere\" size=\"{:.6g}\"/>\n", pad, gname,
                            geom.radius);

@@ -32,7 +32,7 @@ struct BvhCharacterOptions {
 };
 
 struct BvhCharacter {
-  std::string mjcf;          // the model text
+  std::string mjcf;  // the model text
   MotionSkeleton skeleton;
   double total_volume_m3 = 0;
   double density_kg_m3 = 0;

@@ -46,7 +46,8 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   sk.scale_to_meters =
       options.scale_to_meters > 0 ? options.scale_to_meters : detect_bvh_scale_to_meters(clip);
   if (options.up_axis == 'y' || options.up_axis == 'Y')
-    sk.to_z_up = Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()));
+    sk.to_z_up =
+        Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()));
   else if (options.up_axis != 'z' && options.up_axis != 'Z')
     throw InputError(fmt::format("up axis: expected y or z, found '{}'", options.up_axis));
   const Eigen::Matrix3d c = sk.to_z_up.toRotationMatrix();
@@ -83,7 +84,7 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   // owner[j]: the segment a joint's frame belongs to; chain[j]: helpers merged above j
   sk.segment_of_joint.assign(n, -1);
   std::vector<int> owner(n, -1);
-  std::vector<std::vector<int>> pending_chain(n);   // merged helpers between parent segment and j
+  std::vector<std::vector<int>> pending_chain(n);  // merged helpers between parent segment and j
   std::vector<Eigen::Vector3d> pending_offset(n, Eigen::Vector3d::Zero());  // file units
   for (int j = 0; j < n; ++j) {
     const BvhJoint& jt = clip.joints[j];
@@ -224,9 +225,9 @@ void ReferenceMotion::sample(double t, ReferencePose& out) const {
         moving ? angular_velocity_body(r0[k], r1[k], frame_time_) : Eigen::Vector3d::Zero();
   }
   out.root_position = (1 - a) * root_positions_[i0] + a * root_positions_[i1];
-  out.root_velocity = moving ? Eigen::Vector3d((root_positions_[i1] - root_positions_[i0]) /
-                                               frame_time_)
-                             : Eigen::Vector3d::Zero();
+  out.root_velocity =
+      moving ? Eigen::Vector3d((root_positions_[i1] - root_positions_[i0]) / frame_time_)
+             : Eigen::Vector3d::Zero();
   // accumulate whole loops: p -> Y p + s, R_root -> Y R_root, v -> Y v
   for (long k = 0; k < cycle; ++k) {
     out.root_position = cycle_yaw_ * out.root_position + cycle_shift_;
@@ -314,9 +315,9 @@ BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
     double y = stand * std::cos(a_hip * 0.7) + 1.2 * std::cos(2 * phase);
     row += fmt::format("0 {:.6f} {:.6f} 0 {:.6f} {:.6f}", y, z, 2.0 * std::sin(2 * phase),
                        4.0 * std::sin(phase));
-    row += fmt::format(" 0 {:.6f} 0", 3.0);              // spine: slight lean
+    row += fmt::format(" 0 {:.6f} 0", 3.0);                               // spine: slight lean
     row += fmt::format(" 0 {:.6f} {:.6f}", 2.0, -6.0 * std::sin(phase));  // chest counter-twist
-    row += " 0 -5 0";                                    // head
+    row += " 0 -5 0";                                                     // head
     for (int s = 0; s < 2; ++s) {
       // arms swing against the same-side leg
       double ph = phase + (s == 0 ? 0 : pi);

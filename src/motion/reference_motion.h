@@ -6,7 +6,8 @@
 // Segments. Every BVH joint becomes one simulated segment (body), except:
 //  - joints whose name contains one of `skip_name_patterns` ("_RIGMESH" helpers), with their
 //    subtree, are dropped;
-//  - a leaf joint without a usable End Site (MASS toes: zero length) is not a body: its offset becomes
+//  - a leaf joint without a usable End Site (MASS toes: zero length) is not a body: its offset
+//  becomes
 //    an end point of its parent's geometry;
 //  - a joint at zero distance from its parent (CMU LHipJoint, lowerneck, lhand) is merged into
 //    the parent segment: its children hang off the parent at the rest-pose offsets and its
@@ -41,9 +42,9 @@ struct MotionSkeletonOptions {
 
 // one simulated body
 struct MotionSegment {
-  std::string name;     // the BVH joint's name
-  int bvh_joint = -1;   // index into BvhClip::joints
-  int parent = -1;      // segment index; -1 for the root
+  std::string name;    // the BVH joint's name
+  int bvh_joint = -1;  // index into BvhClip::joints
+  int parent = -1;     // segment index; -1 for the root
   // BVH joints whose local rotations, multiplied in this order, give this segment's rotation
   // relative to its parent segment: merged helper joints first, the joint itself last
   std::vector<int> rotation_chain;
@@ -76,11 +77,11 @@ struct ReferenceOptions {
   int last_frame = -1;
   double start_s = -1;
   double end_s = -1;
-  bool loop = false;          // repeat the clip, accumulating the root's displacement and yaw
-  bool align_ground = true;   // shift so that the lowest point touches ground_height at start
+  bool loop = false;         // repeat the clip, accumulating the root's displacement and yaw
+  bool align_ground = true;  // shift so that the lowest point touches ground_height at start
   double ground_height_m = 0;
   bool align_whole_clip = false;  // align the lowest point over all frames, not the first's
-  bool root_to_origin = true;  // start the root above the world origin (x = y = 0)
+  bool root_to_origin = true;     // start the root above the world origin (x = y = 0)
 };
 
 // a pose of the segments at one time
@@ -125,7 +126,7 @@ class ReferenceMotion {
   int frame_count_ = 0;
   double frame_time_ = 0;
   int segments_ = 0;
-  std::vector<Eigen::Quaterniond> rotations_;  // frame-major, converted and chained
+  std::vector<Eigen::Quaterniond> rotations_;    // frame-major, converted and chained
   std::vector<Eigen::Vector3d> root_positions_;  // m, world (aligned)
   // one loop: the yaw and horizontal translation taking the first frame's root onto the last's
   Eigen::Quaterniond cycle_yaw_ = Eigen::Quaterniond::Identity();
@@ -139,10 +140,10 @@ class ReferenceMotion {
 // the speed the stance leg's swing implies, so the feet slide only a little. Not a captured
 // human walk: a stand-in with the right structure.
 struct SyntheticWalkOptions {
-  double period_s = 1.1;          // one full cycle (two steps)
+  double period_s = 1.1;  // one full cycle (two steps)
   double frame_time_s = 1.0 / 60;
   double hip_amplitude_deg = 22;
-  double knee_swing_deg = 55;     // extra knee flexion at mid-swing
+  double knee_swing_deg = 55;  // extra knee flexion at mid-swing
   double arm_amplitude_deg = 15;
 };
 BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& options = {});

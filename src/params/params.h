@@ -29,7 +29,7 @@ struct ParamMeta {
 // a struct with a visit(V&) member is visited as a nested object (Eigen's matrices also have a
 // visit member, with another meaning: they are values)
 template <class T, class V>
-concept Visitable = !std::is_base_of_v<Eigen::EigenBase<T>, T> && requires(T& t, V& v) {
+concept Visitable = !std::is_base_of_v<Eigen::EigenBase<T>, T> && requires(T & t, V& v) {
   t.visit(v);
 };
 

@@ -98,11 +98,15 @@ void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, b
   bool ok = n.IsScalar();
   if (ok) {
     const std::string& s = n.Scalar();
-    if (s == "true" || s == "True" || s == "yes" || s == "on") v = true;
-    else if (s == "false" || s == "False" || s == "no" || s == "off") v = false;
-    else ok = false;
+    if (s == "true" || s == "True" || s == "yes" || s == "on")
+      v = true;
+    else if (s == "false" || s == "False" || s == "no" || s == "off")
+      v = false;
+    else
+      ok = false;
   }
-  if (!ok) fail(n, fmt::format("parameter '{}': expected true or false, found {}", path, describe(n)));
+  if (!ok)
+    fail(n, fmt::format("parameter '{}': expected true or false, found {}", path, describe(n)));
 }
 
 void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, std::string& v,
@@ -112,11 +116,11 @@ void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, s
   v = n.Scalar();
 }
 
-void YamlParamReader::read_value(const YAML::Node& n, const std::string& path,
-                                 Eigen::Vector3d& v, const ParamMeta& m) {
+void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, Eigen::Vector3d& v,
+                                 const ParamMeta& m) {
   if (!n.IsSequence() || n.size() != 3)
-    fail(n, fmt::format("parameter '{}': expected a list of 3 numbers, found {}", path,
-                        describe(n)));
+    fail(n,
+         fmt::format("parameter '{}': expected a list of 3 numbers, found {}", path, describe(n)));
   for (int i = 0; i < 3; ++i) v[i] = read_number(n[i], fmt::format("{}[{}]", path, i), m);
 }
 
@@ -135,8 +139,7 @@ void YamlParamReader::read_value(const YAML::Node& n, const std::string& path,
     fail(n, fmt::format("parameter '{}': expected a list of names, found {}", path, describe(n)));
   v.clear();
   for (size_t i = 0; i < n.size(); ++i) {
-    if (!n[i].IsScalar())
-      fail(n[i], fmt::format("parameter '{}[{}]': expected a name", path, i));
+    if (!n[i].IsScalar()) fail(n[i], fmt::format("parameter '{}[{}]': expected a name", path, i));
     v.push_back(n[i].Scalar());
   }
 }
@@ -191,8 +194,8 @@ void apply_yaml_override(YAML::Node& root, const std::string& assignment) {
       char* end = nullptr;
       long idx = std::strtol(p.c_str(), &end, 10);
       if (*end || idx < 0 || idx >= static_cast<long>(cur.size()))
-        throw InputError(fmt::format("--set {}: '{}' is not an index of a list of {}",
-                                     assignment, p, cur.size()));
+        throw InputError(fmt::format("--set {}: '{}' is not an index of a list of {}", assignment,
+                                     p, cur.size()));
       next = cur[idx];
     } else {
       if (!cur[p]) cur[p] = YAML::Node(YAML::NodeType::Map);

@@ -69,8 +69,7 @@ class YamlParamReader {
   template <class T>
   struct is_struct_vector : std::false_type {};
   template <class U>
-  struct is_struct_vector<std::vector<U>>
-      : std::bool_constant<Visitable<U, YamlParamReader>> {};
+  struct is_struct_vector<std::vector<U>> : std::bool_constant<Visitable<U, YamlParamReader>> {};
 
   std::string join(std::string_view key) const {
     return prefix_.empty() ? std::string(key) : prefix_ + "." + std::string(key);
@@ -79,16 +78,14 @@ class YamlParamReader {
   void read_value(const YAML::Node& n, const std::string& path, double& v, const ParamMeta& m);
   void read_value(const YAML::Node& n, const std::string& path, int& v, const ParamMeta& m);
   void read_value(const YAML::Node& n, const std::string& path, bool& v, const ParamMeta& m);
-  void read_value(const YAML::Node& n, const std::string& path, std::string& v,
-                  const ParamMeta& m);
+  void read_value(const YAML::Node& n, const std::string& path, std::string& v, const ParamMeta& m);
   void read_value(const YAML::Node& n, const std::string& path, Eigen::Vector3d& v,
                   const ParamMeta& m);
   void read_value(const YAML::Node& n, const std::string& path, std::vector<double>& v,
                   const ParamMeta& m);
   void read_value(const YAML::Node& n, const std::string& path, std::vector<std::string>& v,
                   const ParamMeta& m);
-  void read_value(const YAML::Node& n, const std::string& path, NamedValues& v,
-                  const ParamMeta& m);
+  void read_value(const YAML::Node& n, const std::string& path, NamedValues& v, const ParamMeta& m);
   double read_number(const YAML::Node& n, const std::string& path, const ParamMeta& m) const;
 
   YAML::Node node_;
@@ -123,8 +120,7 @@ class YamlParamWriter {
       YAML::Node map(YAML::NodeType::Map);
       for (const auto& [name, x] : value) map[name] = x;
       out_[k] = map;
-    } else if constexpr (requires { typename T::value_type; } &&
-                         !std::is_same_v<T, std::string>) {
+    } else if constexpr (requires { typename T::value_type; } && !std::is_same_v<T, std::string>) {
       YAML::Node seq(YAML::NodeType::Sequence);
       for (auto& item : value) {
         if constexpr (Visitable<typename T::value_type, YamlParamWriter>) {

@@ -36,8 +36,7 @@ Perturbation parse_push(const std::string& text) {
   std::stringstream ss(text);
   for (std::string p; std::getline(ss, p, ',');) parts.push_back(p);
   if (parts.size() != 6)
-    throw InputError(
-        fmt::format("--push '{}': expected body,fx,fy,fz,start,duration", text));
+    throw InputError(fmt::format("--push '{}': expected body,fx,fy,fz,start,duration", text));
   Perturbation p;
   p.body = parts[0];
   double vals[5];
@@ -62,7 +61,8 @@ std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::strin
   WorldSpec spec;
   for (const auto& m : s.model) spec.models.push_back({m.file, m.offset});
   if (s.timestep > 0) spec.timestep = s.timestep;
-  if (s.gravity.size() == 3) spec.gravity = Eigen::Vector3d(s.gravity[0], s.gravity[1], s.gravity[2]);
+  if (s.gravity.size() == 3)
+    spec.gravity = Eigen::Vector3d(s.gravity[0], s.gravity[1], s.gravity[2]);
   if (s.slope_rad != 0) {
     // a slope tilts gravity about the y axis instead of the floor: the walker goes down +x
     Eigen::Vector3d g0 = spec.gravity ? *spec.gravity : Eigen::Vector3d(0, 0, -9.81);
@@ -80,8 +80,8 @@ std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::strin
         const char* n = mj_id2name(mj->model(), mjOBJ_KEY, k);
         if (n) names.emplace_back(n);
       }
-      throw InputError(fmt::format("unknown keyframe '{}'{}", s.keyframe,
-                                   did_you_mean(s.keyframe, names)));
+      throw InputError(
+          fmt::format("unknown keyframe '{}'{}", s.keyframe, did_you_mean(s.keyframe, names)));
     }
     mj_resetDataKeyframe(mj->model(), mj->data(), key);
     mj->invalidate();
@@ -136,7 +136,8 @@ ScenarioRun::ScenarioRun(const LoadedScenario& loaded, const RunOptions& options
   for (size_t i = 0; i < loaded.controllers.size(); ++i) {
     const YAML::Node& node = loaded.controllers[i];
     const ControllerType& type = find_controller_type(node["type"].Scalar());
-    ControllerContext ctx{{loaded.source}, fmt::format("controllers[{}]", i),
+    ControllerContext ctx{{loaded.source},
+                          fmt::format("controllers[{}]", i),
                           static_cast<uint64_t>(scenario_.seed) * 1000003ull + i};
     try {
       controllers_.push_back(type.make(node, ctx, e));
@@ -240,8 +241,7 @@ bool ScenarioRun::step() {
     result_.sim_time = t;
     result_.diverged = true;
     std::string w = e.last_warning();
-    result_.divergence =
-        w.empty() ? fmt::format("non-finite state at t={:.6f} s", t) : w;
+    result_.divergence = w.empty() ? fmt::format("non-finite state at t={:.6f} s", t) : w;
     return false;
   }
   return true;
@@ -270,8 +270,8 @@ RunResult ScenarioRun::run() {
     if (!s.log.is_open()) return;
     Eigen::Vector3d c = e.com();
     Eigen::Vector3d root = e.nbody() > 0 ? e.body_pose(0).pos : Eigen::Vector3d::Zero();
-    s.log << fmt::format("{:.6f},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}", e.time(), c.x(),
-                         c.y(), c.z(), root.x(), root.y(), root.z());
+    s.log << fmt::format("{:.6f},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}", e.time(), c.x(), c.y(),
+                         c.z(), root.x(), root.y(), root.z());
     s.signal_values.clear();
     for (auto& ctl : controllers_) ctl->signals(s.signal_values);
     for (double v : s.signal_values) s.log << fmt::format(",{:.9g}", v);
@@ -286,9 +286,8 @@ RunResult ScenarioRun::run() {
       }
     Eigen::Vector3d tail = head - f / 30.0;
     if (!any) tail = head;
-    s.log << fmt::format(",{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n",
-                         f.x(), f.y(), f.z(), tail.x(), tail.y(), tail.z(), head.x(), head.y(),
-                         head.z());
+    s.log << fmt::format(",{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", f.x(),
+                         f.y(), f.z(), tail.x(), tail.y(), tail.z(), head.x(), head.y(), head.z());
   };
 
   e.forward();
@@ -303,9 +302,9 @@ RunResult ScenarioRun::run() {
       if (h < scenario_.fall.com_height_fraction * s.com_height0) {
         result_.fell = true;
         result_.fall_time = e.time();
-        result_.fall_reason = fmt::format("COM height {:.3f} m below {:.0f}% of its start {:.3f} m",
-                                          h, 100 * scenario_.fall.com_height_fraction,
-                                          s.com_height0);
+        result_.fall_reason =
+            fmt::format("COM height {:.3f} m below {:.0f}% of its start {:.3f} m", h,
+                        100 * scenario_.fall.com_height_fraction, s.com_height0);
       } else if (!scenario_.fall.allowed_contacts.empty()) {
         for (int i = 0, n = e.num_contacts(); i < n && !result_.fell; ++i) {
           Contact c = e.contact(i);

@@ -17,9 +17,9 @@
 namespace stance {
 
 struct RunOptions {
-  std::string engine;                // overrides the scenario's engine when set
-  std::optional<double> duration;    // s, overrides the scenario's
-  std::string out_dir;               // where summary.json and log.csv go; empty: no files
+  std::string engine;                      // overrides the scenario's engine when set
+  std::optional<double> duration;          // s, overrides the scenario's
+  std::string out_dir;                     // where summary.json and log.csv go; empty: no files
   std::vector<Perturbation> extra_pushes;  // from the CLI
   bool quiet = false;
 };

@@ -39,12 +39,12 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
     }
   }
   if (!s.gravity.empty() && s.gravity.size() != 3)
-    throw InputError(located(source, doc["gravity"].Mark().line + 1,
-                             "parameter 'gravity': expected 3 numbers"));
+    throw InputError(
+        located(source, doc["gravity"].Mark().line + 1, "parameter 'gravity': expected 3 numbers"));
   if (s.engine != "mujoco" && s.engine != "dart")
-    throw InputError(located(source, doc["engine"] ? doc["engine"].Mark().line + 1 : 0,
-                             "parameter 'engine': expected mujoco or dart, found '" + s.engine +
-                                 "'"));
+    throw InputError(
+        located(source, doc["engine"] ? doc["engine"].Mark().line + 1 : 0,
+                "parameter 'engine': expected mujoco or dart, found '" + s.engine + "'"));
   if (YAML::Node c = doc["controllers"]) {
     if (!c.IsSequence())
       throw InputError(located(source, c.Mark().line + 1, "'controllers' must be a list"));

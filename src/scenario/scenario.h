@@ -70,14 +70,14 @@ struct Scenario {
   std::string name;
   std::string engine = "mujoco";
   std::vector<ModelEntry> model;
-  double timestep = 0;           // s; 0: the model file's own
-  std::vector<double> gravity;   // m/s^2; empty: the model file's own
-  double slope_rad = 0;          // tilts gravity about y: g = |g| (sin a, 0, -cos a)
-  NamedValues initial_pose;      // dof -> value
-  std::string keyframe;          // MuJoCo keyframe name (MuJoCo only)
-  double duration = 10;          // s
+  double timestep = 0;          // s; 0: the model file's own
+  std::vector<double> gravity;  // m/s^2; empty: the model file's own
+  double slope_rad = 0;         // tilts gravity about y: g = |g| (sin a, 0, -cos a)
+  NamedValues initial_pose;     // dof -> value
+  std::string keyframe;         // MuJoCo keyframe name (MuJoCo only)
+  double duration = 10;         // s
   int seed = 0;
-  double torque_scale = 1;       // multiplies the summed controller torques (seed: 0.8)
+  double torque_scale = 1;  // multiplies the summed controller torques (seed: 0.8)
   std::vector<Perturbation> perturbations;
   FallCriterion fall;
   LogOptions log;
@@ -89,8 +89,11 @@ struct Scenario {
     v("model", model, {.help = "model file(s)"});
     v("timestep", timestep, {.unit = "s", .min = 0, .max = 1});
     v("gravity", gravity, {.unit = "m/s^2"});
-    v("slope_rad", slope_rad, {.unit = "rad", .min = -1.5, .max = 1.5,
-                               .help = "downhill slope along +x, applied by tilting gravity"});
+    v("slope_rad", slope_rad,
+      {.unit = "rad",
+       .min = -1.5,
+       .max = 1.5,
+       .help = "downhill slope along +x, applied by tilting gravity"});
     v("initial_pose", initial_pose, {.help = "dof name: value"});
     v("keyframe", keyframe, {.help = "MuJoCo keyframe to start from"});
     v("duration", duration, {.unit = "s", .min = 0});
@@ -112,7 +115,8 @@ struct LoadedScenario {
 
 // load and validate (types, ranges, unknown keys, finite numbers). Overrides are "a.b=value".
 // Relative model paths are resolved against the YAML file's folder.
-LoadedScenario load_scenario(const std::string& path, const std::vector<std::string>& overrides = {});
+LoadedScenario load_scenario(const std::string& path,
+                             const std::vector<std::string>& overrides = {});
 LoadedScenario parse_scenario(const YAML::Node& doc, const std::string& source,
                               const std::string& base_dir);
 

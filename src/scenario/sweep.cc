@@ -22,7 +22,9 @@ namespace stance {
 
 namespace {
 // metrics that measure the machine, not the run: left out of sweep.csv
-bool is_timing_metric(const std::string& key) { return key == "realtime_factor"; }
+bool is_timing_metric(const std::string& key) {
+  return key == "realtime_factor";
+}
 
 std::string csv_cell(const nlohmann::json& v) {
   if (v.is_null()) return "";
@@ -37,7 +39,9 @@ std::string csv_cell(const nlohmann::json& v) {
   return "";
 }
 
-bool is_scalar(const nlohmann::json& v) { return !v.is_array() && !v.is_object(); }
+bool is_scalar(const nlohmann::json& v) {
+  return !v.is_array() && !v.is_object();
+}
 
 // a scenario read once, then cloned and overridden per value (yaml-cpp nodes are not shared
 // across threads)
@@ -223,9 +227,9 @@ std::string plot_sweep(const std::string& dir, const std::string& param, const s
        << "plot 'points.csv' every ::1 using 1:(strcol(2) eq \"" << metric
        << "\" ? $4 : NaN) with points pt 7 ps 0.4 lc rgb '#1f4e9c'\n";
   }
-  const std::string cmd = fmt::format("cd '{}' && gnuplot '{}' 2>'{}'", folder.string(),
-                                      script.filename().string(),
-                                      (folder / "gnuplot.err").string());
+  const std::string cmd =
+      fmt::format("cd '{}' && gnuplot '{}' 2>'{}'", folder.string(), script.filename().string(),
+                  (folder / "gnuplot.err").string());
   if (std::system(cmd.c_str()) != 0) {
     std::ifstream err(folder / "gnuplot.err");
     std::string first;

@@ -25,7 +25,7 @@ struct SweepOptions {
   std::vector<std::string> sets;  // overrides applied to every run ("a.b=value")
   std::string param;              // key path swept, as in --set ("controllers.0.hip_kp")
   std::vector<double> values;
-  int threads = 0;  // 0: every core (std::thread::hardware_concurrency)
+  int threads = 0;                 // 0: every core (std::thread::hardware_concurrency)
   std::string engine;              // overrides the scenario's when set
   std::optional<double> duration;  // s, overrides the scenario's
 };

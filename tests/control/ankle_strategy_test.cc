@@ -90,8 +90,7 @@ TEST(AnkleStrategy, BandsSetTheHeelAndToeTorques) {
   AnkleStrategy::State s2;
   out = run_once(back, *e, s2);
   EXPECT_EQ(s2.band, -1);
-  EXPECT_NEAR(out.tau[e->require_dof("j_heel_right_1")], -2000 * s2.offset - 100 * s2.rate,
-              1e-9);
+  EXPECT_NEAR(out.tau[e->require_dof("j_heel_right_1")], -2000 * s2.offset - 100 * s2.rate, 1e-9);
 
   // outside both bands, or disabled: nothing
   AnkleStrategyParams none = p;

@@ -16,7 +16,9 @@
 namespace stance {
 namespace {
 
-std::string scenario_path() { return test::source_dir() + "/scenarios/slope_walk.yaml"; }
+std::string scenario_path() {
+  return test::source_dir() + "/scenarios/slope_walk.yaml";
+}
 
 RunResult run_walker(const std::vector<std::string>& sets, double duration,
                      const std::string& out_dir = "") {

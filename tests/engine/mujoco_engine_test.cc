@@ -211,8 +211,8 @@ TEST(MujocoEngine, BadInput) {
     EXPECT_NE(std::string(e.what()).find("/nonexistent/model.xml"), std::string::npos);
   }
   WorldSpec bad;
-  bad.models.push_back({test::write_temp_file("bad.xml",
-                                              "<mujoco>\n<worldbody>\n<body>\n</worldbody>\n")});
+  bad.models.push_back(
+      {test::write_temp_file("bad.xml", "<mujoco>\n<worldbody>\n<body>\n</worldbody>\n")});
   try {
     make_mujoco_engine(bad);
     FAIL();

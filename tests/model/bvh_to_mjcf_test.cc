@@ -92,7 +92,8 @@ TEST(BvhToMjcf, SharedFilesBuildLoadableCharacters) {
 TEST(BvhToMjcf, WritesTheFile) {
   BvhClip clip = make_synthetic_walk_clip();
   std::string bvh = test::write_temp_file("walk_for_cli.bvh", format_bvh(clip));
-  std::string xml = (std::filesystem::temp_directory_path() / "stance_tests" / "walk_cli.xml").string();
+  std::string xml =
+      (std::filesystem::temp_directory_path() / "stance_tests" / "walk_cli.xml").string();
   write_bvh_character(bvh, xml, {});
   EXPECT_TRUE(std::filesystem::exists(xml));
   EXPECT_THROW(write_bvh_character(bvh + ".missing", xml, {}), InputError);

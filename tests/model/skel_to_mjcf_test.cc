@@ -520,8 +520,7 @@ std::string error_of(const std::string& path) {
 }
 
 TEST_F(SkelTest, MalformedXmlNamesFileAndLine) {
-  std::string path =
-      write("file.skel", "<skel>\n<world>\n<skeleton name=\"a\">\n<body name=a/>\n");
+  std::string path = write("file.skel", "<skel>\n<world>\n<skeleton name=\"a\">\n<body name=a/>\n");
   std::string message = error_of(path);
   EXPECT_NE(message.find("file.skel:4"), std::string::npos) << message;
 }

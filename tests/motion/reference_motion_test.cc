@@ -100,7 +100,8 @@ TEST(ReferenceMotion, GroundAlignmentAndStartAtOrigin) {
   double lowest = 1e9;
   const MotionSkeleton& sk = ref.skeleton();
   for (int k = 0; k < sk.segment_count(); ++k)
-    for (const auto& e : sk.segments[k].bone_ends) lowest = std::min(lowest, (pos[k] + rot[k] * e).z());
+    for (const auto& e : sk.segments[k].bone_ends)
+      lowest = std::min(lowest, (pos[k] + rot[k] * e).z());
   EXPECT_NEAR(lowest, 0.0, 1e-12);
   // Z-up: the head is above the hips, which stand near a leg length up
   EXPECT_GT(pos[sk.find_segment("Head")].z(), pos[0].z() + 0.3);
@@ -123,7 +124,7 @@ TEST(ReferenceMotion, LoopingAccumulatesTheRootDisplacement) {
   ref.sample(0.3 + 2 * period, c);
   Eigen::Vector3d step1 = b.root_position - a.root_position;
   Eigen::Vector3d step2 = c.root_position - b.root_position;
-  EXPECT_GT(step1.norm(), 0.5);  // the synthetic walk covers over a metre per cycle
+  EXPECT_GT(step1.norm(), 0.5);                  // the synthetic walk covers over a metre per cycle
   EXPECT_NEAR((step1 - step2).norm(), 0, 1e-9);  // no yaw drift in this clip
   EXPECT_NEAR(step1.z(), 0, 1e-12);
   for (size_t k = 1; k < a.rotations.size(); ++k)

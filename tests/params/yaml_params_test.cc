@@ -98,7 +98,8 @@ TEST(YamlParams, WrongTypesNameTheParameter) {
 }
 
 TEST(YamlParams, NonFiniteAndOutOfRangeRejected) {
-  EXPECT_EQ(error_of("kp: .nan\n"), "s.yaml:1: parameter 'kp': must be a finite number, found '.nan'");
+  EXPECT_EQ(error_of("kp: .nan\n"),
+            "s.yaml:1: parameter 'kp': must be a finite number, found '.nan'");
   EXPECT_EQ(error_of("\n\nkp: .inf\n"),
             "s.yaml:3: parameter 'kp': must be a finite number, found '.inf'");
   EXPECT_EQ(error_of("kp: -1\n"), "s.yaml:1: parameter 'kp': -1 is outside [0, 100000]");

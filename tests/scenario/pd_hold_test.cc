@@ -44,8 +44,8 @@ TEST(PdHoldScenario, WritesSummaryAndLog) {
   run_pd_hold("mujoco", dir.string());
   std::ifstream js(dir / "summary.json");
   nlohmann::json j = nlohmann::json::parse(js);
-  for (const char* key : {"scenario", "engine", "seed", "sim_time", "fell", "fall_time",
-                          "wall_time_s", "metrics"})
+  for (const char* key :
+       {"scenario", "engine", "seed", "sim_time", "fell", "fall_time", "wall_time_s", "metrics"})
     EXPECT_TRUE(j.contains(key)) << key;
   EXPECT_EQ(j["scenario"], "pd_hold");
   EXPECT_EQ(j["engine"], "mujoco");

@@ -16,7 +16,9 @@ namespace {
 
 // MuJoCo reports warnings through a global hook; keep the latest per thread.
 thread_local std::string g_last_mujoco_warning;
-void record_warning(const char* msg) { g_last_mujoco_warning = msg ? msg : ""; }
+void record_warning(const char* msg) {
+  g_last_mujoco_warning = msg ? msg : "";
+}
 
 struct WarningHookInstaller {
   WarningHookInstaller() { mju_user_warning = record_warning; }
@@ -335,7 +337,8 @@ void MujocoEngine::constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const {
 
 Eigen::Vector3d MujocoEngine::com() const {
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (int b : mobile_bodies_) c += m_->body_mass[b] * Eigen::Map<const Eigen::Vector3d>(d_->xipos + 3 * b);
+  for (int b : mobile_bodies_)
+    c += m_->body_mass[b] * Eigen::Map<const Eigen::Vector3d>(d_->xipos + 3 * b);
   return total_mass_ > 0 ? Eigen::Vector3d(c / total_mass_) : c;
 }
 
@@ -478,8 +481,9 @@ void MujocoEngine::step() {
   if (seen != warnings_seen_) {
     warnings_seen_ = seen;
     diverged_ = true;
-    last_warning_ = fmt::format("MuJoCo instability at t={:.6f} s: {}", t_before,
-                                g_last_mujoco_warning.empty() ? "bad state" : g_last_mujoco_warning);
+    last_warning_ =
+        fmt::format("MuJoCo instability at t={:.6f} s: {}", t_before,
+                    g_last_mujoco_warning.empty() ? "bad state" : g_last_mujoco_warning);
   }
 }
 
