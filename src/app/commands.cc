@@ -1,4 +1,5 @@
 #include "app/commands.h"
+#include "app/guarded.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -23,28 +24,6 @@
 #include "scenario/sweep.h"
 
 namespace stance {
-
-namespace {
-// every error becomes one line on stderr and exit code 2
-template <class F>
-int guarded(F&& body) {
-  try {
-    return body();
-  } catch (const InputError& e) {
-    std::cerr << "error: " << e.what() << "\n";
-    return kExitBadInput;
-  } catch (const YAML::Exception& e) {
-    std::cerr << "error: YAML: " << e.what() << "\n";
-    return kExitBadInput;
-  } catch (const std::invalid_argument& e) {
-    std::cerr << "error: " << e.what() << "\n";
-    return kExitBadInput;
-  } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
-    return kExitBadInput;
-  }
-}
-}  // namespace
 
 int run_command(const RunCommand& cmd) {
   return guarded([&] {

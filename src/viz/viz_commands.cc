@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "app/guarded.h"
 #include "core/error.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
@@ -15,19 +16,6 @@
 namespace stance {
 
 namespace {
-template <class F>
-int guarded(F&& body) {
-  try {
-    return body();
-  } catch (const InputError& e) {
-    std::cerr << "error: " << e.what() << "\n";
-    return kExitBadInput;
-  } catch (const std::exception& e) {
-    std::cerr << "error: " << e.what() << "\n";
-    return kExitBadInput;
-  }
-}
-
 LoadedScenario load_named(const std::string& path, const std::vector<std::string>& sets) {
   LoadedScenario loaded = load_scenario(path, sets);
   if (loaded.scenario.name.empty())
