@@ -169,6 +169,15 @@ MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engin
     while (k > 0 && sk.segments[k].parent > 0) k = sk.segments[k].parent;
     m.hip[side] = k > 0 ? k : -1;
   }
+  for (int side = 0; side < 2; ++side) {
+    if (m.foot[side] < 0) continue;
+    for (int k = 0; k < n; ++k)
+      for (int a = k; a > 0; a = sk.segments[a].parent)
+        if (a == m.foot[side]) {
+          m.foot_bodies[side].push_back(m.body[k]);
+          break;
+        }
+  }
   if (!params.left_hip.empty()) m.hip[0] = find(params.left_hip, "left_hip");
   if (!params.right_hip.empty()) m.hip[1] = find(params.right_hip, "right_hip");
   if (m.mode == MocapRootMode::kFree && params.balance &&
@@ -201,6 +210,11 @@ void MocapTracker::reset(const Engine& engine) {
   for (Eigen::VectorXd* x : {&q_, &q_ref_, &q_pred_}) x->setZero(nq);
   for (Eigen::VectorXd* x : {&v_, &v_ref_, &err_, &p_, &d_, &c_, &f_, &rhs_, &tau_}) x->setZero(nv);
   m_.setZero(nv, nv);
+  jac_a_.setZero(3, nv);
+  jac_b_.setZero(3, nv);
+  jac_none_.resize(3, 0);
+  stance_share_[0] = 1;
+  stance_share_[1] = 0;
   llt_ = Eigen::LLT<Eigen::MatrixXd>(nv);
   recorded_.clear();
   recorded_frames_ = 0;
@@ -209,6 +223,7 @@ void MocapTracker::reset(const Engine& engine) {
     recorded_.reserve(static_cast<size_t>(nq) * static_cast<size_t>(120.0 / ref.frame_time_s()));
   stance_ = 0;
   error_sum_deg_ = max_error_deg_ = 0;
+  joint_error_sum_deg_.assign(n, 0.0);
   error_samples_ = 0;
   root_error_sum_ = root_error_max_ = ee_error_sum_ = ee_error_max_ = 0;
   steps_ = 0;
@@ -233,14 +248,27 @@ void MocapTracker::track_state(const Engine& engine, double t) {
   }
 }
 
-// SIMBICON-style feedback on the swing thigh (world frame) and the stance hip's torso torque
+// SIMBICON-style feedback on the swing thigh (world frame), the stance hip's pelvis servo, and
+// Coros-style virtual forces carried by J^T through the stance leg(s)
 void MocapTracker::balance(const Engine& engine, double t_target) {
   const MocapTrackerModel& m = model_;
   const MocapTrackerParams& p = m.params;
   const ReferenceMotion& ref = *m.reference;
   ref.forward_kinematics(pose_, fk_pos_, fk_rot_);
-  // stance: the foot lower in the reference
-  stance_ = fk_pos_[m.foot[0]].z() <= fk_pos_[m.foot[1]].z() ? 0 : 1;
+  // stance: the foot lower in the reference, unless only the other one touches the ground
+  const int ref_stance = fk_pos_[m.foot[0]].z() <= fk_pos_[m.foot[1]].z() ? 0 : 1;
+  stance_ = ref_stance;
+  stance_share_[stance_] = 1;
+  stance_share_[1 - stance_] = 0;
+  if (p.contact_stance) {
+    bool touch[2] = {false, false};
+    for (int side = 0; side < 2; ++side)
+      for (int b : m.foot_bodies[side]) touch[side] = touch[side] || engine.body_touches_ground(b);
+    if (touch[0] != touch[1]) stance_ = touch[0] ? 0 : 1;
+    // double support shares the weight; in flight nothing is carried
+    for (int side = 0; side < 2; ++side)
+      stance_share_[side] = touch[side] ? (touch[1 - side] ? 0.5 : 1.0) : 0.0;
+  }
   const int swing = 1 - stance_;
   // heading frames of the simulation and the reference
   const int root_body = m.body[0];
@@ -253,11 +281,20 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   Eigen::Vector3d fwd = heading(root.quat), fwd_ref = heading(pose_.rotations[0]);
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d lat = up.cross(fwd), lat_ref = up.cross(fwd_ref);
-  // d: root offset from the stance ankle; v: root velocity; both against the reference's
-  Eigen::Vector3d d = root.pos - engine.body_pose(m.body[m.foot[stance_]]).pos;
-  Eigen::Vector3d d_ref = pose_.root_position - fk_pos_[m.foot[stance_]];
+  Eigen::Quaterniond yaw_fix = p.heading_control ? Eigen::Quaterniond::Identity()
+                                                 : Eigen::Quaterniond::FromTwoVectors(fwd_ref, fwd);
+  // d: root (or COM) offset from the stance ankle; v: its velocity; both against the reference's
+  const Eigen::Vector3d ankle = engine.body_pose(m.body[m.foot[stance_]]).pos;
+  const Eigen::Vector3d ankle_ref = fk_pos_[m.foot[stance_]];
+  Eigen::Vector3d d = root.pos - ankle;
+  Eigen::Vector3d d_ref = pose_.root_position - ankle_ref;
   Eigen::Vector3d vel = engine.body_velocity(root_body).tail<3>();
   Eigen::Vector3d vel_ref = pose_.root_velocity;
+  if (p.com_feedback) {
+    // the reference COM is taken at the simulated COM's offset from the root
+    d = engine.com() - ankle;
+    vel = engine.com_velocity();
+  }
   double th_sag = p.cd_sagittal * (d.dot(fwd) - d_ref.dot(fwd_ref)) +
                   p.cv_sagittal * (vel.dot(fwd) - vel_ref.dot(fwd_ref));
   double th_cor = p.cd_coronal * (d.dot(lat) - d_ref.dot(lat_ref)) +
@@ -265,15 +302,23 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   th_sag = std::clamp(th_sag, -0.8, 0.8);
   th_cor = std::clamp(th_cor, -0.5, 0.5);
   // the reference thigh in the world, turned onto the simulated heading, then the feedback
-  Eigen::Quaterniond yaw_fix = Eigen::Quaterniond::FromTwoVectors(fwd_ref, fwd);
   Eigen::Quaterniond delta = Eigen::Quaterniond(Eigen::AngleAxisd(th_sag, -lat)) *
                              Eigen::Quaterniond(Eigen::AngleAxisd(th_cor, fwd));
+  const MotionSkeleton& sk = ref.skeleton();
   const int hip = m.hip[swing];
   Eigen::Quaterniond thigh_des = delta * yaw_fix * fk_rot_[hip];
-  Eigen::Quaterniond parent = engine.body_pose(m.body[ref.skeleton().segments[hip].parent]).quat;
+  Eigen::Quaterniond parent = engine.body_pose(m.body[sk.segments[hip].parent]).quat;
   Eigen::Quaterniond local = (parent.conjugate() * thigh_des).normalized();
   if (local.coeffs().dot(pose_.rotations[hip].coeffs()) < 0) local.coeffs() *= -1;
   write_quat(q_ref_, m.qpos_adr[hip], local);
+  // swing foot: its reference world orientation on the simulated heading (lands flat)
+  if (p.swing_foot_world) {
+    const int foot = m.foot[swing];
+    Eigen::Quaterniond shank = engine.body_pose(m.body[sk.segments[foot].parent]).quat;
+    Eigen::Quaterniond target = (shank.conjugate() * yaw_fix * fk_rot_[foot]).normalized();
+    if (target.coeffs().dot(pose_.rotations[foot].coeffs()) < 0) target.coeffs() *= -1;
+    write_quat(q_ref_, m.qpos_adr[foot], target);
+  }
   // pelvis servo through the stance hip's SPD: its target is the rotation that would put the
   // pelvis at the reference orientation over the thigh as it is (implicit, hence stable)
   Eigen::Quaterniond root_des = yaw_fix * pose_.rotations[0];
@@ -281,8 +326,7 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   Eigen::Quaterniond thigh = engine.body_pose(m.body[stance_hip]).quat;
   if (p.stance_hip_world) {
     Eigen::Quaterniond between = Eigen::Quaterniond::Identity();
-    for (int a = ref.skeleton().segments[stance_hip].parent; a > 0;
-         a = ref.skeleton().segments[a].parent)
+    for (int a = sk.segments[stance_hip].parent; a > 0; a = sk.segments[a].parent)
       between = pose_.rotations[a] * between;  // merged-away segments between root and hip
     Eigen::Quaterniond target = ((root_des * between).conjugate() * thigh).normalized();
     if (target.coeffs().dot(pose_.rotations[stance_hip].coeffs()) < 0) target.coeffs() *= -1;
@@ -294,6 +338,31 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   Eigen::Vector3d w_ref = root_des * pose_.angular_velocities[0];
   Eigen::Vector3d torque = p.torso_kp * rot_err + p.torso_kd * (w_ref - w);
   tau_.segment<3>(m.dof_adr[stance_hip]) -= thigh.conjugate() * torque;
+
+  // virtual force F at the COM, reacted at each supporting foot (Coros et al. 2010): the
+  // torques (J_com - J_foot(com))^T F act on the joints between the foot and every body, and
+  // cancel on the root. F carries the weight and holds the root at its reference offset.
+  const double weight = engine.total_mass() * engine.gravity().norm();
+  Eigen::Vector3d root_d = root.pos - ankle,
+                  root_d_ref = yaw_fix * (pose_.root_position - ankle_ref);
+  Eigen::Vector3d root_v = engine.body_velocity(root_body).tail<3>();
+  Eigen::Vector3d root_v_ref = yaw_fix * pose_.root_velocity;
+  Eigen::Vector3d e = root_d_ref - root_d, ev = root_v_ref - root_v;
+  Eigen::Vector3d force = -p.gravity_compensation * engine.total_mass() * engine.gravity();
+  force.x() += p.root_force_kp * e.x() + p.root_force_kd * ev.x();
+  force.y() += p.root_force_kp * e.y() + p.root_force_kd * ev.y();
+  force.z() += p.root_force_kp_z * e.z() + p.root_force_kd_z * ev.z();
+  force.z() = std::clamp(force.z(), 0.0, 2 * weight);  // the feet can only push
+  if (force.squaredNorm() == 0) return;
+  const Eigen::Vector3d com = engine.com();
+  engine.com_jacobian(jac_a_);
+  for (int side = 0; side < 2; ++side) {
+    if (stance_share_[side] <= 0) continue;
+    engine.point_jacobian(m.body[m.foot[side]], com, jac_b_, jac_none_);
+    jac_b_ = jac_a_ - jac_b_;
+    tau_.noalias() += stance_share_[side] * jac_b_.transpose() * force;
+  }
+  tau_.segment<6>(m.dof_adr[0]).setZero();  // exact zero up to rounding
 }
 
 void MocapTracker::compute(const Engine& engine, ControlOutput& out) {
@@ -331,7 +400,7 @@ void MocapTracker::compute(const Engine& engine, ControlOutput& out) {
     d_ = -m.kd.cwiseProduct(v_ - v_ref_);
     m_.diagonal() += m.kd * dt;
     llt_.compute(m_);
-    rhs_ = p_ + d_ - c_ + f_;
+    rhs_ = p_ + d_ - c_ + f_ + tau_;
     llt_.solveInPlace(rhs_);
     Eigen::VectorXd& spd = err_;  // reuse: tau of the SPD
     spd = p_ + d_ - (m.kd * dt).cwiseProduct(rhs_);
@@ -360,6 +429,7 @@ void MocapTracker::accumulate_metrics(const Engine& engine) {
   for (int k = 1; k < n; ++k) {
     double e = geodesic_angle(read_quat(q_, m.qpos_adr[k]), pose_now_.rotations[k]) * kRadToDeg;
     sum += e;
+    joint_error_sum_deg_[k] += e;
     max_error_deg_ = std::max(max_error_deg_, e);
   }
   if (n > 1) {
@@ -392,7 +462,8 @@ double MocapTracker::mean_joint_error_deg() const {
 
 void MocapTracker::signal_names(std::vector<std::string>& names) const {
   for (const char* s : {"mocap_joint_error_deg", "mocap_root_error_m", "mocap_helper_fx",
-                        "mocap_helper_fy", "mocap_helper_fz", "mocap_stance"})
+                        "mocap_helper_fy", "mocap_helper_fz", "mocap_stance", "mocap_ref_root_x",
+                        "mocap_ref_root_y", "mocap_ref_root_z"})
     names.emplace_back(s);
 }
 
@@ -401,6 +472,7 @@ void MocapTracker::signals(std::vector<double>& values) const {
   values.push_back(last_root_error_);
   for (int i = 0; i < 3; ++i) values.push_back(last_helper_force_[i]);
   values.push_back(stance_);
+  for (int i = 0; i < 3; ++i) values.push_back(pose_now_.root_position[i]);
 }
 
 void MocapTracker::add_metrics(nlohmann::json& metrics) const {

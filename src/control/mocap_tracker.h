@@ -63,7 +63,16 @@ struct MocapTrackerParams {
   bool stance_hip_world = true;  // stance hip target puts the pelvis at the reference
   double torso_kp = 0;           // N m/rad, extra explicit stance-hip torque on the pelvis
   double torso_kd = 0;
-  std::string left_hip;  // thigh joints; empty: found from the foot chains
+  bool contact_stance = true;       // stance from the feet's ground contacts, not the reference
+  bool com_feedback = false;        // swing-thigh feedback on the COM instead of the root
+  double gravity_compensation = 0;  // fraction of the weight carried by J^T through the stance
+  double root_force_kp = 0;         // N/m: virtual force on the root, relative to the stance foot
+  double root_force_kd = 0;         // N s/m
+  double root_force_kp_z = 0;       // N/m, vertical
+  double root_force_kd_z = 0;       // N s/m, vertical
+  bool swing_foot_world = false;    // swing foot at its reference world orientation
+  bool heading_control = false;     // pelvis and thighs at the reference's world yaw
+  std::string left_hip;             // thigh joints; empty: found from the foot chains
   std::string right_hip;
   std::string left_foot;  // feet; empty: the first foot/toe/ankle segment per leg
   std::string right_foot;
@@ -100,6 +109,18 @@ struct MocapTrackerParams {
     v("stance_hip_world", stance_hip_world, {.help = "free mode: pelvis servo via stance hip"});
     v("torso_kp", torso_kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
     v("torso_kd", torso_kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
+    v("contact_stance", contact_stance, {.help = "free mode: stance from foot contacts"});
+    v("com_feedback", com_feedback, {.help = "free mode: balance feedback on the COM"});
+    v("gravity_compensation", gravity_compensation,
+      {.min = 0, .max = 2, .help = "free mode: weight fraction carried through the stance leg"});
+    v("root_force_kp", root_force_kp,
+      {.unit = "N/m", .min = 0, .max = 1e6, .help = "free mode: virtual root force, horizontal"});
+    v("root_force_kd", root_force_kd, {.unit = "N s/m", .min = 0, .max = 1e6});
+    v("root_force_kp_z", root_force_kp_z, {.unit = "N/m", .min = 0, .max = 1e6});
+    v("root_force_kd_z", root_force_kd_z, {.unit = "N s/m", .min = 0, .max = 1e6});
+    v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});
+    v("heading_control", heading_control,
+      {.help = "free mode: servo the pelvis to the reference's heading, not the simulated"});
     v("left_hip", left_hip);
     v("right_hip", right_hip);
     v("left_foot", left_foot);
@@ -125,6 +146,7 @@ struct MocapTrackerModel {
   std::vector<Eigen::Vector3d> end_points;  // per end effector: point in its frame, m
   int hip[2] = {-1, -1};                    // segments: left, right thigh
   int foot[2] = {-1, -1};                   // segments: left, right foot
+  std::vector<int> foot_bodies[2];          // engine bodies of each foot and its subtree
   Eigen::Vector3d forward_in_root = Eigen::Vector3d::UnitX();  // walking direction, root frame
 };
 
@@ -160,12 +182,14 @@ class MocapTracker final : public Controller {
   std::vector<Eigen::Vector3d> fk_pos_;
   std::vector<Eigen::Quaterniond> fk_rot_;
   Eigen::VectorXd q_, v_, q_ref_, v_ref_, q_pred_, err_, p_, d_, c_, f_, rhs_, tau_;
-  Eigen::MatrixXd m_;
+  Eigen::MatrixXd m_, jac_a_, jac_b_, jac_none_;  // jacobians: 3 x nv (none: 3 x 0)
   Eigen::LLT<Eigen::MatrixXd> llt_;
   std::vector<double> recorded_;  // recorded frames of q, nq each
   int recorded_frames_ = 0;
   double next_record_t_ = 0;
-  int stance_ = 0;  // 0 left, 1 right
+  int stance_ = 0;                           // 0 left, 1 right
+  double stance_share_[2] = {1, 0};          // weight share per foot (contacts)
+  std::vector<double> joint_error_sum_deg_;  // per segment
   double error_sum_deg_ = 0, max_error_deg_ = 0;
   long error_samples_ = 0;
   double root_error_sum_ = 0, root_error_max_ = 0, ee_error_sum_ = 0, ee_error_max_ = 0;
