@@ -34,6 +34,17 @@ JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engi
       throw InputError("target: '" + name + "' is not a hinge or slide dof");
     m.targets.emplace_back(j.qpos_adr, value);
   }
+  m.scalar_gains_only = true;
+  for (int i = 0; i < nv; ++i) {
+    if (m.kp[i] == 0 && m.kd[i] == 0) continue;
+    const JointInfo& j = engine.joint(engine.dof_joint(i));
+    if (j.type != JointType::kHinge && j.type != JointType::kSlide) {
+      m.scalar_gains_only = false;
+      m.scalar_dofs.clear();
+      break;
+    }
+    m.scalar_dofs.emplace_back(i, j.qpos_adr);
+  }
   return m;
 }
 
@@ -45,6 +56,23 @@ void StablePdState::resize(int nq, int nv) {
 }
 
 namespace {
+// err = (q + v h) (-) q_target: per dof when only hinges and slides have gains (the other
+// dofs' errors are multiplied by zero gains), else on the configuration manifold
+void predicted_error(const JointPdModel& model, StablePdState& s, const Engine& engine, double h) {
+  if (model.scalar_gains_only) {
+    s.err.setZero();
+    for (const auto& [dof, adr] : model.scalar_dofs)
+      s.err[dof] = s.q[adr] + s.v[dof] * h - s.q_target[adr];
+    return;
+  }
+  if (h != 0) {
+    engine.integrate_positions(s.q, s.v, h, s.q_pred);
+    engine.difference_positions(s.q_target, s.q_pred, s.err);
+  } else {
+    engine.difference_positions(s.q_target, s.q, s.err);
+  }
+}
+
 void add_clamped(const JointPdModel& model, const Eigen::VectorXd& tau, ControlOutput& out) {
   const double lim = model.params.max_torque;
   if (lim > 0)
@@ -60,8 +88,7 @@ void compute_stable_pd(const JointPdModel& model, StablePdState& s, const Engine
   engine.get_positions(s.q);
   engine.get_velocities(s.v);
   // p = -Kp (q + v dt - q_target), on the configuration manifold
-  engine.integrate_positions(s.q, s.v, dt, s.q_pred);
-  engine.difference_positions(s.q_target, s.q_pred, s.err);
+  predicted_error(model, s, engine, dt);
   s.p.noalias() = -model.kp.cwiseProduct(s.err);
   s.d.noalias() = -model.kd.cwiseProduct(s.v);
   // (M + Kd dt) v' = -C + p + d + tau_c, solved with the engine's own factorisation when it has
@@ -84,7 +111,7 @@ void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine&
                       ControlOutput& out) {
   engine.get_positions(s.q);
   engine.get_velocities(s.v);
-  engine.difference_positions(s.q_target, s.q, s.err);
+  predicted_error(model, s, engine, 0);
   s.p.noalias() = -model.kp.cwiseProduct(s.err);
   s.p.noalias() -= model.kd.cwiseProduct(s.v);
   add_clamped(model, s.p, out);
@@ -110,7 +137,7 @@ void StablePd::compute(const Engine& engine, ControlOutput& out) {
   // tracking error of the controlled dofs, now (not predicted)
   double e = 0;
   int n = 0;
-  engine.difference_positions(state_.q_target, state_.q, state_.err);
+  predicted_error(model_, state_, engine, 0);
   for (int i = 0; i < state_.err.size(); ++i)
     if (model_.kp[i] > 0) {
       e += state_.err[i] * state_.err[i];

@@ -6,8 +6,9 @@
 //   tau = p + d - Kd v' dt
 //
 // Root (free-joint) dofs get zero gains. Positions are differenced by the engine, so ball and
-// free joints are handled. M + Kd dt is solved by Engine::solve_mass_shifted (MuJoCo: its sparse
-// factorisation; otherwise a dense Cholesky whose storage is made once): no allocation per step.
+// free joints are handled; when only hinges and slides have gains the error is taken per dof. M +
+// Kd dt is solved by Engine::solve_mass_shifted (MuJoCo: its sparse factorisation; otherwise a
+// dense Cholesky whose storage is made once): no allocation per step.
 #pragma once
 
 #include <Eigen/Cholesky>
@@ -45,6 +46,10 @@ struct JointPdModel {
   JointPdParams params;
   Eigen::VectorXd kp, kd;                       // dim nv; zero on root and free dofs
   std::vector<std::pair<int, double>> targets;  // (qpos index, value) for named targets
+  // when every dof with a gain is a hinge or slide, its position error is q[adr] - q_target[adr]
+  // and the engine's manifold difference (ball and free joints) can be skipped
+  bool scalar_gains_only = false;
+  std::vector<std::pair<int, int>> scalar_dofs;  // (dof, qpos index) of the dofs with a gain
 };
 
 JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engine);

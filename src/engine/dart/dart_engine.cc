@@ -500,6 +500,62 @@ class DartEngine final : public Engine {
       seg = out;
     }
   }
+  void solve_mass_shifted(const Eigen::Ref<const Eigen::VectorXd>& d,
+                          Eigen::Ref<Eigen::VectorXd> x) const override {
+    // DART's articulated-body forward dynamics already solves (M + h D) a = tau - ... for its
+    // implicit joint damping D, in O(n) and without building M (about 240 us on fullbody1).
+    // With D = d / h it solves the shifted system; being affine in tau, two passes give
+    // (M + diag d)^-1 x = a(tau = x) - a(tau = 0). The joints' own damping, springs and forces
+    // are put back afterwards and the articulated inertias marked stale for the real step.
+    const double h = timestep();
+    for (const SkeletonBlock& b : blocks_) {
+      auto& skel = *b.skeleton;
+      if (!force_driven(skel) || !(h > 0) || (d.array() < 0).any()) {
+        Engine::solve_mass_shifted(d, x);  // velocity servos: ABA would prescribe them
+        return;
+      }
+    }
+    for (const SkeletonBlock& b : blocks_) {
+      auto& skel = *b.skeleton;
+      // per dof, so that nothing here allocates
+      for (int i = 0; i < b.ndof; ++i) {
+        dart::dynamics::DegreeOfFreedom* dof = skel.getDof(i);
+        shift_forces_[b.dof_start + i] = dof->getForce();
+        shift_damping_[b.dof_start + i] = dof->getDampingCoefficient();
+        shift_springs_[b.dof_start + i] = dof->getSpringStiffness();
+        dof->setDampingCoefficient(d[b.dof_start + i] / h);
+        dof->setSpringStiffness(0.0);
+        dof->setForce(x[b.dof_start + i]);
+      }
+      mark_articulated_inertia_stale(skel);
+      skel.computeForwardDynamics();
+      for (int i = 0; i < b.ndof; ++i) solve_scratch_[i] = skel.getDof(i)->getAcceleration();
+      skel.resetGeneralizedForces();
+      skel.computeForwardDynamics();
+      for (int i = 0; i < b.ndof; ++i) {
+        dart::dynamics::DegreeOfFreedom* dof = skel.getDof(i);
+        x[b.dof_start + i] = solve_scratch_[i] - dof->getAcceleration();
+        dof->setDampingCoefficient(shift_damping_[b.dof_start + i]);
+        dof->setSpringStiffness(shift_springs_[b.dof_start + i]);
+        dof->setForce(shift_forces_[b.dof_start + i]);
+      }
+      mark_articulated_inertia_stale(skel);
+    }
+  }
+  // every joint takes forces (no velocity or acceleration servo, which ABA would prescribe)
+  static bool force_driven(const dart::dynamics::Skeleton& skel) {
+    for (std::size_t j = 0; j < skel.getNumJoints(); ++j) {
+      const auto type = skel.getJoint(j)->getActuatorType();
+      if (type != dart::dynamics::Joint::FORCE && type != dart::dynamics::Joint::PASSIVE)
+        return false;
+    }
+    return true;
+  }
+  // DART caches articulated inertias (which hold h D) until positions change
+  static void mark_articulated_inertia_stale(dart::dynamics::Skeleton& skel) {
+    for (std::size_t t = 0; t < skel.getNumTrees(); ++t) skel.dirtyArticulatedInertia(t);
+  }
+
   void bias_forces(Eigen::Ref<Eigen::VectorXd> c) const override {
     for (const SkeletonBlock& b : blocks_)
       c.segment(b.dof_start, b.ndof) = b.skeleton->getCoriolisAndGravityForces();
@@ -793,6 +849,9 @@ class DartEngine final : public Engine {
     }
     velocity_command_.assign(ndof_, std::nan(""));
     solve_scratch_.setZero(ndof_);
+    shift_forces_.setZero(ndof_);
+    shift_damping_.setZero(ndof_);
+    shift_springs_.setZero(ndof_);
   }
 
   // translational dofs of prismatic/translational/planar joints are slides
@@ -849,6 +908,8 @@ class DartEngine final : public Engine {
 
   std::vector<double> velocity_command_;   // NaN: no servo
   mutable Eigen::VectorXd solve_scratch_;  // dim nv; keeps solve_mass allocation-free
+  // solve_mass_shifted's saved joint forces, damping and spring stiffnesses; dim nv
+  mutable Eigen::VectorXd shift_forces_, shift_damping_, shift_springs_;
   std::string load_warnings_;
 
   // contacts: the last step's, or those forward() found for positions set since

@@ -127,7 +127,7 @@ MujocoEngine::MujocoEngine(mjModel* model, std::string source)
   jac_scratch_.resize(3, m_->nv);
   jac_scratch2_.resize(3, m_->nv);
   vec_scratch_.resize(std::max(1, m_->nv));
-  diag_scratch_.resize(std::max(1, m_->nv));
+  shifted_mass_ldl_ = TreeLdl(m_->dof_parentid, m_->dof_Madr, m_->nv, m_->nM);
   mj_forward(m_, d_);
   warnings_seen_ = d_->warning[mjWARN_BADQACC].number + d_->warning[mjWARN_BADQPOS].number +
                    d_->warning[mjWARN_BADQVEL].number;
@@ -314,18 +314,10 @@ void MujocoEngine::solve_mass(Eigen::Ref<Eigen::VectorXd> x) const {
 
 void MujocoEngine::solve_mass_shifted(const Eigen::Ref<const Eigen::VectorXd>& d,
                                       Eigen::Ref<Eigen::VectorXd> x) const {
-  // shift qM's diagonal, refactor the sparse tree LDL, solve; then put qM and its factor back
-  // exactly (the constraint solver of mj_step2 uses them)
-  for (int i = 0; i < m_->nv; ++i) {
-    double& mii = d_->qM[m_->dof_Madr[i]];
-    diag_scratch_[i] = mii;
-    mii += d[i];
-  }
-  mj_factorM(m_, d_);
-  std::memcpy(vec_scratch_.data(), x.data(), sizeof(double) * m_->nv);
-  mj_solveM(m_, d_, x.data(), vec_scratch_.data(), 1);
-  for (int i = 0; i < m_->nv; ++i) d_->qM[m_->dof_Madr[i]] = diag_scratch_[i];
-  mj_factorM(m_, d_);
+  // qM (filled by mj_step1) shifted and factored in our own buffers; mjData's factor stays
+  // untouched for mj_step2's constraint solver
+  shifted_mass_ldl_.factor(d_->qM, d.data());
+  shifted_mass_ldl_.solve(x.data());
 }
 
 void MujocoEngine::bias_forces(Eigen::Ref<Eigen::VectorXd> c) const {
@@ -343,12 +335,14 @@ Eigen::Vector3d MujocoEngine::com() const {
 }
 
 Eigen::Vector3d MujocoEngine::com_velocity() const {
+  // cvel holds each body's (angular, linear) velocity at its tree's subtree COM, world-aligned;
+  // shift the linear part to the body's own COM (what mj_objectVelocity does, without the call)
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  double res[6];
   for (int b : mobile_bodies_) {
-    // velocity of the body's COM: (angular, linear) at xipos, world orientation
-    mj_objectVelocity(m_, d_, mjOBJ_BODY, b, res, 0);
-    c += m_->body_mass[b] * Eigen::Vector3d(res[3], res[4], res[5]);
+    Eigen::Map<const Eigen::Vector3d> w(d_->cvel + 6 * b), v(d_->cvel + 6 * b + 3);
+    Eigen::Map<const Eigen::Vector3d> p(d_->xipos + 3 * b),
+        origin(d_->subtree_com + 3 * m_->body_rootid[b]);
+    c += m_->body_mass[b] * (v + w.cross(p - origin));
   }
   return total_mass_ > 0 ? Eigen::Vector3d(c / total_mass_) : c;
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "engine/engine.h"
+#include "engine/mujoco/tree_ldl.h"
 #include "engine/world_spec.h"
 
 namespace stance {
@@ -121,7 +122,8 @@ class MujocoEngine final : public Engine {
   bool has_velocity_commands_ = false;
   mutable Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> jac_scratch_,
       jac_scratch2_;
-  mutable std::vector<double> vec_scratch_, diag_scratch_;
+  mutable std::vector<double> vec_scratch_;
+  mutable TreeLdl shifted_mass_ldl_;  // M + diag(shift), apart from mjData's own factor
   int warnings_seen_ = 0;
   bool diverged_ = false;
   std::string last_warning_;
