@@ -24,6 +24,22 @@ AnkleStrategy::AnkleStrategy(const AnkleStrategyParams& params, const Engine& en
     model_.foot_weight = mass * engine.gravity().norm() / model_.heel_dofs.size();
   for (const AnkleBand* b : {&params.forward, &params.backward})
     if (b->lower >= b->upper) throw InputError("ankle_strategy: a band needs lower < upper");
+  if (params.capture.lower >= params.capture.upper)
+    throw InputError("ankle_strategy.capture: needs lower < upper");
+  const Eigen::Vector3d g = engine.gravity();
+  if (params.capture.gain > 0 && g.norm() < 1e-9)
+    throw InputError("ankle_strategy.capture: the capture point needs gravity");
+  if (g.norm() >= 1e-9) {
+    model_.gravity = g.norm();
+    model_.up = -g.normalized();
+  }
+}
+
+double AnkleStrategy::capture_torque(const AnkleCaptureTerm& c, double xi) {
+  double tau = 0;
+  if (xi < c.lower) tau = c.gain * (c.lower - xi);
+  if (xi > c.upper) tau = -c.gain * (xi - c.upper);
+  return std::clamp(tau, -c.max_torque, c.max_torque);
 }
 
 void AnkleStrategy::measure(const Model& model, const Engine& engine, double& offset, double& rate,
@@ -42,6 +58,16 @@ void AnkleStrategy::compute(const Model& model, State& s, const Engine& engine,
                             ControlOutput& out) {
   double rate = 0;
   measure(model, engine, s.offset, rate, s.heel_point);
+  const AnkleCaptureTerm& capture = model.params.capture;
+  s.capture_torque = 0;
+  if (capture.gain > 0) {
+    // the linear inverted pendulum's capture point, from the COM's height over the heel point
+    const BodyPose heel = engine.body_pose(model.heel_body);
+    const Eigen::Vector3d point = heel.pos + heel.quat * model.params.heel_point;
+    const double height = std::max(0.05, model.up.dot(engine.com() - point));
+    s.capture_point = s.offset + rate / std::sqrt(model.gravity / height);
+    if (model.params.enabled) s.capture_torque = capture_torque(capture, s.capture_point);
+  }
   if (model.per_step) rate = s.first ? 0.0 : (s.offset - s.prev_offset);
   s.rate = rate;
   s.first = false;
@@ -74,6 +100,7 @@ void AnkleStrategy::compute(const Model& model, State& s, const Engine& engine,
     for (int i : model.heel_dofs) out.tau[i] += heel;
     for (int i : model.toe_dofs) out.tau[i] += toe;
   }
+  for (int i : model.heel_dofs) out.tau[i] += s.capture_torque;
   s.prev_offset = s.offset;
 }
 
@@ -95,12 +122,16 @@ void AnkleStrategy::signal_names(std::vector<std::string>& names) const {
   names.push_back("ankle_offset_rate");
   names.push_back("ankle_band");
   names.push_back("ankle_heel_point_m");
+  names.push_back("ankle_capture_point_m");
+  names.push_back("ankle_capture_torque_nm");
 }
 void AnkleStrategy::signals(std::vector<double>& values) const {
   values.push_back(state_.offset);
   values.push_back(state_.rate);
   values.push_back(state_.band);
   values.push_back(state_.heel_point);
+  values.push_back(state_.capture_point);
+  values.push_back(state_.capture_torque);
 }
 void AnkleStrategy::add_metrics(nlohmann::json& metrics) const {
   metrics["max_com_offset_m"] = max_abs_offset_;

@@ -8,6 +8,11 @@
 // A band with tip_lever > 0 clamps each of its torques to |tau| <= (m g / feet) * tip_lever, the
 // moment a foot carrying its share of the weight transmits before it tips about its edge (an
 // extension to the seed, which applies the band's torques unclamped).
+// The optional capture term (off by default, also an extension) acts on the capture point
+//   xi = offset + rate / omega,  omega = sqrt(g / h), h = the COM's height over the heel point,
+// and adds tau_heel += gain (lower - xi) when xi < lower, -gain (xi - upper) when xi > upper,
+// clamped to +-max_torque: it puts the centre of pressure toward the feet's edge as soon as a
+// push sends the capture point there, before the offset reaches the seed's bands.
 #pragma once
 
 #include "control/controller.h"
@@ -42,6 +47,20 @@ struct AnkleBand {
   }
 };
 
+struct AnkleCaptureTerm {
+  double gain = 0;  // N m per m of capture point outside the band; 0 = off (the seed)
+  double lower = -0.02, upper = 0.2;  // m, capture point relative to the heel point
+  double max_torque = 8;              // N m per heel dof (about what a foot holds before tipping)
+
+  template <class V>
+  void visit(V& v) {
+    v("gain", gain, {.unit = "N m/m", .min = 0, .help = "0 = off (the seed)"});
+    v("lower", lower, {.unit = "m", .help = "capture point offset below which the term acts"});
+    v("upper", upper, {.unit = "m", .help = "capture point offset above which the term acts"});
+    v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "clamp per heel dof"});
+  }
+};
+
 struct AnkleStrategyParams {
   bool enabled = true;
   std::string heel_body = "h_heel_left";
@@ -51,6 +70,7 @@ struct AnkleStrategyParams {
   std::vector<std::string> toe_dofs = {"j_toe_left", "j_toe_right"};
   AnkleBand forward{0.0, 0.1, 200, 100, 10};
   AnkleBand backward{-0.2, -0.05, 2000, 100, 100};
+  AnkleCaptureTerm capture;
   // "velocity": rate = d(offset)/dt (DART's C++ tutorial); "per_step": the change of the offset
   // since the last step (the dartpy seed), which is dt times smaller
   std::string derivative = "velocity";
@@ -67,6 +87,7 @@ struct AnkleStrategyParams {
     v("toe_dofs", toe_dofs);
     v("forward", forward, {.help = "band and gains for a COM ahead of the heel point"});
     v("backward", backward, {.help = "band and gains for a COM behind it"});
+    v("capture", capture, {.help = "heel torque on the capture point (off by default)"});
     v("derivative", derivative, {.help = "velocity or per_step"});
     v("supported_mass", supported_mass,
       {.unit = "kg", .min = 0, .help = "mass on the feet for tip_lever; 0 = total mass"});
@@ -82,10 +103,14 @@ class AnkleStrategy final : public Controller {
     Eigen::Vector3d axis;  // unit
     bool per_step = false;
     double foot_weight = 0;  // N, the weight each foot carries (supported mass g / heel dofs)
+    Eigen::Vector3d up = Eigen::Vector3d::UnitY();  // unit, against gravity
+    double gravity = 9.81;                          // m/s^2
   };
   struct State {
     double offset = 0, prev_offset = 0, rate = 0;
-    double heel_point = 0;  // forward coordinate of the reference point, m
+    double heel_point = 0;      // forward coordinate of the reference point, m
+    double capture_point = 0;   // m, relative to the heel point (when the capture term is on)
+    double capture_torque = 0;  // N m per heel dof from the capture term
     bool first = true;
     int band = 0;  // +1 forward, -1 backward, 0 none
   };
@@ -104,6 +129,8 @@ class AnkleStrategy final : public Controller {
   // the offset and its rate, dims scalar
   static void measure(const Model& model, const Engine& engine, double& offset, double& rate,
                       double& heel_point);
+  // the capture term's heel torque for a capture point xi (m, relative to the heel point)
+  static double capture_torque(const AnkleCaptureTerm& c, double xi);
 
  private:
   Model model_;

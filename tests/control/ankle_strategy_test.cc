@@ -105,6 +105,41 @@ TEST(AnkleStrategy, BandsSetTheHeelAndToeTorques) {
   EXPECT_EQ(s4.band, 1);  // still measured and logged
 }
 
+TEST(AnkleStrategy, CaptureTermTorquesTheHeelsOnTheCapturePoint) {
+  auto e = standing_biped();
+  AnkleStrategyParams p;
+  p.forward = {0.5, 0.6, 1, 1, 1};  // both seed bands out of the way
+  p.backward = {-0.6, -0.5, 1, 1, 1};
+  AnkleStrategy::State s0;
+  EXPECT_EQ(run_once(p, *e, s0).tau.norm(), 0);  // gain 0: the seed, nothing
+
+  // the capture point by hand: offset + rate / sqrt(g / h), h the COM's height over the point
+  p.capture = {300, 0.0, 0.2, 1000};
+  AnkleStrategy::State s;
+  run_once(p, *e, s);
+  BodyPose heel = e->body_pose(e->require_body("h_heel_left"));
+  Eigen::Vector3d point = heel.pos + heel.quat * Eigen::Vector3d(0.05, 0, 0);
+  const double h = e->com().y() - point.y();
+  EXPECT_NEAR(s.capture_point, s.offset + s.rate / std::sqrt(e->gravity().norm() / h), 1e-12);
+
+  // a band just ahead of it: the heels get gain * distance, the toes nothing
+  p.capture.lower = s.capture_point + 0.01;
+  p.capture.upper = s.capture_point + 0.5;
+  AnkleStrategy::State s2;
+  ControlOutput out = run_once(p, *e, s2);
+  for (const auto& n : p.heel_dofs) EXPECT_NEAR(out.tau[e->require_dof(n)], 300 * 0.01, 1e-9);
+  for (const auto& n : p.toe_dofs) EXPECT_EQ(out.tau[e->require_dof(n)], 0);
+  // clamped, and with the opposite sign ahead of the band
+  EXPECT_EQ(AnkleStrategy::capture_torque({300, -0.01, 0.2, 8}, -0.5), 8);
+  EXPECT_EQ(AnkleStrategy::capture_torque({300, -0.01, 0.2, 8}, 0.1), 0);
+  EXPECT_NEAR(AnkleStrategy::capture_torque({300, -0.01, 0.2, 8}, 0.21), -3, 1e-12);
+  // disabled: nothing, though still measured
+  p.enabled = false;
+  AnkleStrategy::State s3;
+  EXPECT_EQ(run_once(p, *e, s3).tau.norm(), 0);
+  EXPECT_NE(s3.capture_point, 0);
+}
+
 TEST(AnkleStrategy, TipLeverClampsAndRampScalesTheBandTorques) {
   auto e = standing_biped();
   AnkleStrategyParams p;
@@ -180,6 +215,9 @@ TEST(AnkleStrategy, RejectsBadParameters) {
   EXPECT_THROW(AnkleStrategy(p, *e), InputError);
   p = {};
   p.derivative = "sometimes";
+  EXPECT_THROW(AnkleStrategy(p, *e), InputError);
+  p = {};
+  p.capture.lower = 0.3;
   EXPECT_THROW(AnkleStrategy(p, *e), InputError);
   p = {};
   p.heel_dofs = {"j_heel_middle"};

@@ -40,8 +40,9 @@ TEST(BisectPush, ReportsMaxSurvivedAndFallingUnpushed) {
 }
 
 // fullbody1 on MuJoCo, 0.1 s on h_spine at 2 s. docs/biped.md found the forward edge at
-// 90.6 / 92.2 N (6 s runs, 1.6 N resolution) and a fall at -100 N; survival is not monotone
-// backward, so there the bracket is checked by re-running its ends
+// 92.2 / 93.8 N (6 s runs, 1.6 N resolution) and, with the ankle strategy's capture term,
+// -131.2 / -132.8 N backward; survival is not monotone backward, so there the bracket is
+// checked by re-running its ends
 TEST(PushThreshold, BipedStandOnMujocoBracketsTheKnownEdges) {
   LoadedScenario loaded =
       load_scenario(std::string(STANCE_SOURCE_DIR) + "/scenarios/biped_stand.yaml");
@@ -65,10 +66,10 @@ TEST(PushThreshold, BipedStandOnMujocoBracketsTheKnownEdges) {
   }
   // forward: the bracket overlaps the documented edge, above the 50 N bar
   EXPECT_GE(r.positive.survived, 50);
-  EXPECT_LE(r.positive.survived, 92.2);
-  EXPECT_GE(*r.positive.fell, 90.6);
-  // backward: below the documented fall at -100 N; the ends re-run on their own agree
-  EXPECT_LE(*r.negative.fell, 100);
+  EXPECT_LE(r.positive.survived, 93.8);
+  EXPECT_GE(*r.positive.fell, 92.2);
+  // backward: above the 100 N bar; the ends re-run on their own agree
+  EXPECT_GE(r.negative.survived, 100);
   EXPECT_TRUE(survives_push(loaded, o, -r.negative.survived));
   EXPECT_FALSE(survives_push(loaded, o, -*r.negative.fell));
 }
