@@ -17,6 +17,7 @@
 #include <string_view>
 #include <vector>
 
+#include "control/marker.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
 
@@ -74,6 +75,11 @@ class Controller {
     list_yaml_params(params_yaml(), "", out);
     return out;
   }
+  // what the viewer and the recorder draw for this controller (appended to `out`, world frame)
+  virtual void markers(const Engine& engine, std::vector<Marker>& out) const {}
+  // the pose being tracked (dim nq, the engine's layout) at the engine's time, drawn as a ghost;
+  // false when the controller tracks no pose
+  virtual bool reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const { return false; }
 };
 
 // the registry: one line per controller type (see control/registry.cc)

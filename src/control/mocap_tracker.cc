@@ -547,4 +547,17 @@ void MocapTracker::write_outputs(const std::string& out_dir) const {
   write_bvh(recorded_clip(), path.string());
 }
 
+bool MocapTracker::reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const {
+  const MocapTrackerModel& m = model_;
+  ReferencePose pose = m.reference->make_pose();
+  m.reference->sample(engine.time(), pose);
+  // coordinates the clip does not drive keep the engine's values
+  qpos.resize(engine.nq());
+  engine.get_positions(qpos);
+  qpos.segment<3>(m.qpos_adr[0]) = pose.root_position;
+  write_quat(qpos, m.qpos_adr[0] + 3, pose.rotations[0]);
+  for (size_t k = 1; k < m.body.size(); ++k) write_quat(qpos, m.qpos_adr[k], pose.rotations[k]);
+  return true;
+}
+
 }  // namespace stance

@@ -170,6 +170,8 @@ class MocapTracker final : public Controller {
   double mean_joint_error_deg() const;
   double max_joint_error_deg() const { return max_error_deg_; }
   double helper_impulse_ns() const { return helper_impulse_; }
+  // the reference sample at the engine's time: root and segment rotations (the viewer's ghost)
+  bool reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const override;
 
  private:
   void track_state(const Engine& engine, double t);

@@ -313,6 +313,44 @@ void Simbicon::signals(std::vector<double>& values) const {
   values.insert(values.end(), {double(state_.fsm), state_.swing_hip_target, state_.d, state_.v});
 }
 
+void Simbicon::markers(const Engine& engine, std::vector<Marker>& out) const {
+  const Model& m = model_;
+  const int stance = state_.fsm < 2 ? kRight : kLeft;
+  const Eigen::Vector3d ankle = engine.body_pose(m.foot[stance]).pos;
+  const Eigen::Vector3d hip =
+      0.5 * (engine.body_pose(m.thigh[0]).pos + engine.body_pose(m.thigh[1]).pos);
+  const Eigen::Vector3d point = m.use_com ? engine.com() : hip;
+  Marker ring;
+  ring.shape = Marker::Shape::kCircle;
+  ring.pos = ankle;
+  ring.radius = 0.07;
+  ring.rgba = {0.1f, 0.9f, 0.2f, 1};
+  ring.label = stance == kRight ? "stance ankle (R)" : "stance ankle (L)";
+  out.push_back(ring);
+  ring.pos = point;
+  ring.rgba = {0.2f, 0.6f, 1.0f, 1};
+  ring.label = m.use_com ? "COM" : "hip";
+  out.push_back(ring);
+  // d: from the stance ankle to the balance point
+  Marker d;
+  d.shape = Marker::Shape::kLine;
+  d.pos = ankle;
+  d.end = point;
+  d.radius = 0.006;
+  d.rgba = {0.9f, 0.9f, 0.9f, 0.8f};
+  out.push_back(d);
+  // the swing thigh's target: theta from vertical about -y, turned to the heading
+  const double th = state_.swing_hip_target;
+  Marker target;
+  target.shape = Marker::Shape::kArrow;
+  target.pos = hip;
+  target.end = hip + 0.35 * (m.heading * Eigen::Vector3d(std::sin(th), 0, -std::cos(th)));
+  target.radius = 0.015;
+  target.rgba = {1.0f, 0.3f, 0.8f, 1};
+  target.label = "swing target";
+  out.push_back(target);
+}
+
 void Simbicon::add_metrics(nlohmann::json& metrics) const {
   const State& s = state_;
   const double elapsed = s.last_time - s.start_time;

@@ -246,6 +246,9 @@ class Simbicon final : public Controller {
   void add_metrics(nlohmann::json& metrics) const override;
   void write_outputs(const std::string& out_dir) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+  // the seed's circles: the stance ankle and the balance point (hip centre or COM) with the
+  // distance d between them, and the swing thigh's target direction after feedback
+  void markers(const Engine& engine, std::vector<Marker>& out) const override;
 
   // one control step: advance the FSM, then add the torques to out.tau. No allocation.
   static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);

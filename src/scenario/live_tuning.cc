@@ -2,37 +2,56 @@
 
 #include <fmt/format.h>
 
+#include <mutex>
+
 #include "control/controller.h"
 #include "core/error.h"
+#include "engine/engine.h"
 
 namespace stance {
 
-void retune_controller(ScenarioRun& run, const LoadedScenario& loaded, int index,
-                       const std::string& path, double value) {
+namespace {
+
+// the tunable entry of controller `index` at `path`; throws InputError
+ParamEntry find_entry(ScenarioRun& run, int index, const std::string& path) {
   auto& controllers = run.controllers();
   if (index < 0 || index >= static_cast<int>(controllers.size()))
     throw InputError(
         fmt::format("controller {} does not exist ({} controllers)", index, controllers.size()));
-  Controller& old = *controllers[index];
-  std::vector<ParamEntry> entries = old.tunable_params();
-  const ParamEntry* entry = nullptr;
-  for (const auto& e : entries)
-    if (e.path == path) entry = &e;
-  if (!entry) throw InputError(fmt::format("{}: no tunable parameter '{}'", old.type(), path));
+  const Controller& c = *controllers[index];
+  for (const auto& e : c.tunable_params())
+    if (e.path == path) return e;
+  throw InputError(fmt::format("{}: no tunable parameter '{}'", c.type(), path));
+}
 
+// the context the runner gives controller `index`: the same seed keeps noise streams
+// reproducible
+ControllerContext context_of(ScenarioRun& run, const LoadedScenario& loaded, int index) {
+  return {{loaded.source.empty() ? "viewer" : loaded.source},
+          fmt::format("controllers[{}]", index),
+          static_cast<uint64_t>(run.scenario().seed) * 1000003ull + index};
+}
+
+// model loading is not guaranteed thread-safe (as in sweep.cc)
+std::mutex& build_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+}  // namespace
+
+void retune_controller(ScenarioRun& run, const LoadedScenario& loaded, int index,
+                       const std::string& path, double value) {
+  ParamEntry entry = find_entry(run, index, path);
   // edit the YAML form and rebuild through the registry, as loading the scenario does
-  YAML::Node node = old.params_yaml();
-  apply_yaml_override(node, param_assignment(*entry, value));
+  YAML::Node node = run.controllers()[index]->params_yaml();
+  apply_yaml_override(node, param_assignment(entry, value));
   const ControllerType& type = find_controller_type(node["type"].Scalar());
-  // the same seed as the runner gives this controller, so noise streams stay reproducible
-  ControllerContext ctx{{loaded.source.empty() ? "viewer" : loaded.source},
-                        fmt::format("controllers[{}]", index),
-                        static_cast<uint64_t>(run.scenario().seed) * 1000003ull + index};
   Engine& engine = run.engine();
-  std::unique_ptr<Controller> fresh = type.make(node, ctx, engine);
+  std::unique_ptr<Controller> fresh = type.make(node, context_of(run, loaded, index), engine);
   engine.forward();
   fresh->reset(engine);
-  controllers[index] = std::move(fresh);
+  run.controllers()[index] = std::move(fresh);
 }
 
 YAML::Node tuned_scenario_yaml(ScenarioRun& run, const LoadedScenario& loaded) {
@@ -41,6 +60,60 @@ YAML::Node tuned_scenario_yaml(ScenarioRun& run, const LoadedScenario& loaded) {
   for (const auto& c : run.controllers()) list.push_back(c->params_yaml());
   doc["controllers"] = list;
   return doc;
+}
+
+struct BackgroundRetune::Built {
+  std::unique_ptr<Engine> engine;  // what the controller was built on
+  std::unique_ptr<Controller> controller;
+};
+
+BackgroundRetune::BackgroundRetune(ScenarioRun& run, const LoadedScenario& loaded, int index,
+                                   const std::string& path, double value, const YAML::Node* base)
+    : index_(index), path_(path), value_(value) {
+  ParamEntry entry = find_entry(run, index, path);
+  // the worker owns deep copies: yaml-cpp nodes are not safe to share across threads
+  node_ = YAML::Clone(base ? *base : run.controllers()[index]->params_yaml());
+  apply_yaml_override(node_, param_assignment(entry, value));
+  YAML::Node node = YAML::Clone(node_);
+  ControllerContext ctx = context_of(run, loaded, index);
+  Scenario scenario = run.scenario();
+  std::string engine_name(run.engine().engine_name());
+  future_ = std::async(std::launch::async, [node, ctx, scenario, engine_name] {
+    auto built = std::make_shared<Built>();
+    const ControllerType& type = find_controller_type(node["type"].Scalar());
+    {
+      std::lock_guard<std::mutex> lock(build_mutex());
+      built->engine = make_scenario_engine(scenario, engine_name);
+    }
+    built->controller = type.make(node, ctx, *built->engine);
+    return built;
+  });
+}
+
+BackgroundRetune::~BackgroundRetune() {
+  if (future_.valid()) future_.wait();
+}
+
+bool BackgroundRetune::ready() const {
+  return future_.valid() && future_.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+}
+
+void BackgroundRetune::wait() const {
+  if (future_.valid()) future_.wait();
+}
+
+bool BackgroundRetune::swap_into(ScenarioRun& run) {
+  if (!ready()) return false;
+  std::shared_ptr<Built> built = future_.get();  // rethrows the worker's error
+  Engine& engine = run.engine();
+  engine.forward();
+  built->controller->reset(engine);
+  run.controllers().at(index_) = std::move(built->controller);
+  return true;
+}
+
+bool rebuild_is_slow(const Controller& controller) {
+  return controller.type() == "lqr";
 }
 
 }  // namespace stance

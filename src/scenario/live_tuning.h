@@ -8,6 +8,8 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <future>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -22,6 +24,49 @@ namespace stance {
 // running controller is then kept.
 void retune_controller(ScenarioRun& run, const LoadedScenario& loaded, int index,
                        const std::string& path, double value);
+
+// a controller rebuilt on a worker thread, for parameters whose rebuild is slow (the LQR costs
+// re-solve the set-point, the linearisation and the DARE): the running controller keeps
+// stepping until the new one is ready, and swap_into() puts it in between two steps.
+//
+// The worker builds on its own engine of the scenario at its initial pose, as loading does, so
+// the running engine is never read off its thread.
+class BackgroundRetune {
+ public:
+  // checks index and path at once (InputError). `base`: the parameters to edit, when an earlier
+  // edit of the same controller is still pending; otherwise the running controller's.
+  BackgroundRetune(ScenarioRun& run, const LoadedScenario& loaded, int index,
+                   const std::string& path, double value, const YAML::Node* base = nullptr);
+  ~BackgroundRetune();  // waits for the worker
+  BackgroundRetune(const BackgroundRetune&) = delete;
+  BackgroundRetune& operator=(const BackgroundRetune&) = delete;
+
+  // true once the worker has finished (built or failed)
+  bool ready() const;
+  // blocks until ready()
+  void wait() const;
+  // when ready: swap the new controller into `run`, reset at the run's current state, and
+  // return true; false when not ready yet. Rethrows the build's error (the old controller is
+  // then kept). Call between steps.
+  bool swap_into(ScenarioRun& run);
+
+  int index() const { return index_; }
+  const std::string& path() const { return path_; }
+  double value() const { return value_; }
+  // the edited parameters the worker builds from
+  const YAML::Node& params() const { return node_; }
+
+ private:
+  struct Built;
+  int index_;
+  std::string path_;
+  double value_;
+  YAML::Node node_;
+  std::future<std::shared_ptr<Built>> future_;
+};
+
+// true when rebuilding `controller` is slow enough to run in the background: the LQR designs
+bool rebuild_is_slow(const Controller& controller);
 
 // the scenario document with each controller block replaced by the running controller's
 // params_yaml() (what "save scenario" writes)

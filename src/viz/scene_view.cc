@@ -3,6 +3,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "engine/mujoco/mujoco_engine.h"
@@ -14,7 +15,9 @@ constexpr float kPushColor[4] = {0.95f, 0.15f, 0.1f, 1.0f};
 constexpr float kContactColor[4] = {0.1f, 0.5f, 1.0f, 1.0f};
 constexpr float kComColor[4] = {1.0f, 0.85f, 0.1f, 1.0f};
 constexpr float kSupportColor[4] = {1.0f, 0.55f, 0.0f, 0.8f};
+constexpr float kGhostColor[4] = {0.3f, 0.8f, 1.0f, 0.3f};
 constexpr int kMaxGeoms = 5000;
+constexpr int kCircleSegments = 32;
 }  // namespace
 
 SceneView::SceneView(ScenarioRun& run, int offscreen_width, int offscreen_height) {
@@ -37,9 +40,25 @@ SceneView::SceneView(ScenarioRun& run, int offscreen_width, int offscreen_height
   }
 
   body_map_.assign(engine.nbody(), -1);
+  engine_body_.assign(model_->nbody, -1);
   for (int b = 0; b < engine.nbody(); ++b) {
     int mb = mj_->body_index(engine.body_name(b));
     if (mb >= 0) body_map_[b] = mj_->mj_body_id(mb);
+    if (body_map_[b] >= 0) engine_body_[body_map_[b]] = b;
+  }
+
+  // a ghost when a controller tracks a pose: its own engine of the scenario (the same dof
+  // layout as the run's) turns the reference q into body poses
+  for (auto& c : run.controllers()) {
+    if (!c->reference_qpos(engine, ghost_q_)) continue;
+    ghost_engine_ = make_scenario_engine(run.scenario(), std::string(engine.engine_name()));
+    ghost_data_ = mj_makeData(model_);
+    ghost_body_map_.assign(ghost_engine_->nbody(), -1);
+    for (int b = 0; b < ghost_engine_->nbody(); ++b) {
+      int mb = mj_->body_index(ghost_engine_->body_name(b));
+      if (mb >= 0) ghost_body_map_[b] = mj_->mj_body_id(mb);
+    }
+    break;
   }
 
   Eigen::Vector3d g = engine.gravity();
@@ -60,6 +79,7 @@ SceneView::SceneView(ScenarioRun& run, int offscreen_width, int offscreen_height
 }
 
 SceneView::~SceneView() {
+  if (ghost_data_) mj_deleteData(ghost_data_);
   mjr_freeContext(&con_);
   mjv_freeScene(&scn_);
 }
@@ -73,9 +93,12 @@ void SceneView::reset_camera() {
 }
 
 void SceneView::pose_draw_model(Engine& engine) {
-  mjData* d = mj_->data();
+  pose_from(engine, body_map_, mj_->data());
+}
+
+void SceneView::pose_from(Engine& engine, const std::vector<int>& body_map, mjData* d) {
   for (int b = 0; b < engine.nbody(); ++b) {
-    int id = body_map_[b];
+    int id = body_map[b];
     if (id < 0) continue;
     BodyPose pose = engine.body_pose(b);
     Eigen::Map<Eigen::Vector3d>(d->xpos + 3 * id) = pose.pos;
@@ -96,6 +119,15 @@ void SceneView::pose_draw_model(Engine& engine) {
     mjtNum gq[4];
     mju_mulQuat(gq, d->xquat + 4 * id, model_->geom_quat + 4 * g);
     mju_quat2Mat(d->geom_xmat + 9 * g, gq);
+  }
+  // sites are drawn too: left at the origin they would gather there
+  for (int i = 0; i < model_->nsite; ++i) {
+    int id = model_->site_bodyid[i];
+    mju_rotVecMat(d->site_xpos + 3 * i, model_->site_pos + 3 * i, d->xmat + 9 * id);
+    mju_addTo3(d->site_xpos + 3 * i, d->xpos + 3 * id);
+    mjtNum sq[4];
+    mju_mulQuat(sq, d->xquat + 4 * id, model_->site_quat + 4 * i);
+    mju_quat2Mat(d->site_xmat + 9 * i, sq);
   }
   d->time = engine.time();
 }
@@ -120,7 +152,120 @@ void SceneView::add_sphere(const Eigen::Vector3d& pos, double radius, const floa
   g->category = mjCAT_DECOR;
 }
 
-void SceneView::update(ScenarioRun& run, const std::vector<ForceArrow>& extra_forces) {
+void SceneView::add_capsule(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius,
+                            const float rgba[4]) {
+  if (scn_.ngeom >= scn_.maxgeom || (b - a).norm() < 1e-9) return;
+  mjvGeom* g = scn_.geoms + scn_.ngeom++;
+  mjv_initGeom(g, mjGEOM_CAPSULE, nullptr, nullptr, nullptr, rgba);
+  Eigen::Vector3d va = to_view(a), vb = to_view(b);
+  mjv_makeConnector(g, mjGEOM_CAPSULE, radius, va.x(), va.y(), va.z(), vb.x(), vb.y(), vb.z());
+  g->category = mjCAT_DECOR;
+}
+
+void SceneView::add_marker(const Marker& m) {
+  int first = scn_.ngeom;
+  const float* rgba = m.rgba.data();
+  switch (m.shape) {
+    case Marker::Shape::kSphere:
+      add_sphere(m.pos, m.radius, rgba);
+      break;
+    case Marker::Shape::kCircle: {
+      // a ring in the ground plane, as the seed draws its circles
+      Eigen::Vector3d u = up_.unitOrthogonal(), w = up_.cross(u);
+      double width = std::max(0.004, 0.08 * m.radius);
+      for (int i = 0; i < kCircleSegments; ++i) {
+        double a0 = 2 * M_PI * i / kCircleSegments, a1 = 2 * M_PI * (i + 1) / kCircleSegments;
+        add_capsule(m.pos + m.radius * (std::cos(a0) * u + std::sin(a0) * w),
+                    m.pos + m.radius * (std::cos(a1) * u + std::sin(a1) * w), width, rgba);
+      }
+      break;
+    }
+    case Marker::Shape::kLine:
+      add_capsule(m.pos, m.end, m.radius, rgba);
+      break;
+    case Marker::Shape::kArrow:
+      add_arrow(m.pos, m.end, rgba, m.radius);
+      break;
+  }
+  if (!m.label.empty() && scn_.ngeom > first)
+    std::snprintf(scn_.geoms[first].label, sizeof(scn_.geoms[first].label), "%s", m.label.c_str());
+}
+
+void SceneView::add_ghost(ScenarioRun& run) {
+  for (auto& c : run.controllers()) {
+    if (!c->reference_qpos(run.engine(), ghost_q_)) continue;
+    if (ghost_q_.size() != ghost_engine_->nq()) return;
+    ghost_engine_->set_positions(ghost_q_);
+    ghost_engine_->forward();
+    pose_from(*ghost_engine_, ghost_body_map_, ghost_data_);
+    // the moving bodies only, in one translucent colour
+    int first = scn_.ngeom;
+    mjv_addGeoms(model_, ghost_data_, &opt_, nullptr, mjCAT_DYNAMIC, &scn_);
+    for (int i = first; i < scn_.ngeom; ++i) {
+      mjvGeom& g = scn_.geoms[i];
+      for (int k = 0; k < 4; ++k) g.rgba[k] = kGhostColor[k];
+      g.category = mjCAT_DECOR;
+      g.segid = -1;
+      g.objtype = mjOBJ_UNKNOWN;
+      g.objid = -1;
+      g.reflectance = 0;
+      g.transparent = 1;
+      g.texid = -1;
+    }
+    return;
+  }
+}
+
+int SceneView::pick_body(double relx, double rely, double aspect,
+                         Eigen::Vector3d& point_world) const {
+  // the ray through the pixel, in the view frame, then in the world
+  mjvGLCamera cam = mjv_averageCamera(scn_.camera, scn_.camera + 1);
+  Eigen::Vector3d pos(cam.pos[0], cam.pos[1], cam.pos[2]);
+  Eigen::Vector3d fwd(cam.forward[0], cam.forward[1], cam.forward[2]);
+  Eigen::Vector3d up(cam.up[0], cam.up[1], cam.up[2]);
+  Eigen::Vector3d right = fwd.cross(up);
+  double near = cam.frustum_near;
+  double x = cam.frustum_center + (relx - 0.5) * aspect * (cam.frustum_top - cam.frustum_bottom);
+  double y = cam.frustum_bottom + rely * (cam.frustum_top - cam.frustum_bottom);
+  Eigen::Vector3d dir = (near * fwd + x * right + y * up).normalized();
+  Eigen::Vector3d p = view_rot_.transpose() * pos, v = view_rot_.transpose() * dir;
+  int geom = -1;
+  mjtNum dist = mj_ray(model_, mj_->data(), p.data(), v.data(), nullptr, 0, -1, &geom);
+  if (geom < 0 || dist < 0) return -1;
+  point_world = p + dist * v;
+  return engine_body_[model_->geom_bodyid[geom]];
+}
+
+double SceneView::subtree_mass(int engine_body) const {
+  int id = engine_body >= 0 && engine_body < static_cast<int>(body_map_.size())
+               ? body_map_[engine_body]
+               : -1;
+  return id >= 0 ? model_->body_subtreemass[id] : 0.0;
+}
+
+Eigen::Vector3d SceneView::mouse_motion_in_world(double dx, double dy, int height,
+                                                 const Eigen::Vector3d& at, bool horizontal) const {
+  mjvGLCamera cam = mjv_averageCamera(scn_.camera, scn_.camera + 1);
+  Eigen::Vector3d pos(cam.pos[0], cam.pos[1], cam.pos[2]);
+  Eigen::Vector3d fwd(cam.forward[0], cam.forward[1], cam.forward[2]);
+  Eigen::Vector3d up(cam.up[0], cam.up[1], cam.up[2]);
+  Eigen::Vector3d right = fwd.cross(up);
+  // metres per pixel at the depth of `at`
+  double depth = std::max(0.05, fwd.dot(to_view(at) - pos));
+  double scale = depth * mjv_frustumHeight(&scn_) / std::max(1, height);
+  Eigen::Vector3d away = up;
+  if (horizontal) {
+    // the ground plane: the camera's forward direction flattened
+    away = fwd - fwd.z() * Eigen::Vector3d::UnitZ();
+    if (away.norm() < 1e-6) away = up;
+    away.normalize();
+  }
+  Eigen::Vector3d move_view = scale * (dx * right - dy * away);
+  return view_rot_.transpose() * move_view;
+}
+
+void SceneView::update(ScenarioRun& run, const std::vector<ForceArrow>& extra_forces,
+                       const std::vector<Marker>& extra_markers) {
   Engine& engine = run.engine();
   engine.forward();
   if (draw_engine_) pose_draw_model(engine);
@@ -134,6 +279,7 @@ void SceneView::update(ScenarioRun& run, const std::vector<ForceArrow>& extra_fo
   }
   // mjv_updateScene reads the poses in mjData and computes no kinematics
   mjv_updateScene(model_, mj_->data(), &opt_, nullptr, &cam_, mjCAT_ALL, &scn_);
+  if (options.ghost && ghost_engine_) add_ghost(run);
 
   // turn the model's geoms and lights so that up is +z
   Eigen::Matrix3f r = view_rot_.cast<float>();
@@ -176,6 +322,12 @@ void SceneView::update(ScenarioRun& run, const std::vector<ForceArrow>& extra_fo
         add_arrow(c.pos, c.pos + c.force / body_weight_n_, kContactColor, 0.012);
     }
   }
+  if (options.markers) {
+    markers_.clear();
+    for (auto& c : run.controllers()) c->markers(engine, markers_);
+    for (const auto& m : markers_) add_marker(m);
+  }
+  for (const auto& m : extra_markers) add_marker(m);
   if (options.com) {
     Eigen::Vector3d com = engine.com();
     add_sphere(com, 0.045, kComColor);

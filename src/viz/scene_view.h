@@ -18,6 +18,7 @@
 #include <string>
 #include <vector>
 
+#include "control/marker.h"
 #include "scenario/runner.h"
 
 namespace stance {
@@ -36,6 +37,8 @@ struct SceneOptions {
   bool contacts = true;  // contact points and forces
   bool com = true;       // COM marker and its ground projection (support marker)
   bool pushes = true;    // arrows for the scenario's active pushes and extra forces
+  bool markers = true;   // the controllers' markers (Controller::markers)
+  bool ghost = true;     // the tracked reference pose as a translucent copy of the model
   CameraMode camera = CameraMode::kFollow;
 };
 
@@ -48,8 +51,10 @@ class SceneView {
   SceneView& operator=(const SceneView&) = delete;
 
   // copy the run's state into the scene; call while the physics is not stepping.
-  // extra_forces: forces applied outside the scenario's pushes (the viewer's keys)
-  void update(ScenarioRun& run, const std::vector<ForceArrow>& extra_forces = {});
+  // extra_forces: forces applied outside the scenario's pushes (the viewer's keys);
+  // extra_markers: drawn as the controllers' markers are (the viewer's mouse drag)
+  void update(ScenarioRun& run, const std::vector<ForceArrow>& extra_forces = {},
+              const std::vector<Marker>& extra_markers = {});
   // draw into the current (window) framebuffer
   void render_window(int width, int height, const std::string& overlay = "");
   // draw offscreen and read back rgb, dim width*height*3, top row first
@@ -58,6 +63,17 @@ class SceneView {
 
   // place the free camera behind/beside the character again
   void reset_camera();
+  // the running engine's body under the pixel (relx, rely) of the last drawn scene (0..1, from
+  // the bottom left; aspect = width / height), and the world point hit; -1 when none. Static
+  // geoms (the floor) are not picked. Call while the physics is not stepping.
+  int pick_body(double relx, double rely, double aspect, Eigen::Vector3d& point_world) const;
+  // the mass the mouse spring scales with: the body's subtree, as MuJoCo's mjv_perturb does (kg)
+  double subtree_mass(int engine_body) const;
+  // the world displacement of a mouse move of (dx, dy) pixels (dy down) in a window `height`
+  // pixels high, at the depth of `at`: in the screen plane, or with horizontal = true in the
+  // ground plane (dy moves away from the camera)
+  Eigen::Vector3d mouse_motion_in_world(double dx, double dy, int height, const Eigen::Vector3d& at,
+                                        bool horizontal) const;
   mjvCamera& camera() { return cam_; }
   const mjModel* draw_model() const { return model_; }
   mjvScene& scene() { return scn_; }
@@ -68,12 +84,27 @@ class SceneView {
   void add_arrow(const Eigen::Vector3d& tail, const Eigen::Vector3d& head, const float rgba[4],
                  double width);
   void add_sphere(const Eigen::Vector3d& pos, double radius, const float rgba[4]);
+  void add_capsule(const Eigen::Vector3d& a, const Eigen::Vector3d& b, double radius,
+                   const float rgba[4]);
+  void add_marker(const Marker& marker);
+  // the reference pose of the first controller that gives one, as translucent geoms
+  void add_ghost(ScenarioRun& run);
+  // body, geom and site frames of `d` from the body poses of `engine`, by body name
+  void pose_from(Engine& engine, const std::vector<int>& body_map, mjData* d);
   Eigen::Vector3d to_view(const Eigen::Vector3d& p) const { return view_rot_ * p; }
 
   std::unique_ptr<Engine> draw_engine_;  // the MuJoCo copy for non-MuJoCo runs
   MujocoEngine* mj_ = nullptr;           // what is drawn
   mjModel* model_ = nullptr;
-  std::vector<int> body_map_;  // running engine body -> mj body id in the drawing model
+  std::vector<int> body_map_;     // running engine body -> mj body id in the drawing model
+  std::vector<int> engine_body_;  // mj body id in the drawing model -> running engine body
+  // the ghost: an engine of the scenario set to the reference pose, and the drawing model's
+  // poses for it (made when a controller gives a reference pose)
+  std::unique_ptr<Engine> ghost_engine_;
+  mjData* ghost_data_ = nullptr;
+  std::vector<int> ghost_body_map_;
+  Eigen::VectorXd ghost_q_;
+  std::vector<Marker> markers_;  // scratch
   mjvScene scn_;
   mjrContext con_;
   mjvCamera cam_;

@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <mutex>
@@ -18,6 +19,7 @@
 
 #include "control/controller.h"
 #include "core/error.h"
+#include "engine/mujoco/mujoco_engine.h"
 #include "scenario/live_tuning.h"
 #include "scenario/runner.h"
 #include "viz/recorder.h"
@@ -31,6 +33,12 @@ using Clock = std::chrono::steady_clock;
 constexpr double kPushSeconds = 0.1;   // how long a key push lasts (simulated)
 constexpr double kPlotWindowS = 10.0;  // rolling plot window
 constexpr double kPlotRateHz = 60.0;
+constexpr double kHistoryRateHz = 60.0;  // recorded states per simulated second
+constexpr int kHistoryLength = 3600;     // states kept: the last minute
+// the mouse spring, as MuJoCo's simulate: stiffness per kg of the selected subtree (1/s^2),
+// damped by its square root
+constexpr double kDragStiffness = 100.0;
+constexpr double kDoubleClickS = 0.3;
 
 // a fixed-size ring of samples for ImGui::PlotLines
 struct RollingSeries {
@@ -53,9 +61,15 @@ const char* kHelpText =
     "f       camera: follow the root / free\n"
     "c       contact points and forces\n"
     "m       COM and support markers\n"
+    "k       controller markers (SIMBICON circles)\n"
+    "g       tracking ghost (reference pose)\n"
     "h       this help\n"
     "Esc     quit\n"
-    "mouse   left drag: rotate, right drag: pan, wheel: zoom";
+    "mouse   left drag: rotate, right drag: pan, wheel: zoom\n"
+    "        double-click: select a body (empty space: release)\n"
+    "        ctrl+right drag: pull it in the screen plane\n"
+    "        ctrl+left drag: pull it along the ground\n"
+    "paused  the history slider scrubs; space runs on from there";
 }  // namespace
 
 struct Viewer::Impl {
@@ -83,7 +97,9 @@ struct Viewer::Impl {
   std::vector<KeyPush> key_pushes;
   int push_body = 0;
   double push_newtons = 0;
-  std::vector<RollingSeries> plots;  // com height, then the controllers' signals
+  std::vector<RollingSeries> plots;  // com height, torques, then the controllers' signals
+  int torque_plot = -1;              // index of the joint torque RMS plot; -1: none
+  std::vector<int> joint_dofs;       // the non-root dofs, for the torque plot
   double next_sample = 0;
   std::vector<std::string> signal_names;
   std::vector<double> signal_values;
@@ -99,32 +115,164 @@ struct Viewer::Impl {
   // mouse
   bool button_left = false, button_right = false;
   double last_x = 0, last_y = 0;
+  double last_left_press = -1;  // glfwGetTime() of the last left press, for double-clicks
+  int drag_plane = 0;           // 0: camera; 1: screen plane; 2: ground plane
+
+  // the mouse perturbation (guarded by mutex)
+  int selected = -1;                                         // running engine body
+  Eigen::Vector3d selected_local = Eigen::Vector3d::Zero();  // pulled point, body frame
+  bool dragging = false;
+  Eigen::Vector3d drag_target = Eigen::Vector3d::Zero();  // world
+  Eigen::Vector3d drag_force = Eigen::Vector3d::Zero();   // last applied, world
+
+  // recorded history (guarded by mutex)
+  struct Snapshot {
+    EngineState state;
+  };
+  std::deque<Snapshot> history;
+  double next_snapshot = 0;
+  int scrubbed = -1;        // history index shown while paused; -1: live
+  double frame_target = 0;  // unthreaded frames step to this simulated time
+
+  // LQR rebuilds on worker threads, swapped in order (guarded by mutex)
+  std::vector<std::unique_ptr<BackgroundRetune>> pending;
+
+  Eigen::Vector3d selected_point(const Engine& e) const {
+    BodyPose pose = e.body_pose(selected);
+    return pose.pos + pose.quat * selected_local;
+  }
+
+  // the spring from the selected point to the target, damped by the point's velocity
+  Eigen::Vector3d spring_force(const Engine& e) const {
+    Eigen::Vector3d p = selected_point(e);
+    BodyPose pose = e.body_pose(selected);
+    Eigen::Matrix<double, 6, 1> twist = e.body_velocity(selected);
+    Eigen::Vector3d v = twist.tail<3>() + twist.head<3>().cross(p - pose.pos);
+    double mass = std::max(view->subtree_mass(selected), e.body_mass(selected));
+    return mass * (kDragStiffness * (drag_target - p) - std::sqrt(kDragStiffness) * v);
+  }
+
+  void record_snapshot() {
+    Engine& e = run->engine();
+    history.push_back({});
+    e.save_state(history.back().state);
+    while (static_cast<int>(history.size()) > kHistoryLength) history.pop_front();
+  }
+
+  // back to live running from a scrubbed state: later history goes, the run and its
+  // controllers start afresh at the restored physics state
+  void resume_from_scrub() {
+    if (scrubbed < 0) return;
+    history.erase(history.begin() + scrubbed + 1, history.end());
+    EngineState state = history.back().state;
+    run->reset();  // clears a divergence and the velocity servos
+    Engine& e = run->engine();
+    e.restore_state(state);
+    e.forward();
+    for (auto& c : run->controllers()) c->reset(e);
+    key_pushes.clear();
+    next_snapshot = e.time() + 1.0 / kHistoryRateHz;
+    frame_target = e.time();
+    scrubbed = -1;
+    anchor_dirty = true;
+  }
+
+  void replay() {
+    run->reset();
+    key_pushes.clear();
+    reset_plots();
+    history.clear();
+    record_snapshot();
+    next_snapshot = 1.0 / kHistoryRateHz;
+    frame_target = 0;
+    scrubbed = -1;
+    anchor_dirty = true;
+  }
+
+  // swap in the background rebuilds that are ready, in the order they were asked for
+  void swap_ready() {
+    bool swapped = false;
+    while (!pending.empty() && pending.front()->ready()) {
+      std::unique_ptr<BackgroundRetune> job = std::move(pending.front());
+      pending.erase(pending.begin());
+      try {
+        job->swap_into(*run);
+        status = fmt::format("{} = {:.4g} (swapped in)", job->path(), job->value());
+      } catch (const std::exception& err) {
+        status = err.what();
+      }
+      swapped = true;
+    }
+    if (swapped) refresh_entries();
+  }
+
+  // the panel's path: slow rebuilds go to a worker, the others rebuild at once
+  void retune(int index, const std::string& path, double value) {
+    auto& controllers = run->controllers();
+    if (index < 0 || index >= static_cast<int>(controllers.size()))
+      throw InputError(fmt::format("controller {} does not exist", index));
+    const YAML::Node* base = nullptr;
+    for (const auto& job : pending)
+      if (job->index() == index) base = &job->params();
+    if (base || rebuild_is_slow(*controllers[index])) {
+      pending.push_back(std::make_unique<BackgroundRetune>(*run, loaded, index, path, value, base));
+      status = fmt::format("{} = {:.4g}: rebuilding in the background", path, value);
+      return;
+    }
+    retune_controller(*run, loaded, index, path, value);
+    status = fmt::format("{} = {:.4g}", path, value);
+    refresh_entries();
+  }
 
   void refresh_entries() {
     entries.clear();
     for (auto& c : run->controllers()) entries.push_back(c->tunable_params());
   }
 
-  // one physics step with the viewer's key pushes (mutex held)
+  // one physics step with the viewer's key pushes and mouse spring (mutex held)
   void step_locked() {
+    resume_from_scrub();
+    if (!pending.empty()) swap_ready();
     Engine& e = run->engine();
     double t = e.time();
     for (const auto& p : key_pushes)
       if (t < p.until) e.apply_external_force(p.body, p.force, e.body_com(p.body));
+    if (dragging && selected >= 0) {
+      e.forward();
+      drag_force = spring_force(e);
+      e.apply_external_force(selected, drag_force, selected_point(e));
+    }
     if (!run->step()) {
       paused = true;
       status = "diverged: " + run->result().divergence;
       return;
+    }
+    if (e.time() >= next_snapshot - 0.5 * e.timestep()) {
+      record_snapshot();
+      next_snapshot += 1.0 / kHistoryRateHz;
     }
     // rolling plots
     if (e.time() >= next_sample) {
       next_sample = e.time() + 1.0 / kPlotRateHz;
       e.forward();
       plots[0].push(static_cast<float>(up.dot(e.com()) - ground));
+      if (torque_plot >= 0) {
+        // the joint forces of the last step: applied (tau) and actuators (ctrl)
+        const mjData* d = static_cast<MujocoEngine&>(e).data();
+        double sum = 0, largest = 0;
+        for (int i : joint_dofs) {
+          double tau = d->qfrc_applied[i] + d->qfrc_actuator[i];
+          sum += tau * tau;
+          largest = std::max(largest, std::abs(tau));
+        }
+        plots[torque_plot].push(static_cast<float>(std::sqrt(sum / joint_dofs.size())));
+        plots[torque_plot + 1].push(static_cast<float>(largest));
+      }
       signal_values.clear();
       for (auto& c : run->controllers()) c->signals(signal_values);
-      for (size_t i = 0; i + 1 < plots.size() && i < signal_values.size(); ++i)
-        plots[i + 1].push(static_cast<float>(signal_values[i]));
+      int first_signal = torque_plot >= 0 ? torque_plot + 2 : 1;
+      for (size_t i = 0; first_signal + i < plots.size() && i < signal_values.size(); ++i)
+        plots[first_signal + i].push(static_cast<float>(signal_values[i]));
     }
   }
 
@@ -169,8 +317,15 @@ struct Viewer::Impl {
 
   void draw_panels();
 
+  // waits for the background rebuilds and swaps them in
+  void finish_pending() {
+    for (auto& job : pending) job->wait();
+    swap_ready();
+  }
+
   // the scenario with the running controllers' parameters; default path <stem>_tuned.yaml
   std::string write_tuned(const std::string& path) {
+    finish_pending();
     YAML::Node doc = tuned_scenario_yaml(*run, loaded);
     std::string out = path;
     if (out.empty()) {
@@ -219,10 +374,22 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
 
   int samples = static_cast<int>(kPlotWindowS * kPlotRateHz);
   s.plots.push_back({"COM height (m)", std::vector<float>(samples, 0.0f)});
+  // joint torques: read from MuJoCo's applied and actuator forces (the Engine interface does
+  // not report the forces of the last step)
+  for (int i = 0; i < e.nv(); ++i)
+    if (!e.dof_is_root(i)) s.joint_dofs.push_back(i);
+  if (e.engine_name() == "mujoco" && !s.joint_dofs.empty()) {
+    s.torque_plot = static_cast<int>(s.plots.size());
+    s.plots.push_back({"joint torque RMS (N m)", std::vector<float>(samples, 0.0f)});
+    s.plots.push_back({"largest joint torque (N m)", std::vector<float>(samples, 0.0f)});
+  }
   for (auto& c : s.run->controllers()) c->signal_names(s.signal_names);
   for (size_t i = 0; i < s.signal_names.size() && i < 8; ++i)
     s.plots.push_back({s.signal_names[i], std::vector<float>(samples, 0.0f)});
   s.refresh_entries();
+  s.record_snapshot();
+  s.next_snapshot = e.time() + 1.0 / kHistoryRateHz;
+  s.frame_target = e.time();
   // the key reference opens by itself when there is room for it
   s.show_help = options.height >= 800;
 
@@ -233,12 +400,36 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
     if (ImGui::GetCurrentContext() && ImGui::GetIO().WantCaptureKeyboard) return;
     static_cast<Viewer*>(glfwGetWindowUserPointer(w))->key(key);
   });
-  glfwSetMouseButtonCallback(s.window, [](GLFWwindow* w, int button, int action, int) {
-    Impl& s = *static_cast<Viewer*>(glfwGetWindowUserPointer(w))->impl_;
+  glfwSetMouseButtonCallback(s.window, [](GLFWwindow* w, int button, int action, int mods) {
+    Viewer& viewer = *static_cast<Viewer*>(glfwGetWindowUserPointer(w));
+    Impl& s = *viewer.impl_;
     bool down = action == GLFW_PRESS && !ImGui::GetIO().WantCaptureMouse;
     if (button == GLFW_MOUSE_BUTTON_LEFT) s.button_left = down;
     if (button == GLFW_MOUSE_BUTTON_RIGHT) s.button_right = down;
     glfwGetCursorPos(w, &s.last_x, &s.last_y);
+    if (!down) {
+      // letting go of the button ends the pull; the selection stays
+      if (s.drag_plane != 0) viewer.release();
+      s.drag_plane = 0;
+      return;
+    }
+    if (button == GLFW_MOUSE_BUTTON_LEFT) {
+      double now = glfwGetTime();
+      bool double_click = now - s.last_left_press < kDoubleClickS;
+      s.last_left_press = double_click ? -1 : now;
+      if (double_click) {
+        viewer.select_at(s.last_x, s.last_y);
+        return;
+      }
+    }
+    if ((mods & GLFW_MOD_CONTROL) && viewer.selected_body() >= 0) {
+      // the pull starts at the selected point
+      std::lock_guard<std::mutex> lock(s.mutex);
+      s.drag_plane = button == GLFW_MOUSE_BUTTON_RIGHT ? 1 : 2;
+      s.run->engine().forward();
+      s.drag_target = s.selected_point(s.run->engine());
+      s.dragging = true;
+    }
   });
   glfwSetCursorPosCallback(s.window, [](GLFWwindow* w, double x, double y) {
     Impl& s = *static_cast<Viewer*>(glfwGetWindowUserPointer(w))->impl_;
@@ -248,6 +439,12 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
     if (!s.button_left && !s.button_right) return;
     int width = 1, height = 1;
     glfwGetWindowSize(w, &width, &height);
+    if (s.drag_plane != 0) {
+      std::lock_guard<std::mutex> lock(s.mutex);
+      s.drag_target +=
+          s.view->mouse_motion_in_world(dx, dy, height, s.drag_target, s.drag_plane == 2);
+      return;
+    }
     int action = s.button_right ? mjMOUSE_MOVE_H : mjMOUSE_ROTATE_H;
     // panning moves the look-at point: that is the free camera
     if (s.button_right) s.view->options.camera = CameraMode::kFree;
@@ -296,6 +493,7 @@ void Viewer::key(int k) {
   switch (k) {
     case GLFW_KEY_SPACE:
       s.paused = !s.paused;
+      if (!s.paused) s.resume_from_scrub();
       s.anchor_dirty = true;
       break;
     case GLFW_KEY_N:
@@ -306,10 +504,7 @@ void Viewer::key(int k) {
         s.step_locked();
       break;
     case GLFW_KEY_P:
-      s.run->reset();
-      s.key_pushes.clear();
-      s.reset_plots();
-      s.anchor_dirty = true;
+      s.replay();
       s.status = "replay from the start";
       break;
     case GLFW_KEY_COMMA:
@@ -343,12 +538,10 @@ void Viewer::key(int k) {
           double value = entry.value + sign * step;
           std::string path = entry.path;
           try {
-            retune_controller(*s.run, s.loaded, static_cast<int>(i), path, value);
-            s.status = fmt::format("{} = {:.3g}", path, value);
+            s.retune(static_cast<int>(i), path, value);
           } catch (const std::exception& err) {
             s.status = err.what();
           }
-          s.refresh_entries();
           return;
         }
       s.status = "this scenario has no speed parameter";
@@ -371,6 +564,12 @@ void Viewer::key(int k) {
       break;
     case GLFW_KEY_M:
       s.view->options.com = !s.view->options.com;
+      break;
+    case GLFW_KEY_K:
+      s.view->options.markers = !s.view->options.markers;
+      break;
+    case GLFW_KEY_G:
+      s.view->options.ghost = !s.view->options.ghost;
       break;
     case GLFW_KEY_H:
       s.show_help = !s.show_help;
@@ -400,6 +599,7 @@ void Viewer::Impl::draw_panels() {
   }
   if (ImGui::Button(paused ? "run" : "pause")) {
     paused = !paused;
+    if (!paused) resume_from_scrub();
     anchor_dirty = true;
   }
   ImGui::SameLine();
@@ -408,12 +608,7 @@ void Viewer::Impl::draw_panels() {
     step_locked();
   }
   ImGui::SameLine();
-  if (ImGui::Button("replay")) {
-    run->reset();
-    key_pushes.clear();
-    reset_plots();
-    anchor_dirty = true;
-  }
+  if (ImGui::Button("replay")) replay();
   ImGui::SameLine();
   if (ImGui::Button("save scenario")) {
     try {
@@ -431,6 +626,26 @@ void Viewer::Impl::draw_panels() {
   ImGui::Checkbox("COM", &view->options.com);
   ImGui::SameLine();
   ImGui::Checkbox("help", &show_help);
+  ImGui::Checkbox("markers", &view->options.markers);
+  ImGui::SameLine();
+  ImGui::Checkbox("ghost", &view->options.ghost);
+  if (selected >= 0) {
+    ImGui::SameLine();
+    ImGui::Text("selected: %s", e.body_name(selected).c_str());
+  }
+  // the timeline: while paused, any recorded state
+  if (paused && history.size() > 1) {
+    int n = static_cast<int>(history.size());
+    int shown = scrubbed >= 0 ? scrubbed : n - 1;
+    std::string label = fmt::format("t = {:.3f} s", history[shown].state.time);
+    if (ImGui::SliderInt("history", &shown, 0, n - 1, label.c_str())) {
+      e.restore_state(history[shown].state);
+      e.forward();
+      scrubbed = shown;
+    }
+  }
+  if (!pending.empty())
+    ImGui::Text("rebuilding %d controller(s) in the background", int(pending.size()));
   if (!status.empty()) ImGui::TextWrapped("%s", status.c_str());
 
   // live plots over the rolling window
@@ -495,12 +710,11 @@ void Viewer::Impl::draw_panels() {
   ImGui::End();
   if (changed_controller >= 0) {
     try {
-      retune_controller(*run, loaded, changed_controller, changed_path, changed_value);
-      status = fmt::format("{} = {:.4g}", changed_path, changed_value);
+      retune(changed_controller, changed_path, changed_value);
     } catch (const std::exception& err) {
       status = err.what();
+      refresh_entries();
     }
-    refresh_entries();
   }
 
   if (show_help) {
@@ -523,18 +737,47 @@ void Viewer::frame() {
   ImGui::NewFrame();
   {
     std::lock_guard<std::mutex> lock(s.mutex);
+    if (!s.pending.empty()) s.swap_ready();
     if (!s.options.threaded && !s.paused) {
       // reproducible: a fixed amount of simulated time per frame
       Engine& e = s.run->engine();
-      double target = e.time() + s.options.frame_dt * s.speed;
-      while (e.time() < target - 0.5 * e.timestep() && !s.paused) s.step_locked();
+      // on the history's grid of times, unless single steps went past it
+      if (s.frame_target < e.time() - e.timestep()) s.frame_target = e.time();
+      s.frame_target += s.options.frame_dt * s.speed;
+      while (e.time() < s.frame_target - 0.5 * e.timestep() && !s.paused) s.step_locked();
       s.achieved_speed = s.speed;
     }
     std::vector<ForceArrow> arrows;
+    std::vector<Marker> markers;
     Engine& e = s.run->engine();
     for (const auto& p : s.key_pushes)
       if (e.time() < p.until) arrows.push_back({e.body_com(p.body), p.force});
-    s.view->update(*s.run, arrows);
+    if (s.selected >= 0) {
+      // the selected point, and the pull as an arrow to the target
+      e.forward();
+      Eigen::Vector3d p = s.selected_point(e);
+      Marker sel;
+      sel.pos = p;
+      sel.radius = 0.03;
+      sel.rgba = {1.0f, 0.5f, 0.0f, 1.0f};
+      sel.label = e.body_name(s.selected);
+      markers.push_back(sel);
+      if (s.dragging) {
+        Marker pull;
+        pull.shape = Marker::Shape::kArrow;
+        pull.pos = p;
+        pull.end = s.drag_target;
+        pull.radius = 0.02;
+        pull.rgba = {1.0f, 0.5f, 0.0f, 1.0f};
+        markers.push_back(pull);
+        Marker target = sel;
+        target.pos = s.drag_target;
+        target.radius = 0.02;
+        target.label.clear();
+        markers.push_back(target);
+      }
+    }
+    s.view->update(*s.run, arrows, markers);
     s.draw_panels();
   }
   ImGui::Render();
@@ -568,8 +811,7 @@ const std::vector<unsigned char>& Viewer::last_frame(int& width, int& height) co
 
 void Viewer::set_param(int index, const std::string& path, double value) {
   std::lock_guard<std::mutex> lock(impl_->mutex);
-  retune_controller(*impl_->run, impl_->loaded, index, path, value);
-  impl_->refresh_entries();
+  impl_->retune(index, path, value);
 }
 
 const std::vector<std::vector<ParamEntry>>& Viewer::param_panel() const {
@@ -613,6 +855,113 @@ Eigen::Vector3d Viewer::com_velocity() const {
 }
 const std::string& Viewer::status() const {
   return impl_->status;
+}
+Eigen::Vector3d Viewer::com() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->run->engine().forward();
+  return impl_->run->engine().com();
+}
+Eigen::Vector3d Viewer::body_position(const std::string& name) const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  Engine& e = impl_->run->engine();
+  int b = e.require_body(name);
+  e.forward();
+  return e.body_pose(b).pos;
+}
+
+bool Viewer::select_body(const std::string& name) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  Impl& s = *impl_;
+  Engine& e = s.run->engine();
+  int b = e.body_index(name);
+  if (b < 0) return false;
+  e.forward();
+  BodyPose pose = e.body_pose(b);
+  s.selected = b;
+  s.selected_local = pose.quat.conjugate() * (e.body_com(b) - pose.pos);
+  s.dragging = false;
+  s.status = "selected " + name;
+  return true;
+}
+
+bool Viewer::select_at(double x, double y) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  Impl& s = *impl_;
+  int width = 1, height = 1;
+  glfwGetWindowSize(s.window, &width, &height);
+  Engine& e = s.run->engine();
+  Eigen::Vector3d point;
+  int b = s.view->pick_body(x / width, 1.0 - y / height, double(width) / height, point);
+  s.dragging = false;
+  if (b < 0) {
+    s.selected = -1;
+    s.status = "released";
+    return false;
+  }
+  e.forward();
+  BodyPose pose = e.body_pose(b);
+  s.selected = b;
+  s.selected_local = pose.quat.conjugate() * (point - pose.pos);
+  s.status = "selected " + e.body_name(b) + " (ctrl+drag pulls it)";
+  return true;
+}
+
+void Viewer::drag_to(const Eigen::Vector3d& target) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  if (impl_->selected < 0) return;
+  impl_->drag_target = target;
+  impl_->dragging = true;
+}
+
+void Viewer::release() {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->dragging = false;
+  impl_->drag_force.setZero();
+}
+
+int Viewer::selected_body() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->selected;
+}
+
+int Viewer::history_size() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return static_cast<int>(impl_->history.size());
+}
+
+double Viewer::history_time(int i) const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->history.at(i).state.time;
+}
+
+double Viewer::scrub_to(double t) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  Impl& s = *impl_;
+  s.paused = true;
+  // the nearest recorded state (times increase along the history)
+  int best = 0;
+  for (int i = 0; i < static_cast<int>(s.history.size()); ++i)
+    if (std::abs(s.history[i].state.time - t) < std::abs(s.history[best].state.time - t)) best = i;
+  Engine& e = s.run->engine();
+  e.restore_state(s.history[best].state);
+  e.forward();
+  s.scrubbed = best;
+  return e.time();
+}
+
+bool Viewer::param_pending() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return !impl_->pending.empty();
+}
+
+void Viewer::finish_pending() {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  impl_->finish_pending();
+}
+
+const Controller& Viewer::controller(int index) const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return *impl_->run->controllers().at(index);
 }
 
 }  // namespace stance

@@ -5,12 +5,23 @@
 //
 // Keys: space pause, n single step, p replay, , and . push back and forth, a and s skateboard
 // speed (a controller parameter "speed", stepped by "speed_step"), - and = slow down / speed up, f
-// camera follow/free, c contacts, m COM markers, h help, Esc quit. Mouse: left drag rotates, right
-// drag pans, wheel zooms.
+// camera follow/free, c contacts, m COM markers, k controller markers, g tracking ghost, h help,
+// Esc quit. Mouse: left drag rotates, right drag pans, wheel zooms; double-click selects a body,
+// and Ctrl+right drag (screen plane) or Ctrl+left drag (ground plane) pulls it towards a target
+// with a spring, as MuJoCo's simulate does, through Engine::apply_external_force (both engines).
+//
+// History: the engine state is kept every 1/60 s of simulated time (the last minute). While
+// paused, the panel's slider (or scrub_to) restores any recorded state; running on continues from
+// there and drops the later history. Controllers start afresh (reset()) at the restored state:
+// their state is not recorded.
+//
+// Live tuning: most parameters rebuild their controller at once. LQR costs re-solve the DARE on a
+// worker thread (scenario/live_tuning.h); the old controller keeps running until the new one is
+// swapped in between two steps (param_pending() meanwhile).
 //
 // Tests drive the same code without a person: key() is what a key press does, frame() is one
-// window frame, and with threaded = false each frame() advances the physics by frame_dt so that
-// runs are reproducible.
+// window frame, select_body / drag_to / release are what the mouse does, and with threaded =
+// false each frame() advances the physics by frame_dt so that runs are reproducible.
 #pragma once
 
 #include <Eigen/Core>
@@ -22,6 +33,8 @@
 #include "scenario/scenario.h"
 
 namespace stance {
+
+class Controller;
 
 struct ViewerOptions {
   std::string engine;  // overrides the scenario's
@@ -67,6 +80,32 @@ class Viewer {
   // a parameter as the panel shows it; NaN when absent
   double param_value(int index, const std::string& path) const;
   const std::string& status() const;
+  Eigen::Vector3d com() const;  // of the character, world (m)
+  // a body's frame origin, world (m); throws std::invalid_argument for an unknown name
+  Eigen::Vector3d body_position(const std::string& name) const;
+
+  // the mouse perturbation. select_body picks the body's COM as the point pulled; select_at
+  // picks what is under window pixel (x, y) (from the top left), as a double-click does, and
+  // returns false (and releases) over empty space. drag_to sets the spring's target (world, m);
+  // release lets go.
+  bool select_body(const std::string& name);
+  bool select_at(double x, double y);
+  void drag_to(const Eigen::Vector3d& target);
+  void release();
+  int selected_body() const;  // the running engine's body index; -1: none
+
+  // the recorded history: states every 1/60 s of simulated time
+  int history_size() const;
+  double history_time(int i) const;
+  // pauses, and restores the recorded state nearest to time t (s); returns its time
+  double scrub_to(double t);
+
+  // a background rebuild (an LQR cost change) is still waiting to be swapped in
+  bool param_pending() const;
+  // waits for the pending rebuilds and swaps them in (what "save scenario" does first)
+  void finish_pending();
+  // the running controller `index` (e.g. to read an LQR gain)
+  const Controller& controller(int index) const;
 
  private:
   struct Impl;

@@ -10,7 +10,10 @@
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
+#include <thread>
 
+#include "control/lqr.h"
+#include "core/error.h"
 #include "test_support.h"
 
 namespace stance {
@@ -202,6 +205,120 @@ TEST_F(ViewerTest, PhysicsThreadAdvancesAndPauses) {
   v.key(GLFW_KEY_N);  // single steps go through the physics thread
   for (int i = 0; i < 50 && v.sim_time() == t; ++i) v.frame();
   EXPECT_GT(v.sim_time(), t);
+}
+
+// the mouse spring pulls the selected body towards the target, on either engine
+TEST_F(ViewerTest, DraggingABodyMovesItTowardsTheTarget) {
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  for (const char* engine : {"mujoco", "dart"}) {
+    SCOPED_TRACE(engine);
+    ViewerOptions o = test_options();
+    o.engine = engine;
+    Viewer pulled(loaded, o), calm(loaded, o);
+    ASSERT_FALSE(pulled.select_body("no_such_body"));
+    ASSERT_TRUE(pulled.select_body("h_head"));
+    ASSERT_GE(pulled.selected_body(), 0);
+    Eigen::Vector3d head0 = pulled.body_position("h_head");
+    Eigen::Vector3d target = head0 + Eigen::Vector3d(0.3, 0, 0);
+    pulled.drag_to(target);
+    for (int i = 0; i < 20; ++i) {
+      pulled.frame();
+      calm.frame();
+    }
+    Eigen::Vector3d head = pulled.body_position("h_head");
+    // towards the target: forward along x, well beyond what standing still does
+    EXPECT_GT(head.x() - calm.body_position("h_head").x(), 0.05);
+    EXPECT_LT((head - target).norm(), (head0 - target).norm() - 0.05);
+    if (std::string(engine) == "mujoco")
+      pulled.screenshot((shot_dir() / "biped_stand_drag.png").string());
+    // letting go keeps the selection (a double-click on empty space clears it)
+    pulled.release();
+    EXPECT_GE(pulled.selected_body(), 0);
+  }
+}
+
+// a double-click in the middle of the window picks the followed character
+TEST_F(ViewerTest, SelectAtPicksTheCharacterAndEmptySpaceReleases) {
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  ViewerOptions o = test_options();
+  Viewer v(loaded, o);
+  v.frame();
+  // the follow camera looks at the pelvis, in the middle of the window
+  EXPECT_TRUE(v.select_at(o.width / 2.0, o.height / 2.0));
+  EXPECT_GE(v.selected_body(), 0);
+  // the top left corner shows the sky
+  EXPECT_FALSE(v.select_at(2, 2));
+  EXPECT_EQ(v.selected_body(), -1);
+}
+
+// run, pause, scrub back: the state is the one shown at that time
+TEST_F(ViewerTest, HistoryScrubRestoresARecordedTimeAndRunsOnFromIt) {
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
+  Viewer v(loaded, test_options());
+  std::vector<double> times;
+  std::vector<Eigen::Vector3d> coms;
+  for (int i = 0; i < 40; ++i) {
+    v.frame();
+    times.push_back(v.sim_time());
+    coms.push_back(v.com());
+  }
+  EXPECT_GE(v.history_size(), 40);
+  v.key(GLFW_KEY_SPACE);
+  ASSERT_TRUE(v.paused());
+  const int k = 12;
+  EXPECT_EQ(v.scrub_to(times[k]), times[k]);
+  EXPECT_EQ(v.sim_time(), times[k]);
+  EXPECT_LT((v.com() - coms[k]).norm(), 1e-9);
+  // scrubbing while paused changes nothing else: still paused over frames
+  v.frame();
+  EXPECT_EQ(v.sim_time(), times[k]);
+  EXPECT_TRUE(v.paused());
+  // further back, then run on from there: later history is dropped
+  v.scrub_to(times[3]);
+  EXPECT_LT((v.com() - coms[3]).norm(), 1e-9);
+  v.key(GLFW_KEY_SPACE);
+  v.frame();
+  EXPECT_GT(v.sim_time(), times[3]);
+  EXPECT_LT(v.sim_time(), times[5]);
+  EXPECT_LE(v.history_time(v.history_size() - 1), v.sim_time());
+  EXPECT_LT(v.history_size(), 10);
+  // and p replays from the start, with a fresh history
+  v.key(GLFW_KEY_P);
+  EXPECT_EQ(v.sim_time(), 0.0);
+  EXPECT_EQ(v.history_size(), 1);
+}
+
+// an LQR cost re-solves the DARE on a worker; the running controller is swapped later
+TEST_F(ViewerTest, LqrCostChangeSwapsTheGainInLater) {
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/lqr_one_leg.yaml");
+  Viewer v(loaded, test_options());
+  v.frame();
+  const auto* lqr = dynamic_cast<const Lqr*>(&v.controller(0));
+  ASSERT_NE(lqr, nullptr);
+  Eigen::MatrixXd k0 = lqr->design().K;
+  double cost0 = v.param_value(0, "balance_cost");
+  v.set_param(0, "balance_cost", 4 * cost0);
+  // pending: the old controller and its value are still in place
+  EXPECT_TRUE(v.param_pending());
+  EXPECT_EQ(v.param_value(0, "balance_cost"), cost0);
+  EXPECT_EQ(&v.controller(0), lqr);
+  // the frames go on while the worker solves; the swap happens in one of them
+  for (int i = 0; i < 3000 && v.param_pending(); ++i) {
+    v.frame();
+    if (v.param_pending()) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_FALSE(v.param_pending());
+  EXPECT_EQ(v.param_value(0, "balance_cost"), 4 * cost0);
+  const auto* swapped = dynamic_cast<const Lqr*>(&v.controller(0));
+  ASSERT_NE(swapped, nullptr);
+  ASSERT_EQ(swapped->design().K.rows(), k0.rows());
+  EXPECT_GT((swapped->design().K - k0).norm(), 1e-3 * k0.norm());
+  // and it still balances
+  for (int i = 0; i < 30; ++i) v.frame();
+  EXPECT_GT(v.com_height(), 0.8);
+  // a rejected value is reported at once and changes nothing
+  EXPECT_THROW(v.set_param(0, "no_such_cost", 1), InputError);
+  EXPECT_FALSE(v.param_pending());
 }
 
 }  // namespace

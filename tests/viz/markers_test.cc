@@ -1,0 +1,93 @@
+// What the viewer and the recorder draw for controllers: SIMBICON's circles (Controller::markers)
+// and the tracking ghost's pose (Controller::reference_qpos). No display needed.
+#include <gtest/gtest.h>
+
+#include "control/marker.h"
+#include "control/mocap_tracker.h"
+#include "control/simbicon.h"
+#include "motion/reference_motion.h"
+#include "scenario/runner.h"
+#include "scenario/scenario.h"
+#include "test_support.h"
+
+namespace stance {
+namespace {
+
+RunOptions quiet() {
+  RunOptions o;
+  o.quiet = true;
+  return o;
+}
+
+const Marker* find_label(const std::vector<Marker>& markers, const std::string& prefix) {
+  for (const auto& m : markers)
+    if (m.label.rfind(prefix, 0) == 0) return &m;
+  return nullptr;
+}
+
+TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
+  ScenarioRun run(load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml"), quiet());
+  Engine& e = run.engine();
+  auto* simbicon = dynamic_cast<Simbicon*>(run.controllers().at(0).get());
+  ASSERT_NE(simbicon, nullptr);
+  // over a few steps, so that both legs take the stance
+  bool seen[2] = {false, false};
+  while (e.time() < 2.0) {
+    ASSERT_TRUE(run.step());
+    e.forward();
+    std::vector<Marker> markers;
+    simbicon->markers(e, markers);
+    const int stance = simbicon->state().fsm < 2 ? Simbicon::kRight : Simbicon::kLeft;
+    seen[stance] = true;
+    const Marker* ankle = find_label(markers, "stance ankle");
+    ASSERT_NE(ankle, nullptr);
+    EXPECT_EQ(ankle->shape, Marker::Shape::kCircle);
+    Eigen::Vector3d foot = e.body_pose(simbicon->model().foot[stance]).pos;
+    EXPECT_LT((ankle->pos - foot).norm(), 1e-12);
+    EXPECT_GT(ankle->radius, 0);
+    // the hip circle sits midway between the hip joints
+    const Marker* hip = find_label(markers, "hip");
+    ASSERT_NE(hip, nullptr);
+    Eigen::Vector3d centre = 0.5 * (e.body_pose(simbicon->model().thigh[0]).pos +
+                                    e.body_pose(simbicon->model().thigh[1]).pos);
+    EXPECT_LT((hip->pos - centre).norm(), 1e-12);
+    // the swing target arrow leaves the hip
+    const Marker* target = find_label(markers, "swing target");
+    ASSERT_NE(target, nullptr);
+    EXPECT_LT((target->pos - centre).norm(), 1e-12);
+    EXPECT_NEAR((target->end - target->pos).norm(), 0.35, 1e-9);
+  }
+  EXPECT_TRUE(seen[0] && seen[1]);
+}
+
+TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
+  ScenarioRun run(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), quiet());
+  Engine& e = run.engine();
+  auto* tracker = dynamic_cast<MocapTracker*>(run.controllers().at(0).get());
+  ASSERT_NE(tracker, nullptr);
+  while (e.time() < 0.7) ASSERT_TRUE(run.step());
+  Eigen::VectorXd q;
+  ASSERT_TRUE(tracker->reference_qpos(e, q));
+  ASSERT_EQ(q.size(), e.nq());
+  const MocapTrackerModel& m = tracker->model();
+  ReferencePose pose = m.reference->make_pose();
+  m.reference->sample(e.time(), pose);
+  EXPECT_LT((q.segment<3>(m.qpos_adr[0]) - pose.root_position).norm(), 1e-12);
+  for (size_t k = 0; k < m.body.size(); ++k) {
+    Eigen::Vector4d expect(pose.rotations[k].w(), pose.rotations[k].x(), pose.rotations[k].y(),
+                           pose.rotations[k].z());
+    int adr = k == 0 ? m.qpos_adr[0] + 3 : m.qpos_adr[k];
+    EXPECT_LT((q.segment<4>(adr) - expect).norm(), 1e-12) << "segment " << k;
+  }
+  // the reference moves on with time: a later sample is another pose
+  while (e.time() < 1.0) ASSERT_TRUE(run.step());
+  Eigen::VectorXd later;
+  tracker->reference_qpos(e, later);
+  EXPECT_GT((later - q).norm(), 1e-3);
+  // controllers that track no pose give none
+  ScenarioRun stand(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), quiet());
+  EXPECT_FALSE(stand.controllers().at(0)->reference_qpos(stand.engine(), q));
+}
+
+}  // namespace
+}  // namespace stance
