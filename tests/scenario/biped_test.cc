@@ -3,6 +3,9 @@
 // standing COM height. DART runs near real time, so its runs are few and short.
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <filesystem>
+
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
 #include "test_support.h"
@@ -87,6 +90,30 @@ TEST(BipedStand, FallsWithoutTheAnkleStrategy) {
     EXPECT_TRUE(r.fell) << engine;
     EXPECT_EQ(r.metrics["pushes_survived"], 0) << engine;
   }
+}
+
+// plain PD with the seed's gains blows up within a few steps; DART used to abort in its
+// FreeJoint transform assert, now the run stops as diverged and still writes its summary
+TEST(BipedStand, PlainPdDivergenceIsReportedOnDart) {
+  RunOptions opt;
+  opt.engine = "dart";
+  opt.duration = 0.5;
+  opt.out_dir =
+      (std::filesystem::temp_directory_path() / "stance_tests" / "biped_pd_dart").string();
+  ScenarioRun run(load_scenario(scenario_path("biped_stand.yaml"), {"controllers.0.type=pd"}), opt);
+  RunResult r = run.run();
+  EXPECT_TRUE(r.diverged);
+  EXPECT_LT(r.sim_time, 0.1);
+  EXPECT_NE(r.divergence.find("non-finite"), std::string::npos) << r.divergence;
+  EXPECT_TRUE(std::filesystem::exists(opt.out_dir + "/summary.json"));
+  // the engine answers kinematic queries with NaN instead of aborting, and does not step
+  Engine& e = run.engine();
+  EXPECT_FALSE(e.state_is_finite());
+  EXPECT_TRUE(std::isnan(e.com().x()));
+  EXPECT_TRUE(std::isnan(e.body_pose(e.require_body("h_spine")).pos.x()));
+  const double t = e.time();
+  e.step();
+  EXPECT_EQ(e.time(), t);
 }
 
 TEST(BipedStand, PushScheduleIsLoggedAndCounted) {

@@ -33,6 +33,7 @@
 #include <cstring>
 #include <filesystem>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <stdexcept>
@@ -474,6 +475,8 @@ class DartEngine final : public Engine {
   }
 
   void forward() override {
+    // a diverged state would trip DART's transform asserts (abort) instead of being reported
+    if (!positions_usable()) return;
     // DART computes lazily; refresh kinematics now so later const reads are cheap
     for (const SkeletonBlock& b : blocks_) b.skeleton->computeForwardKinematics(true, true, false);
     // contact geometry for a state set by hand; after a step the step's own contacts stand
@@ -566,27 +569,39 @@ class DartEngine final : public Engine {
   }
 
   Eigen::Vector3d com() const override {
+    if (!positions_usable()) return Eigen::Vector3d::Constant(kNaN);
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (const SkeletonBlock& b : blocks_) sum += b.skeleton->getMass() * b.skeleton->getCOM();
     return total_mass_ > 0 ? Eigen::Vector3d(sum / total_mass_) : sum;
   }
   Eigen::Vector3d com_velocity() const override {
+    if (!positions_usable()) return Eigen::Vector3d::Constant(kNaN);
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
     for (const SkeletonBlock& b : blocks_)
       sum += b.skeleton->getMass() * b.skeleton->getCOMLinearVelocity();
     return total_mass_ > 0 ? Eigen::Vector3d(sum / total_mass_) : sum;
   }
   BodyPose body_pose(int body) const override {
+    if (!positions_usable()) {
+      BodyPose nan;
+      nan.pos.setConstant(kNaN);
+      nan.quat.coeffs().setConstant(kNaN);
+      return nan;
+    }
     const Eigen::Isometry3d& t = bodies_.at(body)->getWorldTransform();
     BodyPose pose;
     pose.pos = t.translation();
     pose.quat = Eigen::Quaterniond(t.linear());
     return pose;
   }
-  Eigen::Vector3d body_com(int body) const override { return bodies_.at(body)->getCOM(); }
+  Eigen::Vector3d body_com(int body) const override {
+    if (!positions_usable()) return Eigen::Vector3d::Constant(kNaN);
+    return bodies_.at(body)->getCOM();
+  }
   Eigen::Matrix<double, 6, 1> body_velocity(int body) const override {
     const BodyNode* bn = bodies_.at(body);
     Eigen::Matrix<double, 6, 1> out;
+    if (!positions_usable()) return out.setConstant(kNaN);
     out.head<3>() = bn->getAngularVelocity();
     out.tail<3>() = bn->getLinearVelocity();  // of the frame origin
     return out;
@@ -680,14 +695,16 @@ class DartEngine final : public Engine {
       const SkeletonBlock& b = block_of(dof);
       b.skeleton->getDof(dof - b.dof_start)->setCommand(velocity_command_[dof]);
     }
+    // stepping a diverged state aborts in DART's FreeJoint assert; the runner reports it instead
+    if (!state_is_finite()) return;
     world_->step();
     use_forward_contacts_ = false;
     positions_set_since_step_ = false;
   }
 
   bool state_is_finite() const override {
+    if (!positions_usable()) return false;
     for (const SkeletonBlock& b : blocks_) {
-      if (!b.skeleton->getPositions().allFinite()) return false;
       if (!b.skeleton->getVelocities().allFinite()) return false;
     }
     return true;
@@ -696,6 +713,22 @@ class DartEngine final : public Engine {
 
  private:
   using Lookup = std::map<std::string, int, std::less<>>;
+
+  static constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+  // true when DART can build transforms from the positions: finite, and a rotation vector's
+  // norm that does not overflow (exp of an infinite angle gives NaN, which DART asserts on)
+  bool positions_usable() const {
+    // dof by dof: getPositions() would allocate in the controllers' hot loop
+    double sum = 0;
+    for (const SkeletonBlock& b : blocks_) {
+      for (int i = 0; i < b.ndof; ++i) {
+        const double q = b.skeleton->getPosition(i);
+        sum += q * q;
+      }
+    }
+    return std::isfinite(sum);
+  }
 
   static int find(const Lookup& lookup, std::string_view name) {
     auto it = lookup.find(name);
