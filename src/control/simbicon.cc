@@ -316,39 +316,52 @@ void Simbicon::signals(std::vector<double>& values) const {
 void Simbicon::markers(const Engine& engine, std::vector<Marker>& out) const {
   const Model& m = model_;
   const int stance = state_.fsm < 2 ? kRight : kLeft;
+  const Eigen::Vector3d lateral = m.heading * Eigen::Vector3d::UnitY();
+  // planar models: rings in the sagittal plane, beside the body on the side the viewer's
+  // camera starts on (-y), where the torso does not hide them; 3D: flat on the ground
+  const Eigen::Vector3d side =
+      m.spatial ? Eigen::Vector3d::Zero() : Eigen::Vector3d(-0.2 * lateral);
+  const Eigen::Vector3d normal = m.spatial ? Eigen::Vector3d::Zero() : lateral;
   const Eigen::Vector3d ankle = engine.body_pose(m.foot[stance]).pos;
   const Eigen::Vector3d hip =
       0.5 * (engine.body_pose(m.thigh[0]).pos + engine.body_pose(m.thigh[1]).pos);
   const Eigen::Vector3d point = m.use_com ? engine.com() : hip;
   Marker ring;
   ring.shape = Marker::Shape::kCircle;
-  ring.pos = ankle;
-  ring.radius = 0.07;
+  ring.pos = ankle + side;
+  ring.normal = normal;
+  ring.radius = 0.08;
   ring.rgba = {0.1f, 0.9f, 0.2f, 1};
   ring.label = stance == kRight ? "stance ankle (R)" : "stance ankle (L)";
   out.push_back(ring);
-  ring.pos = point;
+  ring.pos = point + side;
   ring.rgba = {0.2f, 0.6f, 1.0f, 1};
   ring.label = m.use_com ? "COM" : "hip";
   out.push_back(ring);
   // d: from the stance ankle to the balance point
   Marker d;
   d.shape = Marker::Shape::kLine;
-  d.pos = ankle;
-  d.end = point;
+  d.pos = ankle + side;
+  d.end = point + side;
   d.radius = 0.006;
   d.rgba = {0.9f, 0.9f, 0.9f, 0.8f};
   out.push_back(d);
-  // the swing thigh's target: theta from vertical about -y, turned to the heading
+  // the swing thigh's target after feedback: theta from vertical about -y, turned to the
+  // heading; labelled at its head
   const double th = state_.swing_hip_target;
   Marker target;
   target.shape = Marker::Shape::kArrow;
-  target.pos = hip;
-  target.end = hip + 0.35 * (m.heading * Eigen::Vector3d(std::sin(th), 0, -std::cos(th)));
+  target.pos = hip + side;
+  target.end = target.pos + 0.4 * (m.heading * Eigen::Vector3d(std::sin(th), 0, -std::cos(th)));
   target.radius = 0.015;
   target.rgba = {1.0f, 0.3f, 0.8f, 1};
-  target.label = "swing target";
   out.push_back(target);
+  Marker head;
+  head.pos = target.end;
+  head.radius = 0.012;
+  head.rgba = target.rgba;
+  head.label = "swing target";
+  out.push_back(head);
 }
 
 void Simbicon::add_metrics(nlohmann::json& metrics) const {

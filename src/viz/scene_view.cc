@@ -139,6 +139,9 @@ void SceneView::add_arrow(const Eigen::Vector3d& tail, const Eigen::Vector3d& he
   mjv_initGeom(g, mjGEOM_ARROW, nullptr, nullptr, nullptr, rgba);
   Eigen::Vector3d a = to_view(tail), b = to_view(head);
   mjv_makeConnector(g, mjGEOM_ARROW, width, a.x(), a.y(), a.z(), b.x(), b.y(), b.z());
+  // mjr_render draws an arrow (shaft and head) over half of size[2]: double it, so that the
+  // head ends at `head`
+  g->size[2] *= 2;
   g->category = mjCAT_DECOR;
 }
 
@@ -170,8 +173,9 @@ void SceneView::add_marker(const Marker& m) {
       add_sphere(m.pos, m.radius, rgba);
       break;
     case Marker::Shape::kCircle: {
-      // a ring in the ground plane, as the seed draws its circles
-      Eigen::Vector3d u = up_.unitOrthogonal(), w = up_.cross(u);
+      // a ring of short capsules, flat on the ground unless the marker says otherwise
+      Eigen::Vector3d n = m.normal.norm() > 1e-9 ? m.normal.normalized() : up_;
+      Eigen::Vector3d u = n.unitOrthogonal(), w = n.cross(u);
       double width = std::max(0.004, 0.08 * m.radius);
       for (int i = 0; i < kCircleSegments; ++i) {
         double a0 = 2 * M_PI * i / kCircleSegments, a1 = 2 * M_PI * (i + 1) / kCircleSegments;

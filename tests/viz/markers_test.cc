@@ -42,20 +42,28 @@ TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
     const Marker* ankle = find_label(markers, "stance ankle");
     ASSERT_NE(ankle, nullptr);
     EXPECT_EQ(ankle->shape, Marker::Shape::kCircle);
+    // planar: in the sagittal plane (normal y), moved sideways only (along y)
     Eigen::Vector3d foot = e.body_pose(simbicon->model().foot[stance]).pos;
-    EXPECT_LT((ankle->pos - foot).norm(), 1e-12);
+    EXPECT_LT((ankle->pos - foot).head<1>().norm() + std::abs((ankle->pos - foot).z()), 1e-12);
+    EXPECT_LT(std::abs(ankle->normal.dot(Eigen::Vector3d::UnitX())), 1e-12);
     EXPECT_GT(ankle->radius, 0);
     // the hip circle sits midway between the hip joints
     const Marker* hip = find_label(markers, "hip");
     ASSERT_NE(hip, nullptr);
     Eigen::Vector3d centre = 0.5 * (e.body_pose(simbicon->model().thigh[0]).pos +
                                     e.body_pose(simbicon->model().thigh[1]).pos);
-    EXPECT_LT((hip->pos - centre).norm(), 1e-12);
-    // the swing target arrow leaves the hip
-    const Marker* target = find_label(markers, "swing target");
-    ASSERT_NE(target, nullptr);
-    EXPECT_LT((target->pos - centre).norm(), 1e-12);
-    EXPECT_NEAR((target->end - target->pos).norm(), 0.35, 1e-9);
+    EXPECT_LT((hip->pos - centre - (ankle->pos - foot)).norm(), 1e-12);
+    // the swing target arrow leaves the hip at the target angle from vertical
+    const Marker* arrow = nullptr;
+    for (const auto& m : markers)
+      if (m.shape == Marker::Shape::kArrow) arrow = &m;
+    ASSERT_NE(arrow, nullptr);
+    EXPECT_LT((arrow->pos - hip->pos).norm(), 1e-12);
+    Eigen::Vector3d dir = (arrow->end - arrow->pos).normalized();
+    double th = simbicon->state().swing_hip_target;
+    EXPECT_NEAR(dir.x(), std::sin(th), 1e-9);
+    EXPECT_NEAR(dir.z(), -std::cos(th), 1e-9);
+    EXPECT_NE(find_label(markers, "swing target"), nullptr);
   }
   EXPECT_TRUE(seen[0] && seen[1]);
 }
