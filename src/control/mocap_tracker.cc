@@ -35,6 +35,16 @@ void write_quat(Eigen::VectorXd& q, int adr, const Eigen::Quaterniond& r) {
 
 }  // namespace
 
+void add_com_support_torque(const Engine& engine, int support_body, const Eigen::Vector3d& force,
+                            const Eigen::MatrixXd& jac_com, Eigen::MatrixXd& jac_scratch,
+                            Eigen::VectorXd& tau) {
+  // the reaction -F acts at the COM's location, as a point of the support body
+  Eigen::Map<Eigen::MatrixXd> none(nullptr, 3, 0);
+  engine.point_jacobian(support_body, engine.com(), jac_scratch, none);
+  jac_scratch = jac_com - jac_scratch;
+  tau.noalias() += jac_scratch.transpose() * force;
+}
+
 MocapRootMode parse_mocap_root_mode(const std::string& mode) {
   if (mode == "kinematic") return MocapRootMode::kKinematic;
   if (mode == "assisted") return MocapRootMode::kAssisted;
@@ -212,7 +222,6 @@ void MocapTracker::reset(const Engine& engine) {
   m_.setZero(nv, nv);
   jac_a_.setZero(3, nv);
   jac_b_.setZero(3, nv);
-  jac_none_.resize(3, 0);
   stance_share_[0] = 1;
   stance_share_[1] = 0;
   llt_ = Eigen::LLT<Eigen::MatrixXd>(nv);
@@ -281,8 +290,9 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   Eigen::Vector3d fwd = heading(root.quat), fwd_ref = heading(pose_.rotations[0]);
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d lat = up.cross(fwd), lat_ref = up.cross(fwd_ref);
-  Eigen::Quaterniond yaw_fix = p.heading_control ? Eigen::Quaterniond::Identity()
-                                                 : Eigen::Quaterniond::FromTwoVectors(fwd_ref, fwd);
+  // the reference turned onto the simulated heading, less the share heading_gain corrects
+  const double yaw_error = std::atan2(fwd_ref.cross(fwd).z(), fwd_ref.dot(fwd));
+  Eigen::Quaterniond yaw_fix(Eigen::AngleAxisd((1 - p.heading_gain) * yaw_error, up));
   // d: root (or COM) offset from the stance ankle; v: its velocity; both against the reference's
   const Eigen::Vector3d ankle = engine.body_pose(m.body[m.foot[stance_]]).pos;
   const Eigen::Vector3d ankle_ref = fk_pos_[m.foot[stance_]];
@@ -330,6 +340,8 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
       between = pose_.rotations[a] * between;  // merged-away segments between root and hip
     Eigen::Quaterniond target = ((root_des * between).conjugate() * thigh).normalized();
     if (target.coeffs().dot(pose_.rotations[stance_hip].coeffs()) < 0) target.coeffs() *= -1;
+    // partly towards the reference hip angle, which keeps the stance thigh's own twist in check
+    target = pose_.rotations[stance_hip].slerp(p.stance_hip_world_weight, target);
     write_quat(q_ref_, m.qpos_adr[stance_hip], target);
   }
   // optional explicit torque T on the pelvis; the stance hip applies -T to its thigh
@@ -354,15 +366,11 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   force.z() += p.root_force_kp_z * e.z() + p.root_force_kd_z * ev.z();
   force.z() = std::clamp(force.z(), 0.0, 2 * weight);  // the feet can only push
   if (force.squaredNorm() == 0) return;
-  const Eigen::Vector3d com = engine.com();
   engine.com_jacobian(jac_a_);
-  for (int side = 0; side < 2; ++side) {
-    if (stance_share_[side] <= 0) continue;
-    engine.point_jacobian(m.body[m.foot[side]], com, jac_b_, jac_none_);
-    jac_b_ = jac_a_ - jac_b_;
-    tau_.noalias() += stance_share_[side] * jac_b_.transpose() * force;
-  }
-  tau_.segment<6>(m.dof_adr[0]).setZero();  // exact zero up to rounding
+  for (int side = 0; side < 2; ++side)
+    if (stance_share_[side] > 0)
+      add_com_support_torque(engine, m.body[m.foot[side]], stance_share_[side] * force, jac_a_,
+                             jac_b_, tau_);
 }
 
 void MocapTracker::compute(const Engine& engine, ControlOutput& out) {
@@ -488,6 +496,12 @@ void MocapTracker::add_metrics(nlohmann::json& metrics) const {
   nlohmann::json names = nlohmann::json::array();
   for (int k : model_.end_effectors) names.push_back(model_.reference->skeleton().segments[k].name);
   j["end_effectors"] = names;
+  // per joint: where the error is
+  nlohmann::json per_joint = nlohmann::json::object();
+  const MotionSkeleton& sk = model_.reference->skeleton();
+  for (int k = 1; k < sk.segment_count(); ++k)
+    per_joint[sk.segments[k].name] = joint_error_sum_deg_[k] / steps;
+  j["joint_error_deg"] = per_joint;
   j["helper_impulse_Ns"] = helper_impulse_;
   j["helper_angular_impulse_Nms"] = helper_angular_impulse_;
   j["root_fall_time_s"] = fall_time_ >= 0 ? nlohmann::json(fall_time_) : nlohmann::json(nullptr);

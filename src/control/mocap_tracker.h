@@ -60,8 +60,9 @@ struct MocapTrackerParams {
   double cv_sagittal = 0.2;  // rad s/m
   double cd_coronal = 0.5;
   double cv_coronal = 0.2;
-  bool stance_hip_world = true;  // stance hip target puts the pelvis at the reference
-  double torso_kp = 0;           // N m/rad, extra explicit stance-hip torque on the pelvis
+  bool stance_hip_world = true;        // stance hip target puts the pelvis at the reference
+  double stance_hip_world_weight = 1;  // blend of that target with the reference hip (0..1)
+  double torso_kp = 0;                 // N m/rad, extra explicit stance-hip torque on the pelvis
   double torso_kd = 0;
   bool contact_stance = true;       // stance from the feet's ground contacts, not the reference
   bool com_feedback = false;        // swing-thigh feedback on the COM instead of the root
@@ -71,7 +72,7 @@ struct MocapTrackerParams {
   double root_force_kp_z = 0;       // N/m, vertical
   double root_force_kd_z = 0;       // N s/m, vertical
   bool swing_foot_world = false;    // swing foot at its reference world orientation
-  bool heading_control = false;     // pelvis and thighs at the reference's world yaw
+  double heading_gain = 0;          // 0: targets on the simulated heading; 1: the reference's
   std::string left_hip;             // thigh joints; empty: found from the foot chains
   std::string right_hip;
   std::string left_foot;  // feet; empty: the first foot/toe/ankle segment per leg
@@ -107,6 +108,8 @@ struct MocapTrackerParams {
     v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
     v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
     v("stance_hip_world", stance_hip_world, {.help = "free mode: pelvis servo via stance hip"});
+    v("stance_hip_world_weight", stance_hip_world_weight,
+      {.min = 0, .max = 1, .help = "free mode: 1 pelvis servo, 0 the reference hip angle"});
     v("torso_kp", torso_kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
     v("torso_kd", torso_kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
     v("contact_stance", contact_stance, {.help = "free mode: stance from foot contacts"});
@@ -119,8 +122,8 @@ struct MocapTrackerParams {
     v("root_force_kp_z", root_force_kp_z, {.unit = "N/m", .min = 0, .max = 1e6});
     v("root_force_kd_z", root_force_kd_z, {.unit = "N s/m", .min = 0, .max = 1e6});
     v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});
-    v("heading_control", heading_control,
-      {.help = "free mode: servo the pelvis to the reference's heading, not the simulated"});
+    v("heading_gain", heading_gain,
+      {.min = 0, .max = 1, .help = "free mode: share of the heading error the targets correct"});
     v("left_hip", left_hip);
     v("right_hip", right_hip);
     v("left_foot", left_foot);
@@ -184,7 +187,7 @@ class MocapTracker final : public Controller {
   std::vector<Eigen::Vector3d> fk_pos_;
   std::vector<Eigen::Quaterniond> fk_rot_;
   Eigen::VectorXd q_, v_, q_ref_, v_ref_, q_pred_, err_, p_, d_, c_, f_, rhs_, tau_;
-  Eigen::MatrixXd m_, jac_a_, jac_b_, jac_none_;  // jacobians: 3 x nv (none: 3 x 0)
+  Eigen::MatrixXd m_, jac_a_, jac_b_;  // jacobians: 3 x nv
   Eigen::LLT<Eigen::MatrixXd> llt_;
   std::vector<double> recorded_;  // recorded frames of q, nq each
   int recorded_frames_ = 0;
@@ -205,6 +208,15 @@ class MocapTracker final : public Controller {
 // the registry's factory: relative bvh paths start at the scenario file's folder
 std::unique_ptr<Controller> make_mocap_tracker(const YAML::Node& node, const ControllerContext& ctx,
                                                const Engine& engine);
+
+// the joint torques that push the whole-body COM with a virtual force F (N, world) while the
+// support body pushes back with -F at the same point (Coros et al. 2010):
+// tau += (J_com - J_support(com))^T F, dim nv. The two forces cancel, so the free root's share is
+// zero: these are internal torques on the joints between the support body and every other body.
+// jac_com is the engine's COM Jacobian (3 x nv); jac_scratch is 3 x nv scratch.
+void add_com_support_torque(const Engine& engine, int support_body, const Eigen::Vector3d& force,
+                            const Eigen::MatrixXd& jac_com, Eigen::MatrixXd& jac_scratch,
+                            Eigen::VectorXd& tau);
 
 // "kinematic", "assisted", "free"; throws InputError otherwise
 MocapRootMode parse_mocap_root_mode(const std::string& mode);

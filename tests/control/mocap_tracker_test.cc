@@ -157,6 +157,46 @@ TEST(MocapTracker, RejectsBadInput) {
   EXPECT_THROW(MocapTracker(q, *other), InputError);
 }
 
+// the Coros virtual force: a force at the COM reacted at a foot is internal (no root share) and
+// does the same virtual work as the two forces it stands for
+TEST(MocapTracker, ComSupportTorqueIsInternal) {
+  ClipFiles s = make_files(make_synthetic_walk_clip(), "track_support");
+  auto engine = start_engine(s.xml);
+  const int nv = engine->nv();
+  const int foot = engine->body_index("LeftFoot");
+  ASSERT_GE(foot, 0);
+  Eigen::MatrixXd jac_com(3, nv), scratch(3, nv), jac_foot(3, nv), none(3, 0);
+  engine->com_jacobian(jac_com);
+  const Eigen::Vector3d force(30, -20, 650);
+  Eigen::VectorXd tau = Eigen::VectorXd::Zero(nv);
+  add_com_support_torque(*engine, foot, force, jac_com, scratch, tau);
+  const int root = engine->joint(engine->joint_index("root")).dof_adr;
+  EXPECT_LT(tau.segment<6>(root).norm(), 1e-9 * force.norm());
+  EXPECT_GT(tau.norm(), 10.0);
+  // virtual work: tau . v == F . (v_com - v_foot point at the COM) for any v
+  engine->point_jacobian(foot, engine->com(), jac_foot, none);
+  Eigen::VectorXd v = Eigen::VectorXd::LinSpaced(nv, -1, 1);
+  EXPECT_NEAR(tau.dot(v), force.dot((jac_com - jac_foot) * v), 1e-9 * force.norm());
+}
+
+// free mode: carrying the weight through the stance leg keeps the character closer to the clip
+TEST(MocapTracker, GravityCompensationReducesSag) {
+  ClipFiles s = make_files(make_synthetic_walk_clip(), "track_gravity");
+  Outcome o[2];
+  for (int with = 0; with < 2; ++with) {
+    auto engine = start_engine(s.xml);
+    MocapTrackerParams p;
+    p.bvh = s.bvh;
+    p.mode = "free";
+    p.gravity_compensation = with;
+    MocapTracker tracker(p, *engine);
+    o[with] = track(tracker, *engine, 0.5);
+    EXPECT_LT(o[with].fall_time, 0);
+  }
+  EXPECT_LT(o[1].mean_deg, o[0].mean_deg);
+  EXPECT_LT(o[1].root_err, o[0].root_err);
+}
+
 // the acceptance numbers on the MASS walk, looped for 10 s
 TEST(MocapTracker, MassWalkTenSeconds) {
   const std::string path = shared_bvh("mass_walk.bvh");
