@@ -10,6 +10,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -254,20 +255,22 @@ struct Viewer::Impl {
     // rolling plots
     if (e.time() >= next_sample) {
       next_sample = e.time() + 1.0 / kPlotRateHz;
-      e.forward();
-      plots[0].push(static_cast<float>(up.dot(e.com()) - ground));
       if (torque_plot >= 0) {
-        // the joint forces of the last step: applied (tau) and actuators (ctrl)
+        // the joint forces of the step just taken, before forward() recomputes them: MuJoCo's
+        // smooth force less bias and passive forces is what was applied (tau, ctrl, servos;
+        // also J^T of a push on a limb)
         const mjData* d = static_cast<MujocoEngine&>(e).data();
         double sum = 0, largest = 0;
         for (int i : joint_dofs) {
-          double tau = d->qfrc_applied[i] + d->qfrc_actuator[i];
+          double tau = d->qfrc_smooth[i] + d->qfrc_bias[i] - d->qfrc_passive[i];
           sum += tau * tau;
           largest = std::max(largest, std::abs(tau));
         }
         plots[torque_plot].push(static_cast<float>(std::sqrt(sum / joint_dofs.size())));
         plots[torque_plot + 1].push(static_cast<float>(largest));
       }
+      e.forward();
+      plots[0].push(static_cast<float>(up.dot(e.com()) - ground));
       signal_values.clear();
       for (auto& c : run->controllers()) c->signals(signal_values);
       int first_signal = torque_plot >= 0 ? torque_plot + 2 : 1;
@@ -718,7 +721,11 @@ void Viewer::Impl::draw_panels() {
   }
 
   if (show_help) {
-    ImGui::SetNextWindowPos(ImVec2(10, options.height - 235.0f), ImGuiCond_FirstUseEver);
+    // at the bottom left, tall enough for every line
+    int lines =
+        1 + static_cast<int>(std::count(kHelpText, kHelpText + std::strlen(kHelpText), '\n'));
+    float help_h = lines * ImGui::GetTextLineHeight() + 35.0f;
+    ImGui::SetNextWindowPos(ImVec2(10, options.height - help_h), ImGuiCond_FirstUseEver);
     ImGui::Begin("keys", &show_help, ImGuiWindowFlags_AlwaysAutoResize);
     ImGui::TextUnformatted(kHelpText);
     ImGui::End();
@@ -855,6 +862,12 @@ Eigen::Vector3d Viewer::com_velocity() const {
 }
 const std::string& Viewer::status() const {
   return impl_->status;
+}
+double Viewer::plot_value(const std::string& name) const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  for (const auto& p : impl_->plots)
+    if (p.name == name) return p.values[(p.head + p.values.size() - 1) % p.values.size()];
+  return std::nan("");
 }
 Eigen::Vector3d Viewer::com() const {
   std::lock_guard<std::mutex> lock(impl_->mutex);

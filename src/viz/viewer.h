@@ -80,6 +80,8 @@ class Viewer {
   // a parameter as the panel shows it; NaN when absent
   double param_value(int index, const std::string& path) const;
   const std::string& status() const;
+  // the latest sample of the live plot `name` (e.g. "joint torque RMS (N m)"); NaN when absent
+  double plot_value(const std::string& name) const;
   Eigen::Vector3d com() const;  // of the character, world (m)
   // a body's frame origin, world (m); throws std::invalid_argument for an unknown name
   Eigen::Vector3d body_position(const std::string& name) const;

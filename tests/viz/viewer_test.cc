@@ -254,7 +254,10 @@ TEST_F(ViewerTest, SelectAtPicksTheCharacterAndEmptySpaceReleases) {
 // run, pause, scrub back: the state is the one shown at that time
 TEST_F(ViewerTest, HistoryScrubRestoresARecordedTimeAndRunsOnFromIt) {
   LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
-  Viewer v(loaded, test_options());
+  ViewerOptions o = test_options();
+  o.width = 1280;  // room for the panels: the screenshot shows the slider and the plots
+  o.height = 800;
+  Viewer v(loaded, o);
   std::vector<double> times;
   std::vector<Eigen::Vector3d> coms;
   for (int i = 0; i < 40; ++i) {
@@ -272,6 +275,7 @@ TEST_F(ViewerTest, HistoryScrubRestoresARecordedTimeAndRunsOnFromIt) {
   // scrubbing while paused changes nothing else: still paused over frames
   v.frame();
   EXPECT_EQ(v.sim_time(), times[k]);
+  v.screenshot((shot_dir() / "simbicon_walk_scrubbed.png").string());
   EXPECT_TRUE(v.paused());
   // further back, then run on from there: later history is dropped
   v.scrub_to(times[3]);
@@ -286,6 +290,33 @@ TEST_F(ViewerTest, HistoryScrubRestoresARecordedTimeAndRunsOnFromIt) {
   v.key(GLFW_KEY_P);
   EXPECT_EQ(v.sim_time(), 0.0);
   EXPECT_EQ(v.history_size(), 1);
+}
+
+// the live plots: joint torques (MuJoCo), the FSM state and the controller's signals
+TEST_F(ViewerTest, LivePlotsShowTorquesAndTheFsmState) {
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
+  Viewer v(loaded, test_options());
+  EXPECT_TRUE(std::isnan(v.plot_value("no such plot")));
+  int states_seen = 0, last_state = -1;
+  double largest_rms = 0;
+  for (int i = 0; i < 60; ++i) {
+    v.frame();
+    double rms = v.plot_value("joint torque RMS (N m)");
+    double peak = v.plot_value("largest joint torque (N m)");
+    ASSERT_TRUE(std::isfinite(rms));
+    EXPECT_GE(peak + 1e-6, rms);
+    largest_rms = std::max(largest_rms, rms);
+    int state = static_cast<int>(v.plot_value("simbicon_state"));
+    if (state != last_state) ++states_seen;
+    last_state = state;
+  }
+  // a walking biped's joints carry tens of N m; the FSM goes through its states in a second
+  EXPECT_GT(largest_rms, 5.0);
+  EXPECT_GE(states_seen, 3);
+  // the tracking error is plotted for the tracker
+  Viewer mocap(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), test_options());
+  for (int i = 0; i < 5; ++i) mocap.frame();
+  EXPECT_TRUE(std::isfinite(mocap.plot_value("mocap_joint_error_deg")));
 }
 
 // an LQR cost re-solves the DARE on a worker; the running controller is swapped later
