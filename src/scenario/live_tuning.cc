@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <cmath>
 #include <mutex>
 
 #include "control/controller.h"
@@ -71,6 +72,11 @@ BackgroundRetune::BackgroundRetune(ScenarioRun& run, const LoadedScenario& loade
                                    const std::string& path, double value, const YAML::Node* base)
     : index_(index), path_(path), value_(value) {
   ParamEntry entry = find_entry(run, index, path);
+  // a value out of the visit's range fails here, not later on the worker
+  if ((std::isfinite(entry.meta.min) && value < entry.meta.min) ||
+      (std::isfinite(entry.meta.max) && value > entry.meta.max))
+    throw InputError(fmt::format("{}: {} is out of range [{}, {}]", path, value, entry.meta.min,
+                                 entry.meta.max));
   // the worker owns deep copies: yaml-cpp nodes are not safe to share across threads
   node_ = YAML::Clone(base ? *base : run.controllers()[index]->params_yaml());
   apply_yaml_override(node_, param_assignment(entry, value));

@@ -33,7 +33,8 @@ void retune_controller(ScenarioRun& run, const LoadedScenario& loaded, int index
 // the running engine is never read off its thread.
 class BackgroundRetune {
  public:
-  // checks index and path at once (InputError). `base`: the parameters to edit, when an earlier
+  // checks index, path and the value's range at once (InputError); other rejections (from the
+  // controller's own checks) come from swap_into(). `base`: the parameters to edit, when an earlier
   // edit of the same controller is still pending; otherwise the running controller's.
   BackgroundRetune(ScenarioRun& run, const LoadedScenario& loaded, int index,
                    const std::string& path, double value, const YAML::Node* base = nullptr);

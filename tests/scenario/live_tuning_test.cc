@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "control/controller.h"
+#include "control/lqr.h"
+#include "core/error.h"
 #include "params/param_list.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
@@ -97,6 +99,50 @@ TEST(LiveTuning, SavedScenarioLoadsWithTheTunedValue) {
   EXPECT_EQ(again.controllers[0]["kd"].as<double>(), 33);
   ScenarioRun rerun(again, opt);
   EXPECT_TRUE(rerun.step());
+}
+
+// an LQR cost change built on a worker: the old controller keeps stepping, then the new gain
+// is swapped in, and it is the gain that loading the scenario with that cost gives
+TEST(BackgroundRetune, LqrCostIsSwappedInBetweenSteps) {
+  const std::string file = test::source_dir() + "/scenarios/lqr_one_leg.yaml";
+  LoadedScenario loaded = load_scenario(file);
+  RunOptions opt;
+  opt.quiet = true;
+  ScenarioRun run(loaded, opt);
+  ASSERT_TRUE(rebuild_is_slow(*run.controllers()[0]));
+  const Controller* old = run.controllers()[0].get();
+  Eigen::MatrixXd k0 = dynamic_cast<const Lqr&>(*old).design().K;
+  BackgroundRetune job(run, loaded, 0, "balance_cost", 4000);
+  // the run goes on with the old controller meanwhile
+  for (int i = 0; i < 20 && !job.ready(); ++i) ASSERT_TRUE(run.step());
+  EXPECT_EQ(run.controllers()[0].get(), old);
+  job.wait();
+  ASSERT_TRUE(job.swap_into(run));
+  ASSERT_NE(run.controllers()[0].get(), old);
+  const auto& fresh = dynamic_cast<const Lqr&>(*run.controllers()[0]);
+  EXPECT_GT((fresh.design().K - k0).norm(), 1e-3 * k0.norm());
+  // the same gain as a scenario loaded with that cost (the design is at the initial pose)
+  ScenarioRun reference(load_scenario(file, {"controllers.0.balance_cost=4000"}), opt);
+  const auto& expected = dynamic_cast<const Lqr&>(*reference.controllers()[0]);
+  EXPECT_LT((fresh.design().K - expected.design().K).norm(), 1e-9 * k0.norm());
+  for (int i = 0; i < 200; ++i) ASSERT_TRUE(run.step());
+}
+
+TEST(BackgroundRetune, BadRequestsFailAtOnceAndKeepTheController) {
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/lqr_one_leg.yaml");
+  RunOptions opt;
+  opt.quiet = true;
+  ScenarioRun run(loaded, opt);
+  const Controller* old = run.controllers()[0].get();
+  EXPECT_THROW(BackgroundRetune(run, loaded, 0, "no_such_cost", 1), InputError);
+  EXPECT_THROW(BackgroundRetune(run, loaded, 3, "balance_cost", 1), InputError);
+  // a value the controller rejects (balance_cost >= 0) fails on the worker: the error comes
+  // with the swap, and the running controller stays
+  BackgroundRetune job(run, loaded, 0, "balance_cost", -1);
+  job.wait();
+  EXPECT_THROW(job.swap_into(run), InputError);
+  EXPECT_EQ(run.controllers()[0].get(), old);
+  EXPECT_TRUE(run.step());
 }
 
 }  // namespace
