@@ -318,7 +318,8 @@ void Simbicon::markers(const Engine& engine, std::vector<Marker>& out) const {
   const int stance = state_.fsm < 2 ? kRight : kLeft;
   const Eigen::Vector3d lateral = m.heading * Eigen::Vector3d::UnitY();
   // planar models: rings in the sagittal plane, beside the body on the side the viewer's
-  // camera starts on (-y), where the torso does not hide them; 3D: flat on the ground
+  // camera starts on (-y), where the torso does not hide them; 3D: flat, wide enough to
+  // encircle the foot and the pelvis
   const Eigen::Vector3d side =
       m.spatial ? Eigen::Vector3d::Zero() : Eigen::Vector3d(-0.2 * lateral);
   const Eigen::Vector3d normal = m.spatial ? Eigen::Vector3d::Zero() : lateral;
@@ -330,11 +331,12 @@ void Simbicon::markers(const Engine& engine, std::vector<Marker>& out) const {
   ring.shape = Marker::Shape::kCircle;
   ring.pos = ankle + side;
   ring.normal = normal;
-  ring.radius = 0.08;
+  ring.radius = m.spatial ? 0.14 : 0.08;
   ring.rgba = {0.1f, 0.9f, 0.2f, 1};
   ring.label = stance == kRight ? "stance ankle (R)" : "stance ankle (L)";
   out.push_back(ring);
   ring.pos = point + side;
+  ring.radius = m.spatial ? 0.22 : 0.08;
   ring.rgba = {0.2f, 0.6f, 1.0f, 1};
   ring.label = m.use_com ? "COM" : "hip";
   out.push_back(ring);
