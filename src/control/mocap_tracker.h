@@ -64,7 +64,7 @@ struct MocapTrackerParams {
   double stance_hip_world_weight = 1;  // blend of that target with the reference hip (0..1)
   double torso_kp = 0;                 // N m/rad, extra explicit stance-hip torque on the pelvis
   double torso_kd = 0;
-  bool contact_stance = true;       // stance from the feet's ground contacts, not the reference
+  bool contact_stance = false;      // stance from the feet's ground contacts, not the reference
   bool com_feedback = false;        // swing-thigh feedback on the COM instead of the root
   double gravity_compensation = 0;  // fraction of the weight carried by J^T through the stance
   double root_force_kp = 0;         // N/m: virtual force on the root, relative to the stance foot

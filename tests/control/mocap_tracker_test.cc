@@ -12,6 +12,8 @@
 #include "engine/world_spec.h"
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
+#include "scenario/runner.h"
+#include "scenario/scenario.h"
 #include "test_support.h"
 
 namespace stance {
@@ -219,6 +221,58 @@ TEST(MocapTracker, MassWalkTenSeconds) {
     EXPECT_LT(o.fall_time, 0);
     if (std::string(mode) == "assisted") EXPECT_GT(o.helper, 0);
   }
+}
+
+// issue 7's free-mode bar: the MASS walk looped for 10 s with no root help stays up for at least
+// 5 s (the runner's COM test and the root above half its reference height) with a mean joint
+// error under 10 degrees. The settings are docs/mocap.md's tuned point ("Free mode on
+// mass_walk"); the docs say how sensitive that point is.
+constexpr const char* kMassWalkFreeYaml = R"(
+name: mocap_mass_walk_free
+engine: mujoco
+model:
+  - file: set-by-the-test
+keyframe: start
+duration: 10
+fall:
+  com_height_fraction: 0.6
+controllers:
+  - type: mocap_tracker
+    bvh: set-by-the-test
+    mode: free
+    loop: true
+    kp: 3000
+    kd: 300
+    contact_stance: true
+    stance_hip_world_weight: 0.6
+    swing_foot_world: true
+    cd_sagittal: 1.81
+    cv_sagittal: 0.04
+    cd_coronal: 0.88
+    cv_coronal: 0.16
+    gravity_compensation: 0.5
+    root_force_kp: 1000
+    root_force_kd: 50
+)";
+
+TEST(MocapTracker, FreeModeMassWalkStaysUpFiveSeconds) {
+  const std::string path = shared_bvh("mass_walk.bvh");
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
+  ClipFiles s = make_files(read_bvh(path), "mass_walk_free");
+  YAML::Node doc = YAML::Load(kMassWalkFreeYaml);
+  doc["model"][0]["file"] = s.xml;
+  doc["controllers"][0]["bvh"] = path;
+  RunOptions opt;
+  opt.quiet = true;
+  ScenarioRun run(parse_scenario(doc, "mass_walk_free", test::source_dir() + "/scenarios"), opt);
+  RunResult r = run.run();
+  const nlohmann::json& m = r.metrics["mocap"];
+  std::cout << "free: fell " << r.fell << " " << m.dump() << "\n";
+  EXPECT_FALSE(r.diverged);
+  if (r.fell) EXPECT_GE(*r.fall_time, 5.0);
+  if (!m["root_fall_time_s"].is_null()) EXPECT_GE(m["root_fall_time_s"].get<double>(), 5.0);
+  EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 10.0);
+  EXPECT_EQ(m["helper_impulse_Ns"].get<double>(), 0.0);
 }
 
 }  // namespace
