@@ -14,7 +14,11 @@
 //    about the lateral axis (sagittal) and the heading axis (coronal), with d the root's
 //    horizontal offset from the stance ankle; the stance hip's SPD target is the rotation that
 //    puts the pelvis at the reference orientation over the current thigh (an implicit form of
-//    SIMBICON's tau_stance_hip = -tau_torso - tau_swing_hip).
+//    SIMBICON's tau_stance_hip = -tau_torso - tau_swing_hip), optionally blended with the
+//    reference hip. Optional pieces: stance from foot contacts, swing foot at its world
+//    orientation, heading correction, and a Coros et al. 2010 virtual force at the COM carried
+//    by the stance leg(s) (gravity compensation plus a spring on the root's offset from the
+//    stance foot), applied as internal joint torques (add_com_support_torque).
 //
 // Metrics: joint angle error (geodesic, deg, mean and max over joints and time), root position
 // error, end-effector error (leaf segments' bone ends), helper impulse (assisted), and the time
