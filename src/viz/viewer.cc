@@ -124,13 +124,9 @@ struct Viewer::Impl {
   Eigen::Vector3d selected_local = Eigen::Vector3d::Zero();  // pulled point, body frame
   bool dragging = false;
   Eigen::Vector3d drag_target = Eigen::Vector3d::Zero();  // world
-  Eigen::Vector3d drag_force = Eigen::Vector3d::Zero();   // last applied, world
 
   // recorded history (guarded by mutex)
-  struct Snapshot {
-    EngineState state;
-  };
-  std::deque<Snapshot> history;
+  std::deque<EngineState> history;
   double next_snapshot = 0;
   int scrubbed = -1;        // history index shown while paused; -1: live
   double frame_target = 0;  // unthreaded frames step to this simulated time
@@ -155,8 +151,8 @@ struct Viewer::Impl {
 
   void record_snapshot() {
     Engine& e = run->engine();
-    history.push_back({});
-    e.save_state(history.back().state);
+    history.emplace_back();
+    e.save_state(history.back());
     while (static_cast<int>(history.size()) > kHistoryLength) history.pop_front();
   }
 
@@ -165,7 +161,7 @@ struct Viewer::Impl {
   void resume_from_scrub() {
     if (scrubbed < 0) return;
     history.erase(history.begin() + scrubbed + 1, history.end());
-    EngineState state = history.back().state;
+    EngineState state = history.back();
     run->reset();  // clears a divergence and the velocity servos
     Engine& e = run->engine();
     e.restore_state(state);
@@ -240,8 +236,7 @@ struct Viewer::Impl {
       if (t < p.until) e.apply_external_force(p.body, p.force, e.body_com(p.body));
     if (dragging && selected >= 0) {
       e.forward();
-      drag_force = spring_force(e);
-      e.apply_external_force(selected, drag_force, selected_point(e));
+      e.apply_external_force(selected, spring_force(e), selected_point(e));
     }
     if (!run->step()) {
       paused = true;
@@ -640,9 +635,9 @@ void Viewer::Impl::draw_panels() {
   if (paused && history.size() > 1) {
     int n = static_cast<int>(history.size());
     int shown = scrubbed >= 0 ? scrubbed : n - 1;
-    std::string label = fmt::format("t = {:.3f} s", history[shown].state.time);
+    std::string label = fmt::format("t = {:.3f} s", history[shown].time);
     if (ImGui::SliderInt("history", &shown, 0, n - 1, label.c_str())) {
-      e.restore_state(history[shown].state);
+      e.restore_state(history[shown]);
       e.forward();
       scrubbed = shown;
     }
@@ -929,7 +924,6 @@ void Viewer::drag_to(const Eigen::Vector3d& target) {
 void Viewer::release() {
   std::lock_guard<std::mutex> lock(impl_->mutex);
   impl_->dragging = false;
-  impl_->drag_force.setZero();
 }
 
 int Viewer::selected_body() const {
@@ -944,7 +938,7 @@ int Viewer::history_size() const {
 
 double Viewer::history_time(int i) const {
   std::lock_guard<std::mutex> lock(impl_->mutex);
-  return impl_->history.at(i).state.time;
+  return impl_->history.at(i).time;
 }
 
 double Viewer::scrub_to(double t) {
@@ -954,9 +948,9 @@ double Viewer::scrub_to(double t) {
   // the nearest recorded state (times increase along the history)
   int best = 0;
   for (int i = 0; i < static_cast<int>(s.history.size()); ++i)
-    if (std::abs(s.history[i].state.time - t) < std::abs(s.history[best].state.time - t)) best = i;
+    if (std::abs(s.history[i].time - t) < std::abs(s.history[best].time - t)) best = i;
   Engine& e = s.run->engine();
-  e.restore_state(s.history[best].state);
+  e.restore_state(s.history[best]);
   e.forward();
   s.scrubbed = best;
   return e.time();
