@@ -292,6 +292,35 @@ TEST_F(ViewerTest, HistoryScrubRestoresARecordedTimeAndRunsOnFromIt) {
   EXPECT_EQ(v.history_size(), 1);
 }
 
+// g toggles the tracking ghost and k the controller markers: they are drawn where a
+// controller gives them, and nothing changes where none does
+TEST_F(ViewerTest, GhostAndMarkerKeysChangeThePictureOnlyWhereThereIsSomethingToDraw) {
+  // the middle third of the window, between the panels (their check boxes change too)
+  auto middle = [](const std::vector<unsigned char>& rgb, int w, int h) {
+    std::vector<unsigned char> out;
+    for (int y = 0; y < h; ++y)
+      for (int x = w / 3; x < 2 * w / 3; ++x)
+        for (int c = 0; c < 3; ++c) out.push_back(rgb[(static_cast<size_t>(y) * w + x) * 3 + c]);
+    return out;
+  };
+  auto toggled_difference = [&](const std::string& scenario, int key) {
+    ViewerOptions o = test_options();
+    Viewer v(load_scenario(test::source_dir() + "/scenarios/" + scenario), o);
+    for (int i = 0; i < 30; ++i) v.frame();
+    v.key(GLFW_KEY_SPACE);  // paused: only the toggle differs between the two frames
+    v.frame();
+    std::vector<unsigned char> on = middle(frame_of(v), o.width, o.height);
+    v.key(key);
+    v.frame();
+    v.screenshot((shot_dir() / (scenario + "_toggled.png")).string());
+    return mean_abs_difference(on, middle(frame_of(v), o.width, o.height));
+  };
+  EXPECT_GT(toggled_difference("mocap_track.yaml", GLFW_KEY_G), 0.05);
+  EXPECT_EQ(toggled_difference("pd_hold.yaml", GLFW_KEY_G), 0.0);
+  EXPECT_GT(toggled_difference("simbicon_walk.yaml", GLFW_KEY_K), 0.05);
+  EXPECT_EQ(toggled_difference("pd_hold.yaml", GLFW_KEY_K), 0.0);
+}
+
 // the live plots: joint torques (MuJoCo), the FSM state and the controller's signals
 TEST_F(ViewerTest, LivePlotsShowTorquesAndTheFsmState) {
   LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
