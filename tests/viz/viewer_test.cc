@@ -224,13 +224,14 @@ TEST_F(ViewerTest, DraggingABodyMovesItTowardsTheTarget) {
     for (int i = 0; i < 20; ++i) {
       pulled.frame();
       calm.frame();
+      // early on, the pull arrow is long
+      if (i == 2 && std::string(engine) == "mujoco")
+        pulled.screenshot((shot_dir() / "biped_stand_drag.png").string());
     }
     Eigen::Vector3d head = pulled.body_position("h_head");
     // towards the target: forward along x, well beyond what standing still does
     EXPECT_GT(head.x() - calm.body_position("h_head").x(), 0.05);
     EXPECT_LT((head - target).norm(), (head0 - target).norm() - 0.05);
-    if (std::string(engine) == "mujoco")
-      pulled.screenshot((shot_dir() / "biped_stand_drag.png").string());
     // letting go keeps the selection (a double-click on empty space clears it)
     pulled.release();
     EXPECT_GE(pulled.selected_body(), 0);
