@@ -202,6 +202,10 @@ void ScenarioRun::reset() {
   result_.seed = scenario_.seed;
 }
 
+const ControlOutput& ScenarioRun::last_output() const {
+  return impl_->out;
+}
+
 bool ScenarioRun::step() {
   Engine& e = *engine_;
   Impl& s = *impl_;

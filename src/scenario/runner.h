@@ -56,6 +56,8 @@ class ScenarioRun {
   const Scenario& scenario() const { return scenario_; }
   std::vector<std::unique_ptr<Controller>>& controllers() { return controllers_; }
   const RunResult& result() const { return result_; }
+  // what the controllers commanded in the last step (tau already scaled by torque_scale)
+  const ControlOutput& last_output() const;
   // restart from the initial state (replay)
   void reset();
 

@@ -251,13 +251,15 @@ struct Viewer::Impl {
     if (e.time() >= next_sample) {
       next_sample = e.time() + 1.0 / kPlotRateHz;
       if (torque_plot >= 0) {
-        // the joint forces of the step just taken, before forward() recomputes them: MuJoCo's
+        // the joint forces of the step just taken, before forward() recomputes them. MuJoCo:
         // smooth force less bias and passive forces is what was applied (tau, ctrl, servos;
-        // also J^T of a push on a limb)
-        const mjData* d = static_cast<MujocoEngine&>(e).data();
+        // also J^T of a push on a limb). Other engines: the controllers' tau.
+        const mjData* d =
+            e.engine_name() == "mujoco" ? static_cast<MujocoEngine&>(e).data() : nullptr;
+        const Eigen::VectorXd& commanded = run->last_output().tau;
         double sum = 0, largest = 0;
         for (int i : joint_dofs) {
-          double tau = d->qfrc_smooth[i] + d->qfrc_bias[i] - d->qfrc_passive[i];
+          double tau = d ? d->qfrc_smooth[i] + d->qfrc_bias[i] - d->qfrc_passive[i] : commanded[i];
           sum += tau * tau;
           largest = std::max(largest, std::abs(tau));
         }
@@ -372,11 +374,10 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
 
   int samples = static_cast<int>(kPlotWindowS * kPlotRateHz);
   s.plots.push_back({"COM height (m)", std::vector<float>(samples, 0.0f)});
-  // joint torques: read from MuJoCo's applied and actuator forces (the Engine interface does
-  // not report the forces of the last step)
+  // joint torques: MuJoCo's applied and actuator forces, else the controllers' output
   for (int i = 0; i < e.nv(); ++i)
     if (!e.dof_is_root(i)) s.joint_dofs.push_back(i);
-  if (e.engine_name() == "mujoco" && !s.joint_dofs.empty()) {
+  if (!s.joint_dofs.empty()) {
     s.torque_plot = static_cast<int>(s.plots.size());
     s.plots.push_back({"joint torque RMS (N m)", std::vector<float>(samples, 0.0f)});
     s.plots.push_back({"largest joint torque (N m)", std::vector<float>(samples, 0.0f)});

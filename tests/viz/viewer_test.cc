@@ -347,6 +347,16 @@ TEST_F(ViewerTest, LivePlotsShowTorquesAndTheFsmState) {
   Viewer mocap(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), test_options());
   for (int i = 0; i < 5; ++i) mocap.frame();
   EXPECT_TRUE(std::isfinite(mocap.plot_value("mocap_joint_error_deg")));
+  // on DART the torque plot shows the controllers' output
+  ViewerOptions on_dart = test_options();
+  on_dart.engine = "dart";
+  Viewer dart(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), on_dart);
+  double dart_rms = 0;
+  for (int i = 0; i < 10; ++i) {
+    dart.frame();
+    dart_rms = std::max(dart_rms, dart.plot_value("joint torque RMS (N m)"));
+  }
+  EXPECT_GT(dart_rms, 1.0);  // the standing biped's legs hold its weight
 }
 
 // an LQR cost re-solves the DARE on a worker; the running controller is swapped later
