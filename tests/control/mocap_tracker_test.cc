@@ -275,5 +275,20 @@ TEST(MocapTracker, FreeModeMassWalkStaysUpFiveSeconds) {
   EXPECT_EQ(m["helper_impulse_Ns"].get<double>(), 0.0);
 }
 
+// the shipped free-mode scenario (synthetic clip, its own tuned point) stays up for its 10 s
+TEST(MocapTracker, FreeScenarioStaysUp) {
+  RunOptions opt;
+  opt.quiet = true;
+  RunResult r =
+      ScenarioRun(load_scenario(test::source_dir() + "/scenarios/mocap_track_free.yaml"), opt)
+          .run();
+  const nlohmann::json& m = r.metrics["mocap"];
+  EXPECT_FALSE(r.fell);
+  EXPECT_NEAR(r.sim_time, 10.0, 1e-6);
+  EXPECT_TRUE(m["root_fall_time_s"].is_null());
+  EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 10.0);
+  EXPECT_EQ(m["helper_impulse_Ns"].get<double>(), 0.0);
+}
+
 }  // namespace
 }  // namespace stance
