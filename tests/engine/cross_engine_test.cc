@@ -99,7 +99,7 @@ TEST(CrossEngine, JointSpaceMassMatrixAgrees) {
 
 // MuJoCo's sparse tree LDL and DART's articulated-body solve of M + diag(shift), on fullbody1,
 // against dense solves: with the shift on every dof, and with SPD's (none on the root), at rest
-// and in motion
+// and in motion under a push
 TEST(CrossEngine, ShiftedMassSolvesMatchDenseSolves) {
   if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
   for (const char* name : {"mujoco", "dart"}) {
@@ -108,7 +108,12 @@ TEST(CrossEngine, ShiftedMassSolvesMatchDenseSolves) {
     for (int i = 0; i < e->nv(); ++i)
       if (e->dof_is_root(i)) spd_shift[i] = 0;
     for (int trial = 0; trial < 2; ++trial) {
-      if (trial == 1) e->set_velocities(Eigen::VectorXd::LinSpaced(e->nv(), -2, 3));
+      if (trial == 1) {
+        e->set_velocities(Eigen::VectorXd::LinSpaced(e->nv(), -2, 3));
+        // a push on the spine: the solve is of M alone, whatever else acts
+        e->apply_external_force(e->require_body("h_spine"), Eigen::Vector3d(-100, 20, 0),
+                                Eigen::Vector3d::Zero());
+      }
       e->forward();
       for (const Eigen::VectorXd& shift :
            {Eigen::VectorXd(Eigen::VectorXd::Constant(e->nv(), 0.04)), spd_shift}) {
