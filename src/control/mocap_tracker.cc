@@ -292,7 +292,14 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   Eigen::Vector3d lat = up.cross(fwd), lat_ref = up.cross(fwd_ref);
   // the reference turned onto the simulated heading, less the share heading_gain corrects
   const double yaw_error = std::atan2(fwd_ref.cross(fwd).z(), fwd_ref.dot(fwd));
-  Eigen::Quaterniond yaw_fix(Eigen::AngleAxisd((1 - p.heading_gain) * yaw_error, up));
+  // the heading to correct towards: the reference's, turned towards the clip's path when the
+  // character has drifted sideways off it
+  const double path_offset = (pose_.root_position - root.pos).dot(lat_ref);
+  const double turn = std::clamp(p.path_gain * path_offset, -0.5, 0.5);
+  const double heading_error = yaw_error - turn;
+  Eigen::Quaterniond yaw_fix(Eigen::AngleAxisd(yaw_error - p.heading_gain * heading_error, up));
+  Eigen::Quaterniond swing_yaw_fix(
+      Eigen::AngleAxisd(yaw_error - p.swing_heading_gain * heading_error, up));
   // d: root (or COM) offset from the stance ankle; v: its velocity; both against the reference's
   const Eigen::Vector3d ankle = engine.body_pose(m.body[m.foot[stance_]]).pos;
   const Eigen::Vector3d ankle_ref = fk_pos_[m.foot[stance_]];
@@ -316,7 +323,7 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
                              Eigen::Quaterniond(Eigen::AngleAxisd(th_cor, fwd));
   const MotionSkeleton& sk = ref.skeleton();
   const int hip = m.hip[swing];
-  Eigen::Quaterniond thigh_des = delta * yaw_fix * fk_rot_[hip];
+  Eigen::Quaterniond thigh_des = delta * swing_yaw_fix * fk_rot_[hip];
   Eigen::Quaterniond parent = engine.body_pose(m.body[sk.segments[hip].parent]).quat;
   Eigen::Quaterniond local = (parent.conjugate() * thigh_des).normalized();
   if (local.coeffs().dot(pose_.rotations[hip].coeffs()) < 0) local.coeffs() *= -1;
@@ -325,8 +332,27 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   if (p.swing_foot_world) {
     const int foot = m.foot[swing];
     Eigen::Quaterniond shank = engine.body_pose(m.body[sk.segments[foot].parent]).quat;
-    Eigen::Quaterniond target = (shank.conjugate() * yaw_fix * fk_rot_[foot]).normalized();
+    Eigen::Quaterniond target = (shank.conjugate() * swing_yaw_fix * fk_rot_[foot]).normalized();
     if (target.coeffs().dot(pose_.rotations[foot].coeffs()) < 0) target.coeffs() *= -1;
+    write_quat(q_ref_, m.qpos_adr[foot], target);
+  }
+  // stance ankle: the reference ankle angle tilted in the world against the same offset error,
+  // so the foot presses the centre of pressure towards the side the body leans to
+  if (p.ankle_cd_sagittal != 0 || p.ankle_cv_sagittal != 0 || p.ankle_cd_coronal != 0 ||
+      p.ankle_cv_coronal != 0) {
+    double ph_sag = -(p.ankle_cd_sagittal * (d.dot(fwd) - d_ref.dot(fwd_ref)) +
+                      p.ankle_cv_sagittal * (vel.dot(fwd) - vel_ref.dot(fwd_ref)));
+    double ph_cor = -(p.ankle_cd_coronal * (d.dot(lat) - d_ref.dot(lat_ref)) +
+                      p.ankle_cv_coronal * (vel.dot(lat) - vel_ref.dot(lat_ref)));
+    ph_sag = std::clamp(ph_sag, -0.3, 0.3);
+    ph_cor = std::clamp(ph_cor, -0.3, 0.3);
+    Eigen::Quaterniond tilt = Eigen::Quaterniond(Eigen::AngleAxisd(ph_sag, -lat)) *
+                              Eigen::Quaterniond(Eigen::AngleAxisd(ph_cor, fwd));
+    const int foot = m.foot[stance_];
+    Eigen::Quaterniond shank = engine.body_pose(m.body[sk.segments[foot].parent]).quat;
+    Eigen::Quaterniond local = read_quat(q_ref_, m.qpos_adr[foot]);
+    Eigen::Quaterniond target = (shank.conjugate() * tilt * shank * local).normalized();
+    if (target.coeffs().dot(local.coeffs()) < 0) target.coeffs() *= -1;
     write_quat(q_ref_, m.qpos_adr[foot], target);
   }
   // pelvis servo through the stance hip's SPD: its target is the rotation that would put the

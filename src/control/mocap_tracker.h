@@ -77,7 +77,13 @@ struct MocapTrackerParams {
   double root_force_kd_z = 0;       // N s/m, vertical
   bool swing_foot_world = false;    // swing foot at its reference world orientation
   double heading_gain = 0;          // 0: targets on the simulated heading; 1: the reference's
-  std::string left_hip;             // thigh joints; empty: found from the foot chains
+  double swing_heading_gain = 0;    // the same for the swing leg alone (its landing yaw)
+  double path_gain = 0;             // rad/m: the target heading turns towards the clip's path
+  double ankle_cd_sagittal = 0;     // rad/m: stance-ankle tilt against the balance offset error
+  double ankle_cv_sagittal = 0;     // rad s/m
+  double ankle_cd_coronal = 0;
+  double ankle_cv_coronal = 0;
+  std::string left_hip;  // thigh joints; empty: found from the foot chains
   std::string right_hip;
   std::string left_foot;  // feet; empty: the first foot/toe/ankle segment per leg
   std::string right_foot;
@@ -128,6 +134,15 @@ struct MocapTrackerParams {
     v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});
     v("heading_gain", heading_gain,
       {.min = 0, .max = 1, .help = "free mode: share of the heading error the targets correct"});
+    v("swing_heading_gain", swing_heading_gain,
+      {.min = 0, .max = 1, .help = "free mode: share of the heading error the swing leg corrects"});
+    v("path_gain", path_gain,
+      {.unit = "rad/m", .min = 0, .max = 10, .help = "free mode: turn towards the clip's path"});
+    v("ankle_cd_sagittal", ankle_cd_sagittal,
+      {.unit = "rad/m", .min = -100, .max = 100, .help = "free mode: stance-ankle feedback"});
+    v("ankle_cv_sagittal", ankle_cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("ankle_cd_coronal", ankle_cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
+    v("ankle_cv_coronal", ankle_cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
     v("left_hip", left_hip);
     v("right_hip", right_hip);
     v("left_foot", left_foot);

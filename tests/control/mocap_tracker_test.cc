@@ -223,10 +223,11 @@ TEST(MocapTracker, MassWalkTenSeconds) {
   }
 }
 
-// issue 7's free-mode bar: the MASS walk looped for 10 s with no root help stays up for at least
-// 5 s (the runner's COM test and the root above half its reference height) with a mean joint
-// error under 10 degrees. The settings are docs/mocap.md's tuned point ("Free mode on
-// mass_walk"); the docs say how sensitive that point is.
+// issue 7's free-mode bar, robustly: the MASS walk looped for 10 s with no root help stays up
+// for at least 5 s (the runner's COM test and the root above half its reference height) with a
+// mean joint error under 10 degrees, at the settings in docs/mocap.md ("Free mode on mass_walk")
+// and with kp and kd 15% off or a 1 ms timestep. The search scored these neighbours (among 12);
+// the docs give the worst case over neighbours it did not score.
 constexpr const char* kMassWalkFreeYaml = R"(
 name: mocap_mass_walk_free
 engine: mujoco
@@ -242,32 +243,49 @@ controllers:
     mode: free
     loop: true
     kp: 3000
-    kd: 300
+    kd: 219
     contact_stance: true
     stance_hip_world_weight: 0.6
     swing_foot_world: true
-    cd_sagittal: 1.81
+    cd_sagittal: 1.124
     cv_sagittal: 0.04
     cd_coronal: 0.88
     cv_coronal: 0.16
+    ankle_cd_sagittal: 0.23
+    ankle_cv_sagittal: 0.05
+    ankle_cd_coronal: 0.986
+    ankle_cv_coronal: 0.16
+    swing_heading_gain: 0.2
+    path_gain: 0.012
     gravity_compensation: 0.5
-    root_force_kp: 1000
-    root_force_kd: 50
+    root_force_kp: 715
+    root_force_kd: 70
 )";
 
-TEST(MocapTracker, FreeModeMassWalkStaysUpFiveSeconds) {
-  const std::string path = shared_bvh("mass_walk.bvh");
-  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
-  ClipFiles s = make_files(read_bvh(path), "mass_walk_free");
-  YAML::Node doc = YAML::Load(kMassWalkFreeYaml);
-  doc["model"][0]["file"] = s.xml;
-  doc["controllers"][0]["bvh"] = path;
+struct FreeVariant {
+  const char* name;
+  double gain_scale, timestep;  // timestep 0: the scenario's
+};
+constexpr FreeVariant kFreeVariants[] = {{"as tuned", 1.0, 0},
+                                         {"kp kd x0.85", 0.85, 0},
+                                         {"kp kd x1.15", 1.15, 0},
+                                         {"dt 1 ms", 1.0, 1e-3}};
+
+// the run stays up for 5 s with a mean joint error under 10 degrees and no root help
+void expect_walks_free(YAML::Node doc, const FreeVariant& variant, const std::string& source) {
+  SCOPED_TRACE(variant.name);
+  YAML::Node c = doc["controllers"][0];
+  c["kp"] = c["kp"].as<double>() * variant.gain_scale;
+  c["kd"] = c["kd"].as<double>() * variant.gain_scale;
+  if (variant.timestep > 0) doc["timestep"] = variant.timestep;
   RunOptions opt;
   opt.quiet = true;
-  ScenarioRun run(parse_scenario(doc, "mass_walk_free", test::source_dir() + "/scenarios"), opt);
-  RunResult r = run.run();
+  RunResult r =
+      ScenarioRun(parse_scenario(doc, source, test::source_dir() + "/scenarios"), opt).run();
   const nlohmann::json& m = r.metrics["mocap"];
-  std::cout << "free: fell " << r.fell << " " << m.dump() << "\n";
+  std::cout << variant.name << ": fell " << r.fell << " at " << r.fall_time.value_or(-1)
+            << ", mean error " << m["mean_joint_error_deg"] << " deg, root error "
+            << m["mean_root_error_m"] << " m\n";
   EXPECT_FALSE(r.diverged);
   if (r.fell) EXPECT_GE(*r.fall_time, 5.0);
   if (!m["root_fall_time_s"].is_null()) EXPECT_GE(m["root_fall_time_s"].get<double>(), 5.0);
@@ -275,19 +293,25 @@ TEST(MocapTracker, FreeModeMassWalkStaysUpFiveSeconds) {
   EXPECT_EQ(m["helper_impulse_Ns"].get<double>(), 0.0);
 }
 
-// the shipped free-mode scenario (synthetic clip, its own tuned point) stays up for its 10 s
-TEST(MocapTracker, FreeScenarioStaysUp) {
-  RunOptions opt;
-  opt.quiet = true;
-  RunResult r =
-      ScenarioRun(load_scenario(test::source_dir() + "/scenarios/mocap_track_free.yaml"), opt)
-          .run();
-  const nlohmann::json& m = r.metrics["mocap"];
-  EXPECT_FALSE(r.fell);
-  EXPECT_NEAR(r.sim_time, 10.0, 1e-6);
-  EXPECT_TRUE(m["root_fall_time_s"].is_null());
-  EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 10.0);
-  EXPECT_EQ(m["helper_impulse_Ns"].get<double>(), 0.0);
+TEST(MocapTracker, FreeModeMassWalkStaysUpOverANeighbourhood) {
+  const std::string path = shared_bvh("mass_walk.bvh");
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
+  ClipFiles s = make_files(read_bvh(path), "mass_walk_free");
+  for (const FreeVariant& variant : kFreeVariants) {
+    YAML::Node doc = YAML::Load(kMassWalkFreeYaml);
+    doc["model"][0]["file"] = s.xml;
+    doc["controllers"][0]["bvh"] = path;
+    expect_walks_free(doc, variant, "mass_walk_free");
+  }
+}
+
+// the shipped free-mode scenario (synthetic clip) stays up at its settings and the same neighbours
+TEST(MocapTracker, FreeScenarioStaysUpOverANeighbourhood) {
+  const std::string file = test::source_dir() + "/scenarios/mocap_track_free.yaml";
+  for (const FreeVariant& variant : kFreeVariants) {
+    YAML::Node doc = YAML::LoadFile(file);
+    expect_walks_free(doc, variant, file);
+  }
 }
 
 }  // namespace
