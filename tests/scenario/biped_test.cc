@@ -132,21 +132,24 @@ TEST(BipedStand, PushScheduleIsLoggedAndCounted) {
   EXPECT_LT(r.metrics["max_com_offset_m"].get<double>(), 0.2);
 }
 
-TEST(BipedSkateboard, BoardMovesForwardWithTheBipedUprightOnDart) {
+// the skateboard scenario for 5 s on `engine`, with `overrides` (--set syntax)
+RunResult run_skateboard(const std::string& engine,
+                         const std::vector<std::string>& overrides = {}) {
   RunOptions opt;
-  opt.engine = "dart";
+  opt.engine = engine;
   opt.duration = 5.0;
-  RunResult r = ScenarioRun(load_scenario(scenario_path("biped_skateboard.yaml")), opt).run();
+  return ScenarioRun(load_scenario(scenario_path("biped_skateboard.yaml"), overrides), opt).run();
+}
+
+TEST(BipedSkateboard, BoardMovesForwardWithTheBipedUprightOnDart) {
+  RunResult r = run_skateboard("dart");
   EXPECT_FALSE(r.fell) << r.fall_reason;
   EXPECT_GT(r.metrics["board_distance_m"].get<double>(), 0.1);
 }
 
 // the wheels' 2 rad/s at 0.04 m, ramped in over 0.5..2.5 s, give 0.28 m by t = 5 s without slip
 TEST(BipedSkateboard, BoardMovesForwardWithTheBipedUprightOnMujoco) {
-  RunOptions opt;
-  opt.engine = "mujoco";
-  opt.duration = 5.0;
-  RunResult r = ScenarioRun(load_scenario(scenario_path("biped_skateboard.yaml")), opt).run();
+  RunResult r = run_skateboard("mujoco");
   EXPECT_FALSE(r.fell) << r.fall_reason;
   EXPECT_GT(r.metrics["board_distance_m"].get<double>(), 0.2);
   EXPECT_LT(r.metrics["board_distance_m"].get<double>(), 0.3);
@@ -155,20 +158,11 @@ TEST(BipedSkateboard, BoardMovesForwardWithTheBipedUprightOnMujoco) {
 // standing on the board is what failed on MuJoCo (the seed's pelvis yaw): speed 0 must hold
 // still, and the seed's yaw must still fall so the test notices if the cause changes
 TEST(BipedSkateboard, StandsStillAtSpeedZeroOnMujocoAndTheSeedsYawFalls) {
-  RunOptions opt;
-  opt.engine = "mujoco";
-  opt.duration = 5.0;
-  RunResult still =
-      ScenarioRun(load_scenario(scenario_path("biped_skateboard.yaml"), {"controllers.2.speed=0"}),
-                  opt)
-          .run();
+  RunResult still = run_skateboard("mujoco", {"controllers.2.speed=0"});
   EXPECT_FALSE(still.fell) << still.fall_reason;
   EXPECT_LT(std::abs(still.metrics["board_distance_m"].get<double>()), 0.01);
   RunResult yawed =
-      ScenarioRun(load_scenario(scenario_path("biped_skateboard.yaml"),
-                                {"controllers.2.speed=0", "initial_pose.j_pelvis_rot_y=-0.2"}),
-                  opt)
-          .run();
+      run_skateboard("mujoco", {"controllers.2.speed=0", "initial_pose.j_pelvis_rot_y=-0.2"});
   EXPECT_TRUE(yawed.fell);
 }
 
