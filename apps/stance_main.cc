@@ -132,6 +132,30 @@ int main(int argc, char** argv) {
                                  "2: both directions at once, 1: one after the other");
   push_threshold_cmd->add_flag("--quiet", push_threshold.quiet, "no line per trial");
 
+  stance::TuneCommand tune;
+  auto* tune_cmd = app.add_subcommand("tune", "robust search of several parameters of a scenario");
+  tune_cmd->add_option("scenario", tune.scenario, "scenario YAML")->required();
+  tune_cmd->add_option("--param", tune.params, "searched parameter: key.path=lo:hi[:log]")
+      ->allow_extra_args(false);
+  tune_cmd
+      ->add_option("--neighbour,--neighbor", tune.neighbours,
+                   "a perturbed run scored too: \"k*=0.85,k2=0.001\" (repeatable)")
+      ->allow_extra_args(false);
+  tune_cmd->add_option("--budget", tune.budget, "candidates in all");
+  tune_cmd->add_option("--population", tune.population, "candidates per generation");
+  tune_cmd->add_option("--seed", tune.seed, "random seed of the search");
+  tune_cmd->add_option("--threads", tune.threads, "worker threads (default: all cores)");
+  tune_cmd->add_option("--engine", tune.engine, "mujoco or dart (default: the scenario's)");
+  tune_cmd->add_option("--duration", tune.duration, "simulated seconds per run");
+  tune_cmd->add_option("--metric", tune.metric,
+                       "summary metric added to the score, e.g. mocap.mean_joint_error_deg");
+  tune_cmd->add_option("--fall-penalty", tune.fall_penalty,
+                       "score per second of the duration not stayed up");
+  tune_cmd->add_option("--set", tune.sets, "override for every run: key.path=value")
+      ->allow_extra_args(false);
+  tune_cmd->add_option("--out", tune.out_dir, "output folder (tune.csv, best.yaml)")->required();
+  tune_cmd->add_flag("--quiet", tune.quiet, "no progress lines");
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
@@ -168,5 +192,6 @@ int main(int argc, char** argv) {
   if (*sweep_cmd) return stance::sweep_command(sweep);
   if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);
   if (*push_threshold_cmd) return stance::push_threshold_command(push_threshold);
+  if (*tune_cmd) return stance::tune_command(tune);
   return stance::kExitBadInput;
 }

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <limits>
 
 #include "control/controller.h"
 #include "core/error.h"
@@ -22,6 +23,7 @@
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
 #include "scenario/sweep.h"
+#include "scenario/tune.h"
 
 namespace stance {
 
@@ -257,6 +259,63 @@ int push_threshold_command(const PushThresholdCommand& cmd) {
     }
     std::cout << fmt::format("{} trials in {:.2f} s wall\n", r.positive.trials + r.negative.trials,
                              wall);
+    return kExitOk;
+  });
+}
+
+int tune_command(const TuneCommand& cmd) {
+  return guarded([&] {
+    TuneOptions o;
+    o.scenario = cmd.scenario;
+    o.sets = cmd.sets;
+    for (const auto& p : cmd.params) o.params.push_back(parse_tune_param(p));
+    for (const auto& n : cmd.neighbours) o.neighbours.push_back(parse_neighbour(n));
+    o.budget = cmd.budget;
+    o.population = cmd.population;
+    o.seed = cmd.seed;
+    o.threads = cmd.threads;
+    o.engine = cmd.engine;
+    o.duration = cmd.duration;
+    o.metric = cmd.metric;
+    o.fall_penalty = cmd.fall_penalty;
+    if (cmd.out_dir.empty()) throw InputError("--out: give an output folder");
+    auto wall0 = std::chrono::steady_clock::now();
+    TuneResult r = run_tune(o, [&](const TuneResult& so_far, int g) {
+      if (cmd.quiet) return;
+      if (g == 0)
+        for (const auto& note : so_far.notes) std::cout << "note: " << note << "\n";
+      const TuneCandidate& best = so_far.candidates[so_far.best];
+      double gen_best = std::numeric_limits<double>::infinity();
+      for (const auto& c : so_far.candidates)
+        if (c.generation == g) gen_best = std::min(gen_best, c.robust_score);
+      std::string metric =
+          o.metric.empty() ? "" : fmt::format(", mean {} {:.4g}", o.metric, best.mean_metric);
+      std::cout << fmt::format(
+                       "generation {}/{}: {} candidates; best robust score {:.6g} (worst time "
+                       "up {:.3f} of {:.3f} s{}); this generation's best {:.6g}\n",
+                       g + 1, so_far.generations, so_far.candidates.size(), best.robust_score,
+                       best.worst_time_up, so_far.duration, metric, gen_best)
+                << std::flush;
+    });
+    double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    write_tune_outputs(cmd.out_dir, o, r);
+    const TuneCandidate& start = r.candidates.front();
+    const TuneCandidate& best = r.candidates[r.best];
+    int failed = 0;
+    for (const auto& c : r.candidates) failed += c.failed_runs;
+    std::cout << fmt::format(
+        "tuned {} parameters over {} candidates x {} runs in {:.1f} s wall; wrote "
+        "{}/tune.csv, best.yaml and best_scenario.yaml\n",
+        o.params.size(), r.candidates.size(), 1 + o.neighbours.size(), wall, cmd.out_dir);
+    std::cout << fmt::format("start: robust score {:.6g}, worst time up {:.3f} s\n",
+                             start.robust_score, start.worst_time_up);
+    std::cout << fmt::format("best:  robust score {:.6g}, worst time up {:.3f} s",
+                             best.robust_score, best.worst_time_up);
+    if (!o.metric.empty()) std::cout << fmt::format(", mean {} {:.4g}", o.metric, best.mean_metric);
+    std::cout << "\n";
+    if (failed > 0)
+      std::cout << fmt::format("{} runs diverged or failed (counted as down at t = 0)\n", failed);
+    for (const auto& a : tune_assignments(o, best)) std::cout << "  --set " << a << "\n";
     return kExitOk;
   });
 }

@@ -104,4 +104,24 @@ struct PushThresholdCommand {
 };
 int push_threshold_command(const PushThresholdCommand& cmd);
 
+// `stance tune SCENARIO --param key=lo:hi[:log] ... [--neighbour "k*=0.85,k2=v" ...]`: a
+// robust parameter search (scenario/tune.h); tune.csv, best.yaml and best_scenario.yaml in out_dir
+struct TuneCommand {
+  std::string scenario;
+  std::vector<std::string> params;      // "key=lo:hi[:log]"
+  std::vector<std::string> neighbours;  // "k*=0.85,k2=0.001"
+  int budget = 40;
+  int population = 8;
+  unsigned long long seed = 1;
+  int threads = 0;  // 0: all cores
+  std::string engine;
+  std::optional<double> duration;
+  std::string metric;
+  double fall_penalty = 100;
+  std::vector<std::string> sets;
+  std::string out_dir = "out/tune";
+  bool quiet = false;
+};
+int tune_command(const TuneCommand& cmd);
+
 }  // namespace stance

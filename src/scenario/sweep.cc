@@ -91,6 +91,31 @@ std::string format_sweep_value(double value) {
   return fmt::format("{}", value);
 }
 
+void parallel_for(int n, int threads, const std::function<void(int)>& job) {
+  if (n <= 0) return;
+  int t = threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency());
+  t = std::clamp(t, 1, n);
+  std::atomic<int> next{0};
+  auto worker = [&]() {
+    for (int i = next++; i < n; i = next++) job(i);
+  };
+  std::vector<std::thread> pool;
+  for (int k = 0; k < t; ++k) pool.emplace_back(worker);
+  for (auto& th : pool) th.join();
+}
+
+RunResult run_scenario_locked(const LoadedScenario& loaded, const RunOptions& options) {
+  static std::mutex build_mutex;
+  std::unique_ptr<ScenarioRun> run;
+  {
+    std::lock_guard<std::mutex> lock(build_mutex);
+    run = std::make_unique<ScenarioRun>(loaded, options);
+  }
+  RunResult r = run->run();
+  r.wall_time_s = 0;
+  return r;
+}
+
 std::vector<SweepPoint> run_sweep(
     const SweepOptions& o,
     const std::function<void(const SweepPoint&, int done, int total)>& on_done) {
@@ -113,34 +138,20 @@ std::vector<SweepPoint> run_sweep(
   }
 
   std::vector<SweepPoint> points(n);
-  std::atomic<int> next{0};
-  std::mutex build_mutex, done_mutex;  // model loading is not guaranteed thread-safe
+  std::mutex done_mutex;
   int done = 0;
-  auto worker = [&]() {
-    for (int i = next++; i < n; i = next++) {
-      SweepPoint& pt = points[i];
-      pt.value = o.values[i];
-      try {
-        std::unique_ptr<ScenarioRun> run;
-        {
-          std::lock_guard<std::mutex> lock(build_mutex);
-          run = std::make_unique<ScenarioRun>(scenarios[i], run_options);
-        }
-        pt.result = run->run();
-        pt.result.wall_time_s = 0;
-      } catch (const std::exception& e) {
-        pt.error = e.what();
-      }
-      std::lock_guard<std::mutex> lock(done_mutex);
-      ++done;
-      if (on_done) on_done(pt, done, n);
+  parallel_for(n, o.threads, [&](int i) {
+    SweepPoint& pt = points[i];
+    pt.value = o.values[i];
+    try {
+      pt.result = run_scenario_locked(scenarios[i], run_options);
+    } catch (const std::exception& e) {
+      pt.error = e.what();
     }
-  };
-  int threads = o.threads > 0 ? o.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::clamp(threads, 1, n);
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) pool.emplace_back(worker);
-  for (auto& t : pool) t.join();
+    std::lock_guard<std::mutex> lock(done_mutex);
+    ++done;
+    if (on_done) on_done(pt, done, n);
+  });
   return points;
 }
 

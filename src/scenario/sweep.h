@@ -51,6 +51,13 @@ std::vector<SweepPoint> run_sweep(
     const SweepOptions& options,
     const std::function<void(const SweepPoint&, int done, int total)>& on_done = {});
 
+// shared with the tuner (scenario/tune.h):
+// job(i) for every i in [0, n) on `threads` threads (0: every core); job must not throw
+void parallel_for(int n, int threads, const std::function<void(int)>& job);
+// builds the run under a process-wide lock (model loading is not guaranteed thread-safe), then
+// runs it with wall_time_s zeroed so that results are reproducible
+RunResult run_scenario_locked(const LoadedScenario& loaded, const RunOptions& options);
+
 // writes sweep.csv and points.csv into dir (created if needed)
 void write_sweep_outputs(const std::string& dir, const std::string& param,
                          const std::vector<SweepPoint>& points);

@@ -1,0 +1,594 @@
+#include "scenario/tune.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <random>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+#include "params/param_list.h"
+#include "params/yaml_params.h"
+#include "scenario/scenario.h"
+#include "scenario/sweep.h"
+
+namespace stance {
+
+namespace {
+
+std::string trim(const std::string& s) {
+  size_t a = 0, b = s.size();
+  while (a < b && std::isspace(static_cast<unsigned char>(s[a]))) ++a;
+  while (b > a && std::isspace(static_cast<unsigned char>(s[b - 1]))) --b;
+  return s.substr(a, b - a);
+}
+
+// a whole finite number, or nothing
+std::optional<double> to_number(const std::string& text) {
+  std::string t = trim(text);
+  if (t.empty()) return std::nullopt;
+  try {
+    size_t used = 0;
+    double v = std::stod(t, &used);
+    if (used != t.size() || !std::isfinite(v)) return std::nullopt;
+    return v;
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+}
+
+std::vector<std::string> split_path(const std::string& key) {
+  std::vector<std::string> parts;
+  std::stringstream ss(key);
+  for (std::string part; std::getline(ss, part, '.');) parts.push_back(part);
+  return parts;
+}
+
+double to_unit(const TuneParam& p, double x) {
+  if (p.log) return (std::log(x) - std::log(p.lo)) / (std::log(p.hi) - std::log(p.lo));
+  return (x - p.lo) / (p.hi - p.lo);
+}
+
+// the value of a unit coordinate, rounded to 6 significant digits so that the text written to
+// the CSV and to --set is the value that was run
+double from_unit(const TuneParam& p, double u) {
+  u = std::clamp(u, 0.0, 1.0);
+  double x = p.log ? std::exp(std::log(p.lo) + u * (std::log(p.hi) - std::log(p.lo)))
+                   : p.lo + u * (p.hi - p.lo);
+  x = std::stod(fmt::format("{:.6g}", x));
+  return std::clamp(x, p.lo, p.hi);
+}
+
+std::string param_text(const TuneParam& p) {
+  return fmt::format("{}={}:{}{}", p.key, format_sweep_value(p.lo), format_sweep_value(p.hi),
+                     p.log ? ":log" : "");
+}
+
+// "key=value" for every searched parameter
+std::vector<std::string> assignments(const TuneOptions& o, const std::vector<double>& values) {
+  std::vector<std::string> out;
+  for (size_t i = 0; i < o.params.size(); ++i)
+    out.push_back(o.params[i].key + "=" + format_sweep_value(values[i]));
+  return out;
+}
+
+// the scalar metric paths of a run, for "did you mean"
+void metric_paths(const nlohmann::json& j, const std::string& prefix,
+                  std::vector<std::string>& out) {
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    std::string path = prefix.empty() ? it.key() : prefix + "." + it.key();
+    if (it.value().is_object())
+      metric_paths(it.value(), path, out);
+    else if (it.value().is_number())
+      out.push_back(path);
+  }
+}
+
+// the numeric defaults of a loaded scenario: its own fields and its controllers' parameters
+std::optional<double> default_value(const LoadedScenario& loaded, ScenarioRun& probe,
+                                    const std::string& key) {
+  std::vector<std::string> parts = split_path(key);
+  if (parts.size() >= 3 && parts[0] == "controllers") {
+    char* end = nullptr;
+    long idx = std::strtol(parts[1].c_str(), &end, 10);
+    if (*end || idx < 0 || idx >= static_cast<long>(probe.controllers().size()))
+      return std::nullopt;
+    std::string rest = key.substr(parts[0].size() + parts[1].size() + 2);
+    for (const ParamEntry& e : probe.controllers()[idx]->tunable_params())
+      if (e.path == rest) return e.value;
+    return std::nullopt;
+  }
+  for (const ParamEntry& e : list_params(loaded.scenario))
+    if (e.path == key) return e.value;
+  return std::nullopt;
+}
+
+// the numeric key paths a scenario offers (for "did you mean")
+std::vector<std::string> known_keys(const YAML::Node& doc, ScenarioRun& probe,
+                                    const LoadedScenario& loaded) {
+  std::vector<ParamEntry> entries;
+  list_yaml_params(doc, "", entries);
+  std::vector<std::string> out;
+  for (const auto& e : entries) out.push_back(e.path);
+  for (const auto& e : list_params(loaded.scenario)) out.push_back(e.path);
+  for (size_t i = 0; i < probe.controllers().size(); ++i)
+    for (const auto& e : probe.controllers()[i]->tunable_params())
+      out.push_back(fmt::format("controllers.{}.{}", i, e.path));
+  return out;
+}
+
+LoadedScenario parse_doc(const TuneOptions& o, const YAML::Node& doc) {
+  std::string base = std::filesystem::path(o.scenario).parent_path().string();
+  LoadedScenario loaded = parse_scenario(doc, o.scenario, base);
+  if (loaded.scenario.name.empty())
+    loaded.scenario.name = std::filesystem::path(o.scenario).stem().string();
+  return loaded;
+}
+
+// the tree of one run: base, the candidate's values, then neighbour j (-1: nominal)
+YAML::Node run_doc(const TuneOptions& o, const YAML::Node& base, const std::vector<double>& values,
+                   int neighbour) {
+  YAML::Node doc = YAML::Clone(base);
+  for (const auto& a : assignments(o, values)) apply_yaml_override(doc, a);
+  if (neighbour >= 0) apply_neighbour(doc, o.neighbours[neighbour]);
+  return doc;
+}
+
+std::string csv_number(double v) {
+  return std::isfinite(v) ? fmt::format("{:.9g}", v) : "";
+}
+
+}  // namespace
+
+TuneParam parse_tune_param(const std::string& text) {
+  auto bad = [&](const std::string& why) {
+    return InputError(fmt::format("--param '{}': {}", text, why));
+  };
+  size_t eq = text.find('=');
+  if (eq == std::string::npos) throw bad("expected key=lo:hi or key=lo:hi:log");
+  TuneParam p;
+  p.key = trim(text.substr(0, eq));
+  if (p.key.empty()) throw bad("no key path before '='");
+  std::vector<std::string> parts;
+  std::stringstream ss(text.substr(eq + 1));
+  for (std::string part; std::getline(ss, part, ':');) parts.push_back(trim(part));
+  if (parts.size() < 2 || parts.size() > 3) throw bad("expected key=lo:hi or key=lo:hi:log");
+  auto lo = to_number(parts[0]), hi = to_number(parts[1]);
+  if (!lo) throw bad(fmt::format("lower bound '{}' is not a finite number", parts[0]));
+  if (!hi) throw bad(fmt::format("upper bound '{}' is not a finite number", parts[1]));
+  if (parts.size() == 3) {
+    if (parts[2] != "log") throw bad(fmt::format("'{}': the only flag is 'log'", parts[2]));
+    p.log = true;
+  }
+  p.lo = *lo;
+  p.hi = *hi;
+  if (!(p.lo < p.hi)) throw bad("the lower bound must be below the upper bound");
+  if (p.log && p.lo <= 0) throw bad("a log range needs a positive lower bound");
+  return p;
+}
+
+Neighbour parse_neighbour(const std::string& text) {
+  auto bad = [&](const std::string& why) {
+    return InputError(fmt::format("--neighbour '{}': {}", text, why));
+  };
+  Neighbour n;
+  n.text = text;
+  // split on commas outside brackets, so that "gravity=[0, 0, -9]" stays whole
+  std::vector<std::string> items;
+  std::string cur;
+  int depth = 0;
+  for (char ch : text) {
+    if (ch == '[' || ch == '{') ++depth;
+    if (ch == ']' || ch == '}') --depth;
+    if (ch == ',' && depth == 0) {
+      items.push_back(cur);
+      cur.clear();
+    } else {
+      cur += ch;
+    }
+  }
+  items.push_back(cur);
+  for (const std::string& raw : items) {
+    std::string item = trim(raw);
+    if (item.empty()) throw bad("empty override (expected key*=factor or key=value)");
+    NeighbourOverride ov;
+    size_t mul = item.find("*=");
+    size_t eq = item.find('=');
+    if (mul != std::string::npos && mul < eq) {
+      ov.key = trim(item.substr(0, mul));
+      ov.multiply = true;
+      auto f = to_number(item.substr(mul + 2));
+      if (!f)
+        throw bad(fmt::format("'{}': the factor '{}' is not a finite number", item,
+                              trim(item.substr(mul + 2))));
+      ov.factor = *f;
+    } else if (eq != std::string::npos) {
+      ov.key = trim(item.substr(0, eq));
+      ov.value = trim(item.substr(eq + 1));
+      if (ov.value.empty()) throw bad(fmt::format("'{}': no value after '='", item));
+    } else {
+      throw bad(fmt::format("'{}': expected key*=factor or key=value", item));
+    }
+    if (ov.key.empty()) throw bad(fmt::format("'{}': no key path", item));
+    n.overrides.push_back(ov);
+  }
+  return n;
+}
+
+std::optional<double> yaml_number_at(const YAML::Node& root, const std::string& key) {
+  // const nodes: lookups must not insert missing keys
+  const YAML::Node top = root;
+  std::vector<YAML::Node> chain{top};
+  for (const std::string& part : split_path(key)) {
+    const YAML::Node cur = chain.back();
+    if (cur.IsSequence()) {
+      char* end = nullptr;
+      long idx = std::strtol(part.c_str(), &end, 10);
+      if (part.empty() || *end || idx < 0 || idx >= static_cast<long>(cur.size()))
+        return std::nullopt;
+      chain.push_back(cur[idx]);
+    } else if (cur.IsMap()) {
+      const YAML::Node next = cur[part];
+      if (!next) return std::nullopt;
+      chain.push_back(next);
+    } else {
+      return std::nullopt;
+    }
+  }
+  const YAML::Node leaf = chain.back();
+  if (!leaf.IsScalar()) return std::nullopt;
+  return to_number(leaf.Scalar());
+}
+
+void apply_neighbour(YAML::Node& root, const Neighbour& n) {
+  for (const auto& ov : n.overrides) {
+    try {
+      if (ov.multiply) {
+        std::optional<double> v = yaml_number_at(root, ov.key);
+        if (!v) throw InputError(fmt::format("{}: no number to multiply", ov.key));
+        apply_yaml_override(root, ov.key + "=" + format_sweep_value(*v * ov.factor));
+      } else {
+        apply_yaml_override(root, ov.key + "=" + ov.value);
+      }
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("--neighbour '{}': {}", n.text, e.what()));
+    }
+  }
+}
+
+std::optional<double> metric_at(const nlohmann::json& metrics, const std::string& path) {
+  const nlohmann::json* j = &metrics;
+  if (metrics.is_object() && metrics.contains(path)) {
+    j = &metrics[path];
+  } else {
+    for (const std::string& part : split_path(path)) {
+      if (!j->is_object() || !j->contains(part)) return std::nullopt;
+      j = &(*j)[part];
+    }
+  }
+  if (!j->is_number()) return std::nullopt;
+  return j->get<double>();
+}
+
+TuneRun score_run(const RunResult& r, double duration, const std::string& metric,
+                  double fall_penalty) {
+  TuneRun t;
+  t.fell = r.fell;
+  t.diverged = r.diverged;
+  if (r.diverged) {
+    t.error = "diverged: " + r.divergence;
+    t.time_up = 0;
+  } else if (r.fell && r.fall_time) {
+    t.time_up = std::clamp(*r.fall_time, 0.0, duration);
+  } else {
+    t.time_up = duration;
+  }
+  if (!metric.empty() && !r.diverged) {
+    t.metric = metric_at(r.metrics, metric);
+    if (!t.metric || !std::isfinite(*t.metric)) {
+      t.error = fmt::format("metric '{}' missing or not a finite number", metric);
+      t.metric.reset();
+      t.time_up = 0;
+    }
+  }
+  t.score = fall_penalty * (duration - t.time_up) + t.metric.value_or(0.0);
+  return t;
+}
+
+TuneRun failed_run(const std::string& error, double duration, double fall_penalty) {
+  TuneRun t;
+  t.error = error.empty() ? "failed" : error;
+  t.time_up = 0;
+  t.score = fall_penalty * duration;
+  return t;
+}
+
+void aggregate_runs(TuneCandidate& c) {
+  c.robust_score = -std::numeric_limits<double>::infinity();
+  c.worst_time_up = std::numeric_limits<double>::infinity();
+  c.failed_runs = 0;
+  double sum = 0;
+  int n = 0;
+  for (const auto& r : c.runs) {
+    c.robust_score = std::max(c.robust_score, r.score);
+    c.worst_time_up = std::min(c.worst_time_up, r.time_up);
+    if (!r.error.empty()) ++c.failed_runs;
+    if (r.metric) {
+      sum += *r.metric;
+      ++n;
+    }
+  }
+  if (c.runs.empty()) c.robust_score = c.worst_time_up = 0;
+  c.mean_metric = n > 0 ? sum / n : std::numeric_limits<double>::quiet_NaN();
+}
+
+std::vector<std::string> tune_assignments(const TuneOptions& o, const TuneCandidate& c) {
+  return assignments(o, c.values);
+}
+
+TuneResult run_tune(const TuneOptions& o,
+                    const std::function<void(const TuneResult&, int)>& on_generation) {
+  // --- the arguments -------------------------------------------------------------------------
+  if (o.params.empty()) throw InputError("tune: no parameter to search (--param key=lo:hi)");
+  if (o.budget < 1) throw InputError(fmt::format("--budget {}: expected at least 1", o.budget));
+  if (o.population < 1)
+    throw InputError(fmt::format("--population {}: expected at least 1", o.population));
+  if (o.threads < 0) throw InputError(fmt::format("--threads {}: expected 0 or more", o.threads));
+  if (!std::isfinite(o.fall_penalty) || o.fall_penalty < 0)
+    throw InputError(fmt::format("--fall-penalty {}: expected a number >= 0", o.fall_penalty));
+  if (o.duration && !(*o.duration > 0 && std::isfinite(*o.duration)))
+    throw InputError(fmt::format("--duration {}: expected a positive number", *o.duration));
+  {
+    std::set<std::string> seen;
+    for (const auto& p : o.params) {
+      if (!(p.lo < p.hi) || (p.log && p.lo <= 0))
+        throw InputError(fmt::format("--param '{}': bad range", param_text(p)));
+      if (!seen.insert(p.key).second)
+        throw InputError(fmt::format("--param '{}': {} is searched twice", param_text(p), p.key));
+    }
+  }
+
+  // --- the scenario, its defaults and the start point ---------------------------------------
+  YAML::Node base = load_yaml_file(o.scenario);
+  for (const auto& s : o.sets) apply_yaml_override(base, s);
+  RunOptions run_options;
+  run_options.engine = o.engine;
+  run_options.duration = o.duration;
+  run_options.quiet = true;
+
+  TuneResult result;
+  {
+    LoadedScenario loaded = parse_doc(o, base);
+    ScenarioRun probe(loaded, run_options);
+    result.duration = o.duration ? *o.duration : loaded.scenario.duration;
+    // searched and multiplied keys the YAML leaves at their defaults: write the defaults in,
+    // so that the start point and "k*=f" see the value the run would use
+    auto resolve = [&](const std::string& key, const std::string& arg) {
+      if (yaml_number_at(base, key)) return;
+      std::optional<double> v = default_value(loaded, probe, key);
+      if (!v)
+        throw InputError(fmt::format("{}: no number at key path '{}' in {}{}", arg, key, o.scenario,
+                                     did_you_mean(key, known_keys(base, probe, loaded))));
+      apply_yaml_override(base, key + "=" + format_sweep_value(*v));
+    };
+    for (const auto& p : o.params) resolve(p.key, fmt::format("--param '{}'", param_text(p)));
+    for (const auto& n : o.neighbours)
+      for (const auto& ov : n.overrides)
+        if (ov.multiply) resolve(ov.key, fmt::format("--neighbour '{}'", n.text));
+  }
+  std::vector<double> start(o.params.size());
+  for (size_t i = 0; i < o.params.size(); ++i) {
+    const TuneParam& p = o.params[i];
+    double v = *yaml_number_at(base, p.key);
+    if (v < p.lo || v > p.hi) {
+      double c = std::clamp(v, p.lo, p.hi);
+      result.notes.push_back(fmt::format("{} starts at {}, outside {}..{}: the start uses {}",
+                                         p.key, format_sweep_value(v), format_sweep_value(p.lo),
+                                         format_sweep_value(p.hi), format_sweep_value(c)));
+      v = c;
+    }
+    start[i] = v;
+  }
+
+  // every neighbour of the start, and each parameter at its bounds, must build: bad keys,
+  // values out of a parameter's range and malformed neighbours fail here, before any run
+  const int runs_per = 1 + static_cast<int>(o.neighbours.size());
+  for (int j = 0; j < static_cast<int>(o.neighbours.size()); ++j) {
+    try {
+      ScenarioRun probe(parse_doc(o, run_doc(o, base, start, j)), run_options);
+    } catch (const InputError& e) {
+      std::string msg = e.what();
+      if (msg.rfind("--neighbour", 0) == 0) throw;
+      throw InputError(fmt::format("--neighbour '{}': {}", o.neighbours[j].text, msg));
+    }
+  }
+  for (size_t i = 0; i < o.params.size(); ++i)
+    for (double bound : {o.params[i].lo, o.params[i].hi}) {
+      std::vector<double> v = start;
+      v[i] = bound;
+      try {
+        ScenarioRun probe(parse_doc(o, run_doc(o, base, v, -1)), run_options);
+      } catch (const InputError& e) {
+        throw InputError(fmt::format("--param '{}': {} = {} is rejected: {}",
+                                     param_text(o.params[i]), o.params[i].key,
+                                     format_sweep_value(bound), e.what()));
+      }
+    }
+
+  // --- the first run: the start's nominal point, which also checks the metric ---------------
+  auto run_one = [&](const std::vector<double>& values, int neighbour) -> TuneRun {
+    double duration = result.duration;
+    try {
+      LoadedScenario loaded = parse_doc(o, run_doc(o, base, values, neighbour));
+      duration = o.duration ? *o.duration : loaded.scenario.duration;
+      RunResult r = run_scenario_locked(loaded, run_options);
+      return score_run(r, duration, o.metric, o.fall_penalty);
+    } catch (const std::exception& e) {
+      return failed_run(e.what(), duration, o.fall_penalty);
+    }
+  };
+  TuneRun first;
+  {
+    double duration = result.duration;
+    try {
+      LoadedScenario loaded = parse_doc(o, run_doc(o, base, start, -1));
+      RunResult r = run_scenario_locked(loaded, run_options);
+      if (!o.metric.empty() && !r.diverged && !metric_at(r.metrics, o.metric)) {
+        std::vector<std::string> paths;
+        metric_paths(r.metrics, "", paths);
+        std::string list;
+        for (const auto& p : paths) list += (list.empty() ? "" : ", ") + p;
+        throw InputError(
+            fmt::format("--metric '{}': not a number in the run's metrics{} (there: {})", o.metric,
+                        did_you_mean(o.metric, paths), list));
+      }
+      first = score_run(r, duration, o.metric, o.fall_penalty);
+    } catch (const InputError& e) {
+      if (std::string(e.what()).rfind("--metric", 0) == 0) throw;
+      first = failed_run(e.what(), duration, o.fall_penalty);
+    } catch (const std::exception& e) {
+      first = failed_run(e.what(), duration, o.fall_penalty);
+    }
+  }
+
+  // --- the search ----------------------------------------------------------------------------
+  const int d = static_cast<int>(o.params.size());
+  std::mt19937_64 rng(o.seed);
+  std::uniform_real_distribution<double> uniform(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<std::vector<double>> units;  // per candidate, the unit coordinates
+  std::vector<double> mean(d), sigma(d, 0.3);
+  const int generations = (o.budget + o.population - 1) / o.population;
+  result.generations = generations;
+  const int elite_count = std::max(2, (o.population + 3) / 4);
+
+  for (int g = 0; g < generations; ++g) {
+    const int count = std::min(o.population, o.budget - g * o.population);
+    std::vector<std::vector<double>> u(count, std::vector<double>(d));
+    if (g == 0) {
+      // the start, then a Latin-hypercube sample of the box
+      for (int k = 0; k < d; ++k) u[0][k] = std::clamp(to_unit(o.params[k], start[k]), 0.0, 1.0);
+      const int m = count - 1;
+      for (int k = 0; k < d && m > 0; ++k) {
+        std::vector<int> strata(m);
+        for (int s = 0; s < m; ++s) strata[s] = s;
+        for (int s = m - 1; s > 0; --s) {
+          int r = static_cast<int>(uniform(rng) * (s + 1));
+          std::swap(strata[s], strata[std::min(r, s)]);
+        }
+        for (int s = 0; s < m; ++s) u[1 + s][k] = (strata[s] + uniform(rng)) / m;
+      }
+    } else {
+      for (int c = 0; c < count; ++c)
+        for (int k = 0; k < d; ++k) {
+          double x = mean[k] + sigma[k] * normal(rng);
+          for (int tries = 0; tries < 8 && (x < 0 || x > 1); ++tries)
+            x = mean[k] + sigma[k] * normal(rng);
+          u[c][k] = std::clamp(x, 0.0, 1.0);
+        }
+    }
+
+    std::vector<TuneCandidate> gen(count);
+    for (int c = 0; c < count; ++c) {
+      gen[c].generation = g;
+      gen[c].index = c;
+      gen[c].values.resize(d);
+      for (int k = 0; k < d; ++k)
+        gen[c].values[k] = (g == 0 && c == 0) ? start[k] : from_unit(o.params[k], u[c][k]);
+      gen[c].runs.resize(runs_per);
+    }
+    parallel_for(count * runs_per, o.threads, [&](int job) {
+      const int c = job / runs_per, j = job % runs_per;
+      if (g == 0 && c == 0 && j == 0)
+        gen[c].runs[j] = first;
+      else
+        gen[c].runs[j] = run_one(gen[c].values, j - 1);
+    });
+    for (int c = 0; c < count; ++c) {
+      aggregate_runs(gen[c]);
+      result.candidates.push_back(gen[c]);
+      units.push_back(u[c]);
+      const TuneCandidate& best = result.candidates[result.best];
+      if (result.candidates.back().robust_score < best.robust_score)
+        result.best = static_cast<int>(result.candidates.size()) - 1;
+    }
+
+    // the elite so far: mean and spread of the next generation
+    std::vector<int> order(result.candidates.size());
+    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+      return result.candidates[a].robust_score < result.candidates[b].robust_score;
+    });
+    const int e = std::min(elite_count, static_cast<int>(order.size()));
+    for (int k = 0; k < d; ++k) {
+      double s = 0, ss = 0;
+      for (int i = 0; i < e; ++i) s += units[order[i]][k];
+      mean[k] = s / e;
+      for (int i = 0; i < e; ++i) ss += std::pow(units[order[i]][k] - mean[k], 2);
+      double spread = e > 1 ? std::sqrt(ss / (e - 1)) : sigma[k];
+      sigma[k] = std::max(0.02, 0.5 * sigma[k] + 0.5 * spread);
+    }
+    if (on_generation) on_generation(result, g);
+  }
+
+  YAML::Node best_doc = run_doc(o, base, result.candidates[result.best].values, -1);
+  YAML::Emitter out;
+  out << best_doc;
+  result.scenario_yaml = out.c_str();
+  return result;
+}
+
+void write_tune_outputs(const std::string& dir, const TuneOptions& o, const TuneResult& r) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw InputError(fmt::format("--out {}: {}", dir, ec.message()));
+  if (r.candidates.empty()) throw InputError("tune: no candidates to write");
+
+  std::ofstream csv(fs::path(dir) / "tune.csv");
+  if (!csv) throw InputError(fmt::format("--out {}: cannot write tune.csv", dir));
+  csv << "generation,index";
+  for (const auto& p : o.params) csv << ',' << p.key;
+  csv << ",robust_score,worst_time_up_s,mean_metric,failed_runs\n";
+  for (const auto& c : r.candidates) {
+    csv << c.generation << ',' << c.index;
+    for (double v : c.values) csv << ',' << format_sweep_value(v);
+    csv << ',' << csv_number(c.robust_score) << ',' << csv_number(c.worst_time_up) << ','
+        << csv_number(c.mean_metric) << ',' << c.failed_runs << '\n';
+  }
+
+  const TuneCandidate& b = r.candidates[r.best];
+  const TuneCandidate& s = r.candidates.front();
+  std::ofstream yaml(fs::path(dir) / "best.yaml");
+  if (!yaml) throw InputError(fmt::format("--out {}: cannot write best.yaml", dir));
+  yaml << fmt::format("# stance tune {}: best of {} candidates (generation {}, candidate {})\n",
+                      o.scenario, r.candidates.size(), b.generation, b.index);
+  yaml << fmt::format(
+      "# robust score {:.6g} (max over the nominal run and {} neighbour(s)), worst time up {:.6g} "
+      "of {:.6g} s",
+      b.robust_score, o.neighbours.size(), b.worst_time_up, r.duration);
+  if (!o.metric.empty()) yaml << fmt::format(", mean {} {:.6g}", o.metric, b.mean_metric);
+  yaml << fmt::format("\n# the start: robust score {:.6g}, worst time up {:.6g} s\n",
+                      s.robust_score, s.worst_time_up);
+  for (const auto& set : o.sets) yaml << "# base: --set " << set << "\n";
+  for (const auto& n : o.neighbours) yaml << "# neighbour: " << n.text << "\n";
+  yaml << "# as --set lines:\n";
+  for (const auto& a : tune_assignments(o, b)) yaml << "#   --set " << a << "\n";
+  for (size_t i = 0; i < o.params.size(); ++i)
+    yaml << o.params[i].key << ": " << format_sweep_value(b.values[i]) << "\n";
+
+  std::ofstream scn(fs::path(dir) / "best_scenario.yaml");
+  if (!scn) throw InputError(fmt::format("--out {}: cannot write best_scenario.yaml", dir));
+  fs::path folder = fs::absolute(o.scenario).parent_path();
+  scn << "# " << o.scenario << " with --set and the best point of stance tune applied.\n"
+      << "# Relative paths in it are relative to " << folder.string()
+      << ": save it there to run it.\n"
+      << r.scenario_yaml << "\n";
+}
+
+}  // namespace stance

@@ -1,0 +1,135 @@
+// Robust parameter search: a few `--set` key paths tuned together so that a scenario survives
+// (and scores well) not only at its nominal setting but also on perturbed neighbours.
+//
+// Objective (lower is better). One run scores
+//     fall_penalty * (duration - time_up) + metric
+// where time_up is the fall time (the duration when the run stays up, 0 when it diverged or
+// failed) and metric is a number from RunResult::metrics (0 without --metric). A candidate's
+// robust score is the maximum over its runs: the nominal point and every neighbour.
+//
+// Search: a cross-entropy method in the box normalised to [0, 1] per parameter (log-scaled where
+// asked). Generation 0 is the scenario's current point followed by a Latin-hypercube sample of
+// the box; later generations sample a Gaussian around the mean of the elite candidates so far,
+// with a spread that shrinks to theirs. All random numbers come from one std::mt19937_64 seeded
+// by `seed` on the calling thread, and the runs of a generation share nothing, so the result is
+// identical for any thread count.
+//
+// Outputs (write_tune_outputs):
+//  - tune.csv:           one row per candidate: generation, index, each value, robust score,
+//                        worst time up, mean metric, failed runs
+//  - best.yaml:          the best point as key path: value, with its `--set` lines in comments
+//  - best_scenario.yaml: the scenario (after --set) with the best point applied
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "scenario/runner.h"
+
+namespace stance {
+
+// one searched parameter: "key=lo:hi" or "key=lo:hi:log"
+struct TuneParam {
+  std::string key;
+  double lo = 0, hi = 1;
+  bool log = false;
+};
+
+// one override of a neighbour: "key*=factor" (times the value the run would otherwise use) or
+// "key=value" (as --set)
+struct NeighbourOverride {
+  std::string key;
+  bool multiply = false;
+  double factor = 1;
+  std::string value;  // when !multiply: YAML text
+};
+
+struct Neighbour {
+  std::string text;  // as given, for messages and the CSV
+  std::vector<NeighbourOverride> overrides;
+};
+
+// parse "--param key=lo:hi[:log]"; throws InputError naming --param and the text
+TuneParam parse_tune_param(const std::string& text);
+// parse "--neighbour a*=0.85,b=0.001"; throws InputError naming --neighbour and the text
+Neighbour parse_neighbour(const std::string& text);
+
+// the number at a dotted key path of a YAML tree ("controllers.0.kp"), if there is one
+std::optional<double> yaml_number_at(const YAML::Node& root, const std::string& key);
+// applies a neighbour to a scenario tree: "k*=f" multiplies the number at k (InputError when
+// there is none), "k=v" is apply_yaml_override
+void apply_neighbour(YAML::Node& root, const Neighbour& n);
+
+// a number at a dotted path into a run's metrics ("mocap.mean_joint_error_deg"); also accepts a
+// top-level key that itself contains dots
+std::optional<double> metric_at(const nlohmann::json& metrics, const std::string& path);
+
+struct TuneOptions {
+  std::string scenario;           // YAML file
+  std::vector<std::string> sets;  // overrides applied to every run ("a.b=value")
+  std::vector<TuneParam> params;
+  std::vector<Neighbour> neighbours;  // the nominal point is always run too
+  int budget = 40;                    // candidates in all
+  int population = 8;                 // candidates per generation
+  unsigned long long seed = 1;
+  int threads = 0;                 // 0: every core
+  std::string engine;              // overrides the scenario's when set
+  std::optional<double> duration;  // s, overrides the scenario's
+  std::string metric;              // dotted path into RunResult::metrics; empty: none
+  double fall_penalty = 100;       // score per second of the duration not stayed up
+};
+
+// the score of one run
+struct TuneRun {
+  double score = 0;
+  double time_up = 0;  // s
+  std::optional<double> metric;
+  bool fell = false, diverged = false;
+  std::string error;  // non-empty: the run threw (or its metric was not a finite number)
+};
+
+// scores a finished run: `duration` is the run's full length (s)
+TuneRun score_run(const RunResult& r, double duration, const std::string& metric,
+                  double fall_penalty);
+// a failed run (threw or diverged before producing a result)
+TuneRun failed_run(const std::string& error, double duration, double fall_penalty);
+
+struct TuneCandidate {
+  int generation = 0, index = 0;  // index within its generation
+  std::vector<double> values;     // one per TuneOptions::params
+  std::vector<TuneRun> runs;      // nominal, then one per neighbour
+  double robust_score = 0;        // max of the runs' scores
+  double worst_time_up = 0;       // min of the runs' time up
+  double mean_metric = 0;         // over runs with a metric; NaN when none has one
+  int failed_runs = 0;            // runs that diverged or threw
+};
+
+// fills robust_score, worst_time_up, mean_metric and failed_runs from runs
+void aggregate_runs(TuneCandidate& c);
+
+struct TuneResult {
+  std::vector<TuneCandidate> candidates;  // in evaluation order; candidates[0] is the start
+  int best = 0;                           // index into candidates
+  int generations = 0;
+  double duration = 0;             // s, of the nominal run
+  std::vector<std::string> notes;  // e.g. a start value outside its range, clamped
+  std::string scenario_yaml;       // the scenario after --set and the best point, as YAML
+};
+
+// the `--set` assignments of a candidate, "key=value" with the shortest exact number text
+std::vector<std::string> tune_assignments(const TuneOptions& o, const TuneCandidate& c);
+
+// validates everything (params, keys, neighbours, metric, engine) before the long work and
+// throws InputError naming the argument; then searches. on_generation (optional) is called
+// after each generation with the result so far.
+TuneResult run_tune(
+    const TuneOptions& options,
+    const std::function<void(const TuneResult& so_far, int generation)>& on_generation = {});
+
+// writes tune.csv, best.yaml and best_scenario.yaml into dir (created if needed)
+void write_tune_outputs(const std::string& dir, const TuneOptions& options,
+                        const TuneResult& result);
+
+}  // namespace stance
