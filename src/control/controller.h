@@ -80,6 +80,12 @@ class Controller {
   // the pose being tracked (dim nq, the engine's layout) at the engine's time, drawn as a ghost;
   // false when the controller tracks no pose
   virtual bool reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const { return false; }
+  // the state a run should start from (dim nq and nv), applied by the runner once the
+  // controllers are built (a tracked clip's first frame); false: the scenario's own start
+  virtual bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
+                             Eigen::VectorXd& qvel) const {
+    return false;
+  }
 };
 
 // the registry: one line per controller type (see control/registry.cc)
@@ -87,6 +93,10 @@ struct ControllerContext {
   YamlSource source;  // scenario file, for messages
   std::string path;   // "controllers[1]"
   uint64_t seed = 0;  // the scenario's seed, mixed with the controller's position; no global RNG
+  double duration_s = 0;  // the run's length; 0: unknown
+  // a second engine of the same world, for controllers that probe the model's kinematics while
+  // they are built (the run's own engine is const to them); empty: not available
+  std::function<std::unique_ptr<Engine>()> scratch_engine;
 };
 
 using ControllerFactory = std::function<std::unique_ptr<Controller>(

@@ -58,11 +58,7 @@ std::unique_ptr<Controller> make_mocap_tracker(const YAML::Node& node, const Con
   return std::make_unique<MocapTracker>(read_params<MocapTrackerParams>(node, ctx), engine, dir);
 }
 
-MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engine,
-                           const std::string& base_dir) {
-  MocapTrackerModel& m = model_;
-  m.params = params;
-  m.mode = parse_mocap_root_mode(params.mode);
+MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base_dir) {
   if (params.bvh.empty()) throw InputError("bvh: a BVH file is required");
   std::filesystem::path path(params.bvh);
   if (path.is_relative() && !base_dir.empty()) path = std::filesystem::path(base_dir) / path;
@@ -81,12 +77,25 @@ MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engin
   ro.align_whole_clip = params.ground == "clip";
   if (params.ground != "clip" && params.ground != "start")
     throw InputError("ground: expected start or clip, found '" + params.ground + "'");
-  m.first_frame = params.start_s >= 0
-                      ? static_cast<int>(std::lround(params.start_s / clip->frame_time_s))
-                      : params.first_frame;
-  auto ref = std::make_shared<ReferenceMotion>(*clip, make_motion_skeleton(*clip, so), ro);
-  m.clip = clip;
-  m.reference = ref;
+  MocapClip out;
+  out.first_frame = params.start_s >= 0
+                        ? static_cast<int>(std::lround(params.start_s / clip->frame_time_s))
+                        : params.first_frame;
+  out.reference = std::make_shared<ReferenceMotion>(*clip, make_motion_skeleton(*clip, so), ro);
+  out.clip = clip;
+  return out;
+}
+
+MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engine,
+                           const std::string& base_dir) {
+  MocapTrackerModel& m = model_;
+  m.params = params;
+  m.mode = parse_mocap_root_mode(params.mode);
+  MocapClip loaded = load_mocap_clip(params, base_dir);
+  m.first_frame = loaded.first_frame;
+  m.clip = loaded.clip;
+  m.reference = loaded.reference;
+  const ReferenceMotion* ref = m.reference.get();
   const MotionSkeleton& sk = ref->skeleton();
   const int n = sk.segment_count();
 
@@ -217,14 +226,13 @@ void MocapTracker::reset(const Engine& engine) {
   fk_pos_.assign(n, Eigen::Vector3d::Zero());
   fk_rot_.assign(n, Eigen::Quaterniond::Identity());
   const int nq = engine.nq(), nv = engine.nv();
-  for (Eigen::VectorXd* x : {&q_, &q_ref_, &q_pred_}) x->setZero(nq);
-  for (Eigen::VectorXd* x : {&v_, &v_ref_, &err_, &p_, &d_, &c_, &f_, &rhs_, &tau_}) x->setZero(nv);
-  m_.setZero(nv, nv);
+  for (Eigen::VectorXd* x : {&q_, &q_ref_}) x->setZero(nq);
+  for (Eigen::VectorXd* x : {&v_, &v_ref_, &tau_}) x->setZero(nv);
+  work_.resize(nq, nv);
   jac_a_.setZero(3, nv);
   jac_b_.setZero(3, nv);
   stance_share_[0] = 1;
   stance_share_[1] = 0;
-  llt_ = Eigen::LLT<Eigen::MatrixXd>(nv);
   recorded_.clear();
   recorded_frames_ = 0;
   next_record_t_ = 0;
@@ -415,33 +423,12 @@ void MocapTracker::compute(const Engine& engine, ControlOutput& out) {
   // targets for the end of this step
   track_state(engine, t + dt);
   tau_.setZero();
-  engine.mass_matrix(m_);
-  engine.bias_forces(c_);
-  engine.constraint_forces(f_);
   if (m.mode == MocapRootMode::kKinematic) {
-    // deadbeat: q + dt v' = q_ref(t + dt) with v' = v + dt M^-1 (tau - c + f)
-    engine.difference_positions(q_, q_ref_, err_);
-    rhs_ = (err_ / dt - v_) / dt;
-    // contact forces are not fed back: from the last step they alternate with the new ones
-    tau_.noalias() = m_ * rhs_;
-    tau_ += c_;
+    add_deadbeat_torques(engine, q_, v_, q_ref_, work_, tau_);
   } else {
     if (m.mode == MocapRootMode::kFree && m.params.balance) balance(engine, t + dt);
-    // SPD with target velocities: p = -Kp (q + v dt (-) q_ref), d = -Kd (v - v_ref)
-    engine.integrate_positions(q_, v_, dt, q_pred_);
-    engine.difference_positions(q_ref_, q_pred_, err_);
-    p_ = -m.kp.cwiseProduct(err_);
-    d_ = -m.kd.cwiseProduct(v_ - v_ref_);
-    m_.diagonal() += m.kd * dt;
-    llt_.compute(m_);
-    rhs_ = p_ + d_ - c_ + f_ + tau_;
-    llt_.solveInPlace(rhs_);
-    Eigen::VectorXd& spd = err_;  // reuse: tau of the SPD
-    spd = p_ + d_ - (m.kd * dt).cwiseProduct(rhs_);
-    if (m.params.max_torque > 0)
-      for (int i = 6; i < spd.size(); ++i)
-        spd[i] = std::clamp(spd[i], -m.params.max_torque, m.params.max_torque);
-    tau_ += spd;
+    add_stable_pd_torques(engine, q_, v_, q_ref_, v_ref_, m.kp, m.kd, m.params.max_torque,
+                          m.dof_adr[0], m.dof_adr[0] + 6, work_, tau_);
     if (m.mode == MocapRootMode::kFree) tau_.segment<6>(m.dof_adr[0]).setZero();
   }
   // helper: whatever lands on the root dofs

@@ -26,23 +26,23 @@
 // written back on the clip's own skeleton at the clip's frame rate.
 #pragma once
 
-#include <Eigen/Cholesky>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "control/controller.h"
+#include "control/pose_tracking.h"
 #include "engine/engine.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
 
 namespace stance {
 
-struct MocapTrackerParams {
-  std::string bvh;                // clip; relative paths start at the scenario's folder
-  std::string mode = "assisted";  // kinematic, assisted or free
-  double scale_to_meters = 0;     // 0: detect from the leg length
-  std::string up_axis = "y";      // the file's up axis
+// the clip and how it is read: shared by the trackers
+struct MocapClipParams {
+  std::string bvh;             // clip; relative paths start at the scenario's folder
+  double scale_to_meters = 0;  // 0: detect from the leg length
+  std::string up_axis = "y";   // the file's up axis
   int first_frame = 0;
   int last_frame = -1;  // -1: the last
   double start_s = -1;  // >= 0: overrides first_frame
@@ -50,9 +50,37 @@ struct MocapTrackerParams {
   bool loop = true;
   bool align_ground = true;
   std::string ground = "start";  // align at the start, or the lowest point of the whole clip
-  double kp = 1000;              // N m/rad on every ball joint
-  double kd = 100;               // N m s/rad
-  NamedValues kp_joints;         // per-joint kp (joint name)
+
+  template <class V>
+  void visit(V& v) {
+    v("bvh", bvh, {.help = "BVH clip to track"});
+    v("scale_to_meters", scale_to_meters, {.unit = "m", .min = 0, .help = "0: detect"});
+    v("up_axis", up_axis, {.help = "the file's up axis, y or z"});
+    v("first_frame", first_frame, {.min = 0});
+    v("last_frame", last_frame, {.min = -1, .help = "-1: the last frame"});
+    v("start_s", start_s, {.unit = "s", .min = -1, .help = ">= 0: overrides first_frame"});
+    v("end_s", end_s, {.unit = "s", .min = -1, .help = ">= 0: overrides last_frame"});
+    v("loop", loop, {.help = "repeat the clip, accumulating the root displacement"});
+    v("align_ground", align_ground, {.help = "lowest point on the floor at the start"});
+    v("ground", ground,
+      {.help = "start: lowest point at the start on the floor; clip: over the clip"});
+  }
+};
+
+// a clip read and made ready to track
+struct MocapClip {
+  std::shared_ptr<const BvhClip> clip;
+  std::shared_ptr<const ReferenceMotion> reference;
+  int first_frame = 0;  // of the clip range, in the clip
+};
+// reads params.bvh (relative to base_dir) and builds its reference; throws InputError
+MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base_dir);
+
+struct MocapTrackerParams : MocapClipParams {
+  std::string mode = "assisted";  // kinematic, assisted or free
+  double kp = 1000;               // N m/rad on every ball joint
+  double kd = 100;                // N m s/rad
+  NamedValues kp_joints;          // per-joint kp (joint name)
   NamedValues kd_joints;
   double root_kp = 20000;     // assisted: N/m on the root position
   double root_kd = 2000;      // N s/m
@@ -92,18 +120,8 @@ struct MocapTrackerParams {
 
   template <class V>
   void visit(V& v) {
-    v("bvh", bvh, {.help = "BVH clip to track"});
+    MocapClipParams::visit(v);
     v("mode", mode, {.help = "kinematic, assisted or free"});
-    v("scale_to_meters", scale_to_meters, {.unit = "m", .min = 0, .help = "0: detect"});
-    v("up_axis", up_axis, {.help = "the file's up axis, y or z"});
-    v("first_frame", first_frame, {.min = 0});
-    v("last_frame", last_frame, {.min = -1, .help = "-1: the last frame"});
-    v("start_s", start_s, {.unit = "s", .min = -1, .help = ">= 0: overrides first_frame"});
-    v("end_s", end_s, {.unit = "s", .min = -1, .help = ">= 0: overrides last_frame"});
-    v("loop", loop, {.help = "repeat the clip, accumulating the root displacement"});
-    v("align_ground", align_ground, {.help = "lowest point on the floor at the start"});
-    v("ground", ground,
-      {.help = "start: lowest point at the start on the floor; clip: over the clip"});
     v("kp", kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
     v("kd", kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
     v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-joint kp"});
@@ -205,9 +223,9 @@ class MocapTracker final : public Controller {
   ReferencePose pose_, pose_now_;
   std::vector<Eigen::Vector3d> fk_pos_;
   std::vector<Eigen::Quaterniond> fk_rot_;
-  Eigen::VectorXd q_, v_, q_ref_, v_ref_, q_pred_, err_, p_, d_, c_, f_, rhs_, tau_;
-  Eigen::MatrixXd m_, jac_a_, jac_b_;  // jacobians: 3 x nv
-  Eigen::LLT<Eigen::MatrixXd> llt_;
+  Eigen::VectorXd q_, v_, q_ref_, v_ref_, tau_;
+  Eigen::MatrixXd jac_a_, jac_b_;  // jacobians: 3 x nv
+  PoseTrackingWork work_;
   std::vector<double> recorded_;  // recorded frames of q, nq each
   int recorded_frames_ = 0;
   double next_record_t_ = 0;

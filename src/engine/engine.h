@@ -84,6 +84,8 @@ class Engine {
   virtual const JointInfo& joint(int joint) const = 0;
   virtual int dof_joint(int dof) const = 0;  // joint owning dof
   virtual double body_mass(int body) const = 0;
+  // the body this one hangs from; -1 for the world (or a body fixed to it)
+  virtual int body_parent(int body) const = 0;
 
   // state
   virtual double time() const = 0;

@@ -12,16 +12,25 @@ namespace stance {
 namespace {
 constexpr std::string_view kDartSample = "dart://sample/";
 constexpr const char* kDefaultDartData = "/usr/share/doc/dart/data";
+constexpr std::string_view kMujocoModel = "mujoco://model/";
+constexpr const char* kDefaultMujocoModels = "/usr/share/mujoco/model";
+
+// a prefix path under the folder an environment variable (or the default) names
+std::string under(const std::string& path, std::string_view prefix, const char* variable,
+                  const char* fallback) {
+  const char* env = std::getenv(variable);
+  std::string root = (env != nullptr && env[0] != '\0') ? env : fallback;
+  if (!root.empty() && root.back() != '/') root += '/';
+  return root + path.substr(prefix.size());
+}
 }  // namespace
 
 std::string resolve_model_path(const std::string& path) {
   std::string resolved = path;
-  if (path.starts_with(kDartSample)) {
-    const char* env = std::getenv("STANCE_DART_DATA");
-    std::string root = (env != nullptr && env[0] != '\0') ? env : kDefaultDartData;
-    if (!root.empty() && root.back() != '/') root += '/';
-    resolved = root + path.substr(kDartSample.size());
-  }
+  if (path.starts_with(kDartSample))
+    resolved = under(path, kDartSample, "STANCE_DART_DATA", kDefaultDartData);
+  else if (path.starts_with(kMujocoModel))
+    resolved = under(path, kMujocoModel, "STANCE_MUJOCO_MODELS", kDefaultMujocoModels);
   // a directory is no model file either
   std::error_code ec;
   if (!std::filesystem::is_regular_file(resolved, ec)) {

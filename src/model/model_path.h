@@ -7,6 +7,8 @@ namespace stance {
 
 // "dart://sample/X" -> "$STANCE_DART_DATA/X" or, when the variable is unset or empty,
 // "/usr/share/doc/dart/data/X" (where Debian's dart-doc installs DART's sample data).
+// "mujoco://model/X" -> "$STANCE_MUJOCO_MODELS/X" or "/usr/share/mujoco/model/X" (Debian's
+// libmujoco-samples: humanoid/humanoid.xml and friends).
 // Other paths, relative ones included, are returned unchanged.
 // Throws InputError "<path>: no such file" when the resolved file does not exist.
 std::string resolve_model_path(const std::string& path);

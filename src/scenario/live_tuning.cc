@@ -28,9 +28,13 @@ ParamEntry find_entry(ScenarioRun& run, int index, const std::string& path) {
 // the context the runner gives controller `index`: the same seed keeps noise streams
 // reproducible
 ControllerContext context_of(ScenarioRun& run, const LoadedScenario& loaded, int index) {
+  std::string engine_name(run.engine().engine_name());
+  const Scenario* scenario = &run.scenario();
   return {{loaded.source.empty() ? "viewer" : loaded.source},
           fmt::format("controllers[{}]", index),
-          static_cast<uint64_t>(run.scenario().seed) * 1000003ull + index};
+          static_cast<uint64_t>(run.scenario().seed) * 1000003ull + index,
+          run.scenario().duration,
+          [scenario, engine_name] { return make_scenario_engine(*scenario, engine_name); }};
 }
 
 // model loading is not guaranteed thread-safe (as in sweep.cc)

@@ -136,9 +136,12 @@ ScenarioRun::ScenarioRun(const LoadedScenario& loaded, const RunOptions& options
   for (size_t i = 0; i < loaded.controllers.size(); ++i) {
     const YAML::Node& node = loaded.controllers[i];
     const ControllerType& type = find_controller_type(node["type"].Scalar());
-    ControllerContext ctx{{loaded.source},
-                          fmt::format("controllers[{}]", i),
-                          static_cast<uint64_t>(scenario_.seed) * 1000003ull + i};
+    ControllerContext ctx{
+        {loaded.source},
+        fmt::format("controllers[{}]", i),
+        static_cast<uint64_t>(scenario_.seed) * 1000003ull + i,
+        scenario_.duration,
+        [this, engine_name] { return make_scenario_engine(scenario_, engine_name); }};
     try {
       controllers_.push_back(type.make(node, ctx, e));
     } catch (const InputError& err) {
@@ -147,6 +150,15 @@ ScenarioRun::ScenarioRun(const LoadedScenario& loaded, const RunOptions& options
       if (msg.rfind(loaded.source, 0) != 0)
         msg = located(loaded.source, node.Mark().line + 1, ctx.path + ": " + msg);
       throw InputError(msg);
+    }
+  }
+  // a controller that tracks a clip may start the run on the clip's first frame
+  for (const auto& c : controllers_) {
+    Eigen::VectorXd q0, v0;
+    if (c->initial_state(e, q0, v0)) {
+      e.set_positions(q0);
+      e.set_velocities(v0);
+      e.forward();
     }
   }
   for (const auto& p : scenario_.perturbations) {

@@ -30,8 +30,8 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
   if (s.model.empty()) throw InputError(located(source, 0, "no model given (key 'model')"));
   for (auto& m : s.model) {
     if (m.file.empty()) throw InputError(located(source, 0, "a model entry has no 'file'"));
-    if (m.file.rfind("dart://", 0) != 0 && !std::filesystem::path(m.file).is_absolute() &&
-        !base_dir.empty()) {
+    if (m.file.rfind("dart://", 0) != 0 && m.file.rfind("mujoco://", 0) != 0 &&
+        !std::filesystem::path(m.file).is_absolute() && !base_dir.empty()) {
       auto candidate = std::filesystem::path(base_dir) / m.file;
       // paths relative to the YAML's folder, falling back to the working directory
       if (std::filesystem::exists(candidate) || !std::filesystem::exists(m.file))

@@ -43,6 +43,7 @@ class FakeEngine : public Engine {
   const JointInfo& joint(int) const override { return joint_; }
   int dof_joint(int) const override { return -1; }
   double body_mass(int) const override { return 0; }
+  int body_parent(int) const override { return -1; }
   double time() const override { return time_; }
   double timestep() const override { return dt_; }
   void set_timestep(double dt) override { dt_ = dt; }

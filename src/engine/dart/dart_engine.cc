@@ -19,7 +19,8 @@
 //    replay then differs in the last bits (the contact LCP sees a permuted problem). Models
 //    with other shapes keep the detector the file asks for.
 //  - MJCF through DART 6.12's MjcfParser: <option> timestep/gravity are read here (the parser
-//    ignores them), a missing <default> is supplied (the parser asserts on it), and
+//    ignores them), a missing <default> is supplied (the parser asserts on it), <freejoint/>
+//    becomes <joint type="free"/> (the parser skips the shorthand and welds the body), and
 //    <inertial> diaginertia/fullinertia/quat are applied (the parser leaves a unit moment).
 #include <tinyxml2.h>
 #include <dart/dart.hpp>
@@ -236,6 +237,21 @@ void collect_inertials(const std::string& shown_name, const tinyxml2::XMLElement
   }
 }
 
+// <freejoint/> (MuJoCo's shorthand) -> <joint type="free"/>, which DART 6.12's parser knows;
+// true when anything changed
+bool expand_freejoints(tinyxml2::XMLElement* parent) {
+  bool changed = false;
+  for (tinyxml2::XMLElement* e = parent->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    if (std::strcmp(e->Name(), "freejoint") == 0) {
+      e->SetName("joint");
+      e->SetAttribute("type", "free");
+      changed = true;
+    }
+    changed = expand_freejoints(e) || changed;
+  }
+  return changed;
+}
+
 // checks the XML (with line numbers in errors), reads <option>, and supplies <default/>
 MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& file) {
   tinyxml2::XMLDocument doc;
@@ -262,9 +278,13 @@ MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& f
   }
   if (const tinyxml2::XMLElement* worldbody = root->FirstChildElement("worldbody"))
     collect_inertials(shown_name, worldbody, out.inertials);
+  bool patched = expand_freejoints(doc.RootElement());
   if (!root->FirstChildElement("default")) {
     tinyxml2::XMLElement* fill = doc.NewElement("default");
     doc.RootElement()->InsertFirstChild(fill);
+    patched = true;
+  }
+  if (patched) {
     tinyxml2::XMLPrinter printer;
     doc.Print(&printer);
     out.patched_text = printer.CStr();
@@ -369,6 +389,12 @@ class DartEngine final : public Engine {
   const JointInfo& joint(int joint) const override { return joints_.at(joint); }
   int dof_joint(int dof) const override { return dof_joint_.at(dof); }
   double body_mass(int body) const override { return bodies_.at(body)->getMass(); }
+  int body_parent(int body) const override {
+    const BodyNode* parent = bodies_.at(body)->getParentBodyNode();
+    if (!parent) return -1;
+    auto it = body_of_node_.find(parent);
+    return it == body_of_node_.end() ? -1 : it->second;
+  }
 
   double time() const override { return world_->getTime(); }
   double timestep() const override { return world_->getTimeStep(); }

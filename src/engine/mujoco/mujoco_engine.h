@@ -39,6 +39,9 @@ class MujocoEngine final : public Engine {
   const JointInfo& joint(int j) const override { return joints_[j]; }
   int dof_joint(int dof) const override { return m_->dof_jntid[dof]; }
   double body_mass(int body) const override { return m_->body_mass[mobile_bodies_[body]]; }
+  int body_parent(int body) const override {
+    return mj_to_body_[m_->body_parentid[mobile_bodies_[body]]];
+  }
 
   double time() const override { return d_->time; }
   double timestep() const override { return m_->opt.timestep; }
