@@ -6,6 +6,7 @@
 #include "control/controller.h"
 #include "control/hold_pose_pd.h"
 #include "control/lqr.h"
+#include "control/mocap_retarget_tracker.h"
 #include "control/mocap_tracker.h"
 #include "control/simbicon.h"
 #include "control/skateboard_drive.h"
@@ -50,6 +51,8 @@ const std::vector<ControllerType>& controller_registry() {
        factory_of<Lqr, LqrParams>()},
       {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root",
        make_mocap_tracker},
+      {"mocap_retarget", "BVH tracking on any model through a YAML joint map (retargeting)",
+       make_mocap_retarget_tracker},
       {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
          return std::unique_ptr<Controller>(

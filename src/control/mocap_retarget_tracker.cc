@@ -1,0 +1,209 @@
+#include "control/mocap_retarget_tracker.h"
+
+#include <cmath>
+#include <filesystem>
+#include <numbers>
+
+#include <fmt/format.h>
+
+#include "core/error.h"
+#include "engine/engine.h"
+#include "math/rotations.h"
+
+namespace stance {
+
+namespace {
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+}
+
+std::unique_ptr<Controller> make_mocap_retarget_tracker(const YAML::Node& node,
+                                                        const ControllerContext& ctx,
+                                                        const Engine& engine) {
+  if (!ctx.scratch_engine)
+    throw InputError("mocap_retarget: needs a scratch engine of the model to probe it");
+  std::unique_ptr<Engine> probe = ctx.scratch_engine();
+  std::string dir = std::filesystem::path(ctx.source.file).parent_path().string();
+  return std::make_unique<MocapRetargetTracker>(read_params<MocapRetargetParams>(node, ctx), engine,
+                                                *probe, ctx.duration_s, dir);
+}
+
+MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params, const Engine& engine,
+                                           Engine& probe, double duration_s,
+                                           const std::string& base_dir)
+    : params_(params), mode_(parse_mocap_root_mode(params.mode)) {
+  if (probe.nq() != engine.nq() || probe.nv() != engine.nv())
+    throw InputError("mocap_retarget: the scratch engine is not the run's model");
+  clip_ = load_mocap_clip(params, base_dir);
+  if (params.joint_map.empty()) throw InputError("joint_map: a joint map file is required");
+  std::filesystem::path map_path(params.joint_map);
+  if (map_path.is_relative() && !base_dir.empty())
+    map_path = std::filesystem::path(base_dir) / map_path;
+  JointMap map = read_joint_map(map_path.string());
+  motion_ = std::make_shared<RetargetedMotion>(*clip_.reference, map, probe, duration_s);
+
+  // the root: the free joint above the body the clip's root is mapped onto
+  int top = -1;
+  for (const RetargetBody& b : motion_->bodies())
+    if (b.segment == 0) top = b.body;
+  while (engine.body_parent(top) >= 0) top = engine.body_parent(top);
+  root_body_ = top;
+  for (int j = 0; j < engine.njoint(); ++j)
+    if (engine.joint(j).body == top && engine.joint(j).type == JointType::kFree)
+      root_dof_ = engine.joint(j).dof_adr;
+
+  // gains: every dof but the root's; the root's in assisted mode
+  const int nv = engine.nv();
+  kp_ = Eigen::VectorXd::Constant(nv, params.kp);
+  kd_ = Eigen::VectorXd::Constant(nv, params.kd);
+  for (const auto& [name, value] : params.kp_joints) kp_[engine.require_dof(name)] = value;
+  for (const auto& [name, value] : params.kd_joints) kd_[engine.require_dof(name)] = value;
+  for (int i = root_dof_; i < root_dof_ + 6; ++i) {
+    const bool translation = engine.dof_name(i).find("_pos_") != std::string::npos;
+    const bool assisted = mode_ == MocapRootMode::kAssisted;
+    kp_[i] = assisted ? (translation ? params.root_kp : params.root_kp_rot) : 0;
+    kd_[i] = assisted ? (translation ? params.root_kd : params.root_kd_rot) : 0;
+  }
+}
+
+bool MocapRetargetTracker::initial_state(const Engine& engine, Eigen::VectorXd& qpos,
+                                         Eigen::VectorXd& qvel) const {
+  qpos.resize(engine.nq());
+  qvel.resize(engine.nv());
+  Eigen::VectorXd scratch(engine.nv());
+  motion_->sample(engine, 0, qpos, qvel, scratch);
+  return true;
+}
+
+bool MocapRetargetTracker::reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const {
+  qpos.resize(engine.nq());
+  Eigen::VectorXd v(engine.nv()), scratch(engine.nv());
+  motion_->sample(engine, engine.time(), qpos, v, scratch);
+  return true;
+}
+
+void MocapRetargetTracker::reset(const Engine& engine) {
+  const int nq = engine.nq(), nv = engine.nv();
+  for (Eigen::VectorXd* x : {&q_, &q_ref_}) x->setZero(nq);
+  for (Eigen::VectorXd* x : {&v_, &v_ref_, &tau_, &scratch_}) x->setZero(nv);
+  work_.resize(nq, nv);
+  ref_local_.assign(motion_->bodies().size(), Eigen::Quaterniond::Identity());
+  ref_position_.assign(motion_->bodies().size(), Eigen::Vector3d::Zero());
+  error_sum_deg_ = max_error_deg_ = last_error_deg_ = 0;
+  error_samples_ = 0;
+  root_error_sum_ = root_error_max_ = last_root_error_ = 0;
+  end_error_sum_ = end_error_max_ = 0;
+  steps_ = 0;
+  helper_impulse_ = helper_angular_impulse_ = 0;
+  fall_time_ = -1;
+  Eigen::Vector3d g = engine.gravity();
+  up_ = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
+  motion_->sample_bodies(0, ref_local_, ref_position_);
+  root_height0_ = 0;
+  for (size_t i = 0; i < motion_->bodies().size(); ++i)
+    if (motion_->bodies()[i].segment == 0) root_height0_ = up_.dot(ref_position_[i]);
+}
+
+void MocapRetargetTracker::accumulate_metrics(const Engine& engine) {
+  const double t = engine.time();
+  motion_->sample_bodies(t, ref_local_, ref_position_);
+  const auto& bodies = motion_->bodies();
+  double sum = 0;
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const int b = bodies[i].body;
+    const int p = engine.body_parent(b);
+    Eigen::Quaterniond local = engine.body_pose(b).quat;
+    if (p >= 0) local = engine.body_pose(p).quat.conjugate() * local;
+    double e = geodesic_angle(local, ref_local_[i]) * kRadToDeg;
+    if (bodies[i].segment == 0) {
+      double r = (engine.body_pose(b).pos - ref_position_[i]).norm();
+      last_root_error_ = r;
+      root_error_sum_ += r;
+      root_error_max_ = std::max(root_error_max_, r);
+      if (fall_time_ < 0 && up_.dot(engine.body_pose(b).pos) < 0.5 * up_.dot(ref_position_[i]))
+        fall_time_ = t;
+      continue;  // the root's orientation is the root's business, not a joint's
+    }
+    sum += e;
+    max_error_deg_ = std::max(max_error_deg_, e);
+  }
+  const int joints = static_cast<int>(bodies.size()) - 1;
+  if (joints > 0) {
+    error_sum_deg_ += sum;
+    error_samples_ += joints;
+    last_error_deg_ = sum / joints;
+  }
+  double ends = 0;
+  for (int i : motion_->end_bodies()) {
+    double e = (engine.body_pose(bodies[i].body).pos - ref_position_[i]).norm();
+    ends += e;
+    end_error_max_ = std::max(end_error_max_, e);
+  }
+  if (!motion_->end_bodies().empty()) end_error_sum_ += ends / motion_->end_bodies().size();
+}
+
+void MocapRetargetTracker::compute(const Engine& engine, ControlOutput& out) {
+  const double dt = engine.timestep();
+  engine.get_positions(q_);
+  engine.get_velocities(v_);
+  accumulate_metrics(engine);
+  motion_->sample(engine, engine.time() + dt, q_ref_, v_ref_, scratch_);
+  tau_.setZero();
+  if (mode_ == MocapRootMode::kKinematic) {
+    add_deadbeat_torques(engine, q_, v_, q_ref_, work_, tau_);
+  } else {
+    add_stable_pd_torques(engine, q_, v_, q_ref_, v_ref_, kp_, kd_, params_.max_torque, root_dof_,
+                          root_dof_ + 6, work_, tau_);
+    if (mode_ == MocapRootMode::kFree) tau_.segment<6>(root_dof_).setZero();
+  }
+  if (mode_ != MocapRootMode::kFree) {
+    double force = 0, torque = 0;
+    for (int i = root_dof_; i < root_dof_ + 6; ++i)
+      (engine.dof_name(i).find("_pos_") != std::string::npos ? force : torque) += tau_[i] * tau_[i];
+    helper_impulse_ += std::sqrt(force) * dt;
+    helper_angular_impulse_ += std::sqrt(torque) * dt;
+  }
+  out.tau += tau_;
+  ++steps_;
+}
+
+double MocapRetargetTracker::mean_joint_error_deg() const {
+  return error_samples_ ? error_sum_deg_ / error_samples_ : 0.0;
+}
+
+void MocapRetargetTracker::signal_names(std::vector<std::string>& names) const {
+  for (const char* s : {"mocap_joint_error_deg", "mocap_root_error_m"}) names.emplace_back(s);
+}
+
+void MocapRetargetTracker::signals(std::vector<double>& values) const {
+  values.push_back(last_error_deg_);
+  values.push_back(last_root_error_);
+}
+
+void MocapRetargetTracker::add_metrics(nlohmann::json& metrics) const {
+  const double steps = std::max<long>(steps_, 1);
+  nlohmann::json j;
+  j["mode"] = params_.mode;
+  j["mean_joint_error_deg"] = mean_joint_error_deg();
+  j["max_joint_error_deg"] = max_error_deg_;
+  j["mean_root_error_m"] = root_error_sum_ / steps;
+  j["max_root_error_m"] = root_error_max_;
+  j["mean_end_effector_error_m"] = end_error_sum_ / steps;
+  j["max_end_effector_error_m"] = end_error_max_;
+  j["map_fit_error_mean_deg"] = motion_->mean_fit_error_deg();
+  j["map_fit_error_max_deg"] = motion_->max_fit_error_deg();
+  j["map_yaw_deg"] = motion_->yaw_rad() * kRadToDeg;
+  j["map_scale"] = motion_->scale();
+  j["map_height_offset_m"] = motion_->height_offset_m();
+  // per pair: what the model's joints cannot express
+  nlohmann::json pairs = nlohmann::json::object();
+  for (size_t i = 0; i < motion_->bodies().size(); ++i)
+    pairs[motion_->bodies()[i].name] = motion_->body_fit_error_deg(static_cast<int>(i));
+  j["map_fit_error_deg"] = pairs;
+  j["helper_impulse_Ns"] = helper_impulse_;
+  j["helper_angular_impulse_Nms"] = helper_angular_impulse_;
+  j["root_fall_time_s"] = fall_time_ >= 0 ? nlohmann::json(fall_time_) : nlohmann::json(nullptr);
+  j["clip_duration_s"] = clip_.reference->duration_s();
+  metrics["mocap"] = j;
+}
+
+}  // namespace stance

@@ -1,0 +1,111 @@
+// Motion-capture tracking on an existing model: a BVH clip mapped onto the model's bodies by a
+// YAML joint-name map (motion/retarget.h), then tracked by stable PD with target velocities on
+// every dof, on MuJoCo or DART. The run starts on the clip's first mapped frame.
+//
+// Root modes as in mocap_tracker: kinematic (deadbeat inverse dynamics on every dof: the error
+// of the table's interpolation alone), assisted (root gains inside the SPD solve; the root's
+// share is the helper force, integrated into an impulse) and free (no root help; no balance
+// layer here: that needs a bvh2mjcf character, whose ball joints it servoes).
+//
+// Metrics: joint error (geodesic angle between each mapped body's rotation relative to its
+// parent body and the table's, deg), root position error, end error (mapped bodies with no
+// mapped body below them: feet, hands, head), the map's fit error (what the model's joints
+// cannot express), helper impulse and the time of fall.
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "control/controller.h"
+#include "control/mocap_tracker.h"
+#include "control/pose_tracking.h"
+#include "motion/retarget.h"
+
+namespace stance {
+
+struct MocapRetargetParams : MocapClipParams {
+  std::string joint_map;          // YAML map file; relative paths start at the scenario's folder
+  std::string mode = "assisted";  // kinematic, assisted or free
+  double kp = 300;                // N m/rad on every joint dof
+  double kd = 30;                 // N m s/rad
+  NamedValues kp_joints;          // per-dof kp (dof name)
+  NamedValues kd_joints;
+  double root_kp = 20000;     // assisted: N/m on the root position
+  double root_kd = 2000;      // N s/m
+  double root_kp_rot = 2000;  // N m/rad on the root orientation
+  double root_kd_rot = 200;   // N m s/rad
+  double max_torque = 0;      // N m clamp on joint torques; 0: none
+
+  template <class V>
+  void visit(V& v) {
+    MocapClipParams::visit(v);
+    v("joint_map", joint_map, {.help = "YAML map: clip joint -> model body"});
+    v("mode", mode, {.help = "kinematic, assisted or free"});
+    v("kp", kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
+    v("kd", kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
+    v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-dof kp"});
+    v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-dof kd"});
+    v("root_kp", root_kp, {.unit = "N/m", .min = 0, .max = 1e8, .help = "assisted mode"});
+    v("root_kd", root_kd, {.unit = "N s/m", .min = 0, .max = 1e7});
+    v("root_kp_rot", root_kp_rot, {.unit = "N m/rad", .min = 0, .max = 1e8});
+    v("root_kd_rot", root_kd_rot, {.unit = "N m s/rad", .min = 0, .max = 1e7});
+    v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
+  }
+};
+
+class MocapRetargetTracker final : public Controller {
+ public:
+  // `probe`: a scratch engine of the same model, overwritten while the table is built;
+  // duration_s: how long the table must run (looping clips)
+  MocapRetargetTracker(const MocapRetargetParams& params, const Engine& engine, Engine& probe,
+                       double duration_s, const std::string& base_dir = "");
+  std::string_view type() const override { return "mocap_retarget"; }
+  void reset(const Engine& engine) override;
+  void compute(const Engine& engine, ControlOutput& out) override;
+  void signal_names(std::vector<std::string>& names) const override;
+  void signals(std::vector<double>& values) const override;
+  void add_metrics(nlohmann::json& metrics) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
+  bool reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const override;
+  bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
+                     Eigen::VectorXd& qvel) const override;
+
+  const RetargetedMotion& motion() const { return *motion_; }
+  double mean_joint_error_deg() const;
+  double helper_impulse_ns() const { return helper_impulse_; }
+  std::optional<double> fall_time() const {
+    return fall_time_ >= 0 ? std::optional<double>(fall_time_) : std::nullopt;
+  }
+
+ private:
+  void accumulate_metrics(const Engine& engine);
+
+  // the immutable part
+  MocapRetargetParams params_;
+  MocapRootMode mode_ = MocapRootMode::kAssisted;
+  MocapClip clip_;
+  std::shared_ptr<const RetargetedMotion> motion_;
+  int root_body_ = -1, root_dof_ = -1;
+  Eigen::VectorXd kp_, kd_;
+  // per-run state
+  Eigen::VectorXd q_, v_, q_ref_, v_ref_, tau_, scratch_;
+  PoseTrackingWork work_;
+  std::vector<Eigen::Quaterniond> ref_local_;
+  std::vector<Eigen::Vector3d> ref_position_;
+  double error_sum_deg_ = 0, max_error_deg_ = 0, last_error_deg_ = 0;
+  long error_samples_ = 0;
+  double root_error_sum_ = 0, root_error_max_ = 0, last_root_error_ = 0;
+  double end_error_sum_ = 0, end_error_max_ = 0;
+  long steps_ = 0;
+  double helper_impulse_ = 0, helper_angular_impulse_ = 0;
+  double fall_time_ = -1;
+  double root_height0_ = 0;
+  Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
+};
+
+std::unique_ptr<Controller> make_mocap_retarget_tracker(const YAML::Node& node,
+                                                        const ControllerContext& ctx,
+                                                        const Engine& engine);
+
+}  // namespace stance

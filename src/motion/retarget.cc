@@ -1,0 +1,598 @@
+#include "motion/retarget.h"
+
+#include <algorithm>
+#include <cmath>
+#include <numbers>
+
+#include <fmt/format.h>
+#include <Eigen/Dense>
+
+#include "core/error.h"
+#include "engine/engine.h"
+#include "math/rotations.h"
+
+namespace stance {
+
+namespace {
+
+constexpr double kProbeAngle = 0.5;  // rad; rotations about one axis are probed exactly
+constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+
+std::string scalar_of(const YAML::Node& node, const std::string& source, const char* key) {
+  if (!node.IsScalar())
+    throw InputError(
+        located(source, node.Mark().line + 1, fmt::format("{}: expected a value", key)));
+  return node.Scalar();
+}
+
+double number_of(const YAML::Node& node, const std::string& source, const char* key) {
+  std::string text = scalar_of(node, source, key);
+  try {
+    size_t used = 0;
+    double x = std::stod(text, &used);
+    if (used == text.size() && std::isfinite(x)) return x;
+  } catch (const std::exception&) {
+  }
+  throw InputError(located(source, node.Mark().line + 1,
+                           fmt::format("{}: expected a number, found '{}'", key, text)));
+}
+
+// one joint of a model body, with what probing found out about it
+struct JointSlot {
+  JointType type = JointType::kHinge;
+  int qpos = -1, nq = 0;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();      // hinge, in the body frame
+  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();  // ball/free: local = T Q T^T
+  bool limited = false;
+  double lower = 0, upper = 0;
+};
+
+struct ModelBody {
+  int parent = -1;
+  std::vector<JointSlot> joints;
+  Eigen::Quaterniond rest_world = Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond rest_local = Eigen::Quaterniond::Identity();  // B: parent^T * body at rest
+  Eigen::Vector3d rest_pos = Eigen::Vector3d::Zero();
+  int mapped = -1;  // index into the map's entries
+  int depth = 0;
+};
+
+// the rotation part of a ball or free joint in the engine's coordinates: MuJoCo stores a
+// quaternion (w x y z; free: after the position), DART a rotation vector (free: before it)
+void set_joint_rotation(const JointSlot& j, const Eigen::Quaterniond& r, Eigen::VectorXd& q) {
+  if (j.nq == 4 || j.nq == 7) {
+    int a = j.qpos + (j.nq == 7 ? 3 : 0);
+    // the sign nearest the previous value keeps the table continuous
+    const double s = r.w() * q[a] + r.x() * q[a + 1] + r.y() * q[a + 2] + r.z() * q[a + 3];
+    if (s < 0) {
+      q[a] = -r.w();
+      q[a + 1] = -r.x();
+      q[a + 2] = -r.y();
+      q[a + 3] = -r.z();
+      return;
+    }
+    q[a] = r.w();
+    q[a + 1] = r.x();
+    q[a + 2] = r.y();
+    q[a + 3] = r.z();
+  } else {
+    q.segment<3>(j.qpos) = quaternion_log(r);
+  }
+}
+
+template <class Q>
+void set_joint_translation(const JointSlot& j, const Eigen::Vector3d& p, Q& q) {
+  q.template segment<3>(j.qpos + (j.nq == 7 ? 0 : 3)) = p;
+}
+
+template <class Q>
+Eigen::Vector3d frame_translation(const JointSlot& j, const Q& q) {
+  return q.template segment<3>(j.qpos + (j.nq == 7 ? 0 : 3));
+}
+
+// the rotation of a body's hinge chain: the product of its hinges in joint order
+Eigen::Quaterniond hinge_rotation(const std::vector<JointSlot>& joints, const double* angles) {
+  Eigen::Quaterniond r = Eigen::Quaterniond::Identity();
+  int k = 0;
+  for (const JointSlot& j : joints)
+    if (j.type == JointType::kHinge)
+      r = r * Eigen::Quaterniond(Eigen::AngleAxisd(angles[k++], j.axis));
+  return r;
+}
+
+// hinge angles whose product is closest to `want` (Gauss-Newton from `angles`, then limits)
+void solve_hinges(const std::vector<JointSlot>& joints, const Eigen::Quaterniond& want,
+                  double* angles, int n) {
+  Eigen::MatrixXd jac(3, n);
+  Eigen::VectorXd step(n);
+  for (int iter = 0; iter < 20; ++iter) {
+    Eigen::Vector3d r = quaternion_log(want.conjugate() * hinge_rotation(joints, angles));
+    if (r.norm() < 1e-12) break;
+    const double h = 1e-7;
+    for (int k = 0; k < n; ++k) {
+      angles[k] += h;
+      jac.col(k) = (quaternion_log(want.conjugate() * hinge_rotation(joints, angles)) - r) / h;
+      angles[k] -= h;
+    }
+    Eigen::MatrixXd jtj = jac.transpose() * jac;
+    jtj.diagonal().array() += 1e-9;
+    step = jtj.ldlt().solve(jac.transpose() * r);
+    double max_step = step.cwiseAbs().maxCoeff();
+    if (max_step > 0.5) step *= 0.5 / max_step;  // stay in the basin across the wrap
+    for (int k = 0; k < n; ++k) angles[k] -= step[k];
+    if (max_step < 1e-12) break;
+  }
+  int k = 0;
+  for (const JointSlot& j : joints) {
+    if (j.type != JointType::kHinge) continue;
+    if (j.limited && j.lower < j.upper) angles[k] = std::clamp(angles[k], j.lower, j.upper);
+    ++k;
+  }
+}
+
+// a rotation probed about one axis: the rotation vector of before^T * after, per radian
+Eigen::Vector3d probed_axis(const Eigen::Quaterniond& before, const Eigen::Quaterniond& after) {
+  return quaternion_log((before.conjugate() * after).normalized()) / kProbeAngle;
+}
+
+}  // namespace
+
+JointMap parse_joint_map(const YAML::Node& node, const std::string& source) {
+  JointMap map;
+  map.source = source;
+  if (!node.IsMap())
+    throw InputError(located(source, node.Mark().line + 1, "expected a map with a 'joints' entry"));
+  for (const auto& kv : node) {
+    const std::string key = kv.first.Scalar();
+    const YAML::Node& value = kv.second;
+    if (key == "joints") {
+      if (!value.IsMap())
+        throw InputError(located(source, value.Mark().line + 1,
+                                 "joints: expected a map of clip joint: model body"));
+      for (const auto& pair : value)
+        map.joints.push_back({pair.first.Scalar(), scalar_of(pair.second, source, "joints"),
+                              pair.first.Mark().line + 1});
+    } else if (key == "model_up") {
+      std::string up = scalar_of(value, source, "model_up");
+      if (up != "y" && up != "z")
+        throw InputError(located(source, value.Mark().line + 1,
+                                 fmt::format("model_up: expected y or z, found '{}'", up)));
+      map.model_up = up[0];
+    } else if (key == "yaw_deg") {
+      if (scalar_of(value, source, "yaw_deg") != "auto")
+        map.yaw_deg = number_of(value, source, "yaw_deg");
+    } else if (key == "scale") {
+      if (scalar_of(value, source, "scale") != "auto") {
+        map.scale = number_of(value, source, "scale");
+        if (*map.scale <= 0)
+          throw InputError(located(source, value.Mark().line + 1, "scale: must be positive"));
+      }
+    } else if (key == "height_offset") {
+      if (scalar_of(value, source, "height_offset") != "auto")
+        map.height_offset_m = number_of(value, source, "height_offset");
+    } else if (key == "align_bones") {
+      std::string b = scalar_of(value, source, "align_bones");
+      if (b != "true" && b != "false")
+        throw InputError(
+            located(source, value.Mark().line + 1,
+                    fmt::format("align_bones: expected true or false, found '{}'", b)));
+      map.align_bones = b == "true";
+    } else {
+      throw InputError(
+          located(source, kv.first.Mark().line + 1,
+                  fmt::format("unknown key '{}'{}", key,
+                              did_you_mean(key, {"joints", "model_up", "yaw_deg", "scale",
+                                                 "height_offset", "align_bones"}))));
+    }
+  }
+  if (map.joints.empty())
+    throw InputError(located(source, node.Mark().line + 1, "joints: the map pairs no joints"));
+  return map;
+}
+
+JointMap read_joint_map(const std::string& path) {
+  YAML::Node node;
+  try {
+    node = YAML::LoadFile(path);
+  } catch (const YAML::BadFile&) {
+    throw InputError(path + ": cannot read the joint map");
+  } catch (const YAML::ParserException& e) {
+    throw InputError(located(path, e.mark.line + 1, e.msg));
+  }
+  return parse_joint_map(node, path);
+}
+
+RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const JointMap& map,
+                                   Engine& probe, double duration_s) {
+  const MotionSkeleton& sk = reference.skeleton();
+  const int nb = probe.nbody();
+  nq_ = probe.nq();
+  nv_ = probe.nv();
+  frame_time_ = reference.frame_time_s();
+
+  // the model's tree and joints
+  std::vector<ModelBody> model(nb);
+  for (int b = 0; b < nb; ++b) model[b].parent = probe.body_parent(b);
+  for (int j = 0; j < probe.njoint(); ++j) {
+    const JointInfo& info = probe.joint(j);
+    if (info.body < 0) continue;
+    JointSlot slot;
+    slot.type = info.type;
+    slot.qpos = info.qpos_adr;
+    slot.nq = info.nq;
+    slot.limited = info.has_limits;
+    slot.lower = info.lower;
+    slot.upper = info.upper;
+    model[info.body].joints.push_back(slot);
+  }
+  for (int b = 0; b < nb; ++b)
+    for (int a = model[b].parent; a >= 0; a = model[a].parent) ++model[b].depth;
+
+  // the map's entries, resolved
+  std::vector<int> segment_body(sk.segment_count(), -1);
+  for (size_t e = 0; e < map.joints.size(); ++e) {
+    const JointMapEntry& entry = map.joints[e];
+    auto where = [&](const std::string& msg) { return located(map.source, entry.line, msg); };
+    int s = sk.find_segment(entry.segment);
+    if (s < 0) {
+      std::vector<std::string> names;
+      for (const auto& seg : sk.segments) names.push_back(seg.name);
+      throw InputError(where(fmt::format("the clip has no joint '{}'{}", entry.segment,
+                                         did_you_mean(entry.segment, names))));
+    }
+    int b = probe.body_index(entry.body);
+    if (b < 0)
+      throw InputError(where(fmt::format("the model has no body '{}'{}", entry.body,
+                                         did_you_mean(entry.body, probe.body_names()))));
+    if (segment_body[s] >= 0)
+      throw InputError(where(fmt::format("clip joint '{}' is mapped twice", entry.segment)));
+    if (model[b].mapped >= 0)
+      throw InputError(where(fmt::format("model body '{}' is mapped twice", entry.body)));
+    segment_body[s] = b;
+    model[b].mapped = static_cast<int>(e);
+    bodies_.push_back({b, s, entry.segment + " -> " + entry.body});
+  }
+  const int root_body = segment_body[0];
+  if (root_body < 0)
+    throw InputError(located(
+        map.source, 1,
+        fmt::format("joints: map the clip's root '{}' onto a model body", sk.segments[0].name)));
+  // the character's free joint: at the top of the root body's tree
+  int free_body = root_body;
+  while (model[free_body].parent >= 0) free_body = model[free_body].parent;
+  const JointSlot* free_joint = nullptr;
+  for (const JointSlot& j : model[free_body].joints)
+    if (j.type == JointType::kFree) free_joint = &j;
+  if (!free_joint)
+    throw InputError(located(map.source, 1,
+                             fmt::format("the model's body '{}' has no free joint: retargeting "
+                                         "needs a floating base",
+                                         probe.body_name(free_body))));
+  std::vector<int> order;  // the character's bodies, parents first
+  for (int b = 0; b < nb; ++b) {
+    int top = b;
+    while (model[top].parent >= 0) top = model[top].parent;
+    if (top == free_body) order.push_back(b);
+  }
+  std::stable_sort(order.begin(), order.end(),
+                   [&](int a, int b) { return model[a].depth < model[b].depth; });
+  for (const RetargetBody& rb : bodies_)
+    if (std::find(order.begin(), order.end(), rb.body) == order.end())
+      throw InputError(located(map.source, map.joints[model[rb.body].mapped].line,
+                               fmt::format("body '{}' is not part of the character under '{}'",
+                                           probe.body_name(rb.body), probe.body_name(free_body))));
+
+  // the zero pose: hinges and slides 0, balls and the free joint at identity, root at origin
+  Eigen::VectorXd q0(nq_);
+  probe.get_positions(q0);
+  for (int b : order)
+    for (const JointSlot& j : model[b].joints) {
+      if (j.type == JointType::kHinge || j.type == JointType::kSlide) q0[j.qpos] = 0;
+      if (j.type == JointType::kBall || j.type == JointType::kFree)
+        set_joint_rotation(j, Eigen::Quaterniond::Identity(), q0);
+      if (j.type == JointType::kFree) set_joint_translation(j, Eigen::Vector3d::Zero(), q0);
+    }
+  Eigen::VectorXd qv = Eigen::VectorXd::Zero(nv_);
+  auto pose_at = [&](const Eigen::VectorXd& q) {
+    probe.set_positions(q);
+    probe.set_velocities(qv);
+    probe.forward();
+  };
+  pose_at(q0);
+  for (int b : order) {
+    BodyPose p = probe.body_pose(b);
+    model[b].rest_world = p.quat;
+    model[b].rest_pos = p.pos;
+  }
+  for (int b : order) {
+    Eigen::Quaterniond parent =
+        model[b].parent >= 0 ? model[model[b].parent].rest_world : Eigen::Quaterniond::Identity();
+    model[b].rest_local = (parent.conjugate() * model[b].rest_world).normalized();
+  }
+  // probe hinge axes and ball/free frames, one coordinate at a time from the zero pose
+  Eigen::VectorXd qp(nq_);
+  for (int b : order)
+    for (JointSlot& j : model[b].joints) {
+      if (j.type == JointType::kHinge) {
+        qp = q0;
+        qp[j.qpos] = kProbeAngle;
+        pose_at(qp);
+        j.axis = probed_axis(model[b].rest_world, probe.body_pose(b).quat);
+        if (std::abs(j.axis.norm() - 1) > 1e-6)
+          throw InputError(fmt::format("retarget: cannot probe the axis of a hinge of body '{}'",
+                                       probe.body_name(b)));
+        j.axis.normalize();
+      } else if (j.type == JointType::kBall || j.type == JointType::kFree) {
+        for (int c = 0; c < 3; ++c) {
+          qp = q0;
+          set_joint_rotation(
+              j, Eigen::Quaterniond(Eigen::AngleAxisd(kProbeAngle, Eigen::Vector3d::Unit(c))), qp);
+          pose_at(qp);
+          j.frame.col(c) = probed_axis(model[b].rest_world, probe.body_pose(b).quat);
+        }
+        if ((j.frame.transpose() * j.frame - Eigen::Matrix3d::Identity()).norm() > 1e-6)
+          throw InputError(fmt::format("retarget: cannot probe the frame of the joint of body '{}'",
+                                       probe.body_name(b)));
+      }
+    }
+  // the free joint's translation: linear in its coordinates
+  Eigen::Matrix3d translation_map;
+  for (int c = 0; c < 3; ++c) {
+    qp = q0;
+    set_joint_translation(*free_joint, Eigen::Vector3d::Unit(c), qp);
+    pose_at(qp);
+    translation_map.col(c) = probe.body_pose(free_body).pos - model[free_body].rest_pos;
+  }
+  if (std::abs(translation_map.determinant()) < 1e-9)
+    throw InputError("retarget: the free joint's translation could not be probed");
+  const Eigen::Matrix3d translation_inverse = translation_map.inverse();
+
+  // clip -> model world: the up axis, then a yaw and scale from the rest skeletons
+  const Eigen::Quaterniond up_turn =
+      map.model_up == 'y'
+          ? Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitX()))
+          : Eigen::Quaterniond::Identity();
+  const Eigen::Vector3d up = up_turn * Eigen::Vector3d::UnitZ();
+  ReferencePose pose = reference.make_pose();
+  for (auto& r : pose.rotations) r.setIdentity();
+  pose.root_position.setZero();
+  std::vector<Eigen::Vector3d> clip_pos(sk.segment_count());
+  std::vector<Eigen::Quaterniond> clip_rot(sk.segment_count());
+  reference.forward_kinematics(pose, clip_pos, clip_rot);
+  const std::vector<Eigen::Vector3d> clip_rest = clip_pos;
+  double cross = 0, dot = 0, clip_lo = 1e300, clip_hi = -1e300, model_lo = 1e300, model_hi = -1e300;
+  for (const RetargetBody& rb : bodies_) {
+    Eigen::Vector3d rs = clip_rest[rb.segment] - clip_rest[0];
+    Eigen::Vector3d rm =
+        up_turn.conjugate() * (model[rb.body].rest_pos - model[root_body].rest_pos);
+    cross += rs.x() * rm.y() - rs.y() * rm.x();
+    dot += rs.x() * rm.x() + rs.y() * rm.y();
+    clip_lo = std::min(clip_lo, rs.z());
+    clip_hi = std::max(clip_hi, rs.z());
+    model_lo = std::min(model_lo, rm.z());
+    model_hi = std::max(model_hi, rm.z());
+  }
+  yaw_ = map.yaw_deg ? *map.yaw_deg / kRadToDeg
+                     : (cross == 0 && dot == 0 ? 0 : std::atan2(cross, dot));
+  scale_ = map.scale ? *map.scale
+                     : (clip_hi - clip_lo > 1e-6 && model_hi - model_lo > 1e-6
+                            ? (model_hi - model_lo) / (clip_hi - clip_lo)
+                            : 1.0);
+  const Eigen::Quaterniond to_model =
+      up_turn * Eigen::Quaterniond(Eigen::AngleAxisd(yaw_, Eigen::Vector3d::UnitZ()));
+
+  // rest-pose correction: a body with one mapped child bone turns onto the clip's bone
+  const int nmapped = static_cast<int>(bodies_.size());
+  std::vector<Eigen::Quaterniond> bone_fix(nmapped, Eigen::Quaterniond::Identity());
+  if (map.align_bones) {
+    std::vector<int> mapped_of_segment(sk.segment_count(), -1);
+    for (int i = 0; i < nmapped; ++i) mapped_of_segment[bodies_[i].segment] = i;
+    std::vector<std::vector<int>> mapped_children(nmapped);
+    for (int i = 0; i < nmapped; ++i)
+      for (int a = sk.segments[bodies_[i].segment].parent; a >= 0; a = sk.segments[a].parent)
+        if (mapped_of_segment[a] >= 0) {
+          mapped_children[mapped_of_segment[a]].push_back(i);
+          break;
+        }
+    for (int i = 0; i < nmapped; ++i) {
+      const RetargetBody& rb = bodies_[i];
+      if (rb.segment == 0) continue;
+      // the bone: towards the one mapped child (leaves keep their rest offset: a one-hinge
+      // elbow cannot take a forearm turned onto the clip's)
+      Eigen::Vector3d bone_clip = Eigen::Vector3d::Zero(), bone_model = Eigen::Vector3d::Zero();
+      if (mapped_children[i].size() == 1) {
+        const RetargetBody& child = bodies_[mapped_children[i][0]];
+        bone_clip = clip_rest[child.segment] - clip_rest[rb.segment];
+        bone_model = model[child.body].rest_pos - model[rb.body].rest_pos;
+      }
+      bone_model = to_model.conjugate() * bone_model;
+      if (bone_clip.norm() > 1e-6 && bone_model.norm() > 1e-6)
+        bone_fix[i] = Eigen::Quaterniond::FromTwoVectors(bone_model, bone_clip);
+    }
+  }
+
+  // the table: one pose per clip frame over the run (at least one pass)
+  int frames = reference.frame_count();
+  if (reference.loops() && duration_s > 0) {
+    if (duration_s > 3600)
+      throw InputError("retarget: runs longer than an hour are not tabulated; shorten duration");
+    frames = std::max(frames, static_cast<int>(std::ceil(duration_s / frame_time_)) + 2);
+  }
+  frames_ = std::max(frames, 2);
+  q_.resize(static_cast<size_t>(frames_) * nq_);
+  local_.resize(static_cast<size_t>(frames_) * nmapped);
+  position_.resize(static_cast<size_t>(frames_) * nmapped);
+  std::vector<Eigen::Quaterniond> want(nb), actual(nb);
+  body_fit_error_.assign(nmapped, 0.0);
+  std::vector<double> angles(8);
+  Eigen::VectorXd q = q0;
+  double fit_sum = 0;
+  long fit_count = 0;
+  for (int f = 0; f < frames_; ++f) {
+    reference.sample(f * frame_time_, pose);
+    reference.forward_kinematics(pose, clip_pos, clip_rot);
+    for (int i = 0; i < nmapped; ++i) {
+      const RetargetBody& rb = bodies_[i];
+      want[rb.body] = to_model * clip_rot[rb.segment] * bone_fix[i] * to_model.conjugate() *
+                      model[rb.body].rest_world;
+    }
+    for (int b : order) {
+      const ModelBody& mb = model[b];
+      const Eigen::Quaterniond parent =
+          mb.parent >= 0 ? actual[mb.parent] : Eigen::Quaterniond::Identity();
+      const Eigen::Quaterniond base = parent * mb.rest_local;
+      Eigen::Quaterniond target = base;  // unmapped: joints at zero
+      if (mb.mapped >= 0) {
+        target = want[b];
+      } else if (b == free_body) {
+        // an unmapped floating body follows the mapped body nearest below it, rigidly
+        for (int i = 0; i < nmapped; ++i) {
+          int a = bodies_[i].body;
+          while (a >= 0 && a != b) a = model[a].parent;
+          if (a == b) {
+            target = want[bodies_[i].body] * model[bodies_[i].body].rest_world.conjugate() *
+                     mb.rest_world;
+            break;
+          }
+        }
+      }
+      const Eigen::Quaterniond local_want = (base.conjugate() * target).normalized();
+      Eigen::Quaterniond local = Eigen::Quaterniond::Identity();
+      int hinges = 0;
+      for (const JointSlot& j : mb.joints) hinges += j.type == JointType::kHinge;
+      if (hinges > 0) {
+        if (static_cast<int>(angles.size()) < hinges) angles.resize(hinges);
+        int k = 0;
+        for (const JointSlot& j : mb.joints)
+          if (j.type == JointType::kHinge) angles[k++] = f > 0 ? q[j.qpos] : 0.0;
+        if (mb.mapped >= 0) solve_hinges(mb.joints, local_want, angles.data(), hinges);
+        k = 0;
+        for (const JointSlot& j : mb.joints)
+          if (j.type == JointType::kHinge) q[j.qpos] = angles[k++];
+        local = hinge_rotation(mb.joints, angles.data());
+      }
+      for (const JointSlot& j : mb.joints)
+        if (j.type == JointType::kBall || j.type == JointType::kFree) {
+          Eigen::Matrix3d t = j.frame;
+          Eigen::Quaterniond joint_q(t.transpose() * local_want.toRotationMatrix() * t);
+          set_joint_rotation(j, joint_q.normalized(), q);
+          local = local_want;
+        }
+      actual[b] = (base * local).normalized();
+      if (mb.mapped >= 0) {
+        double e = geodesic_angle(actual[b], want[b]) * kRadToDeg;
+        body_fit_error_[mb.mapped] += e / frames_;
+        fit_sum += e;
+        ++fit_count;
+        fit_error_max_ = std::max(fit_error_max_, e);
+      }
+    }
+    // the root: put the clip root's body where the scaled clip root is
+    set_joint_translation(*free_joint, Eigen::Vector3d::Zero(), q);
+    pose_at(q);
+    const Eigen::Vector3d at = probe.body_pose(root_body).pos;
+    const Eigen::Vector3d goal =
+        to_model * (scale_ * pose.root_position) + up * map.height_offset_m.value_or(0.0);
+    set_joint_translation(*free_joint, translation_inverse * (goal - at), q);
+    Eigen::Map<Eigen::VectorXd>(q_.data() + static_cast<size_t>(f) * nq_, nq_) = q;
+    for (int i = 0; i < nmapped; ++i) {
+      const int b = bodies_[i].body;
+      const int p = model[b].parent;
+      local_[static_cast<size_t>(f) * nmapped + i] =
+          p >= 0 ? (actual[p].conjugate() * actual[b]).normalized() : actual[b];
+      position_[static_cast<size_t>(f) * nmapped + i] = probe.body_pose(b).pos + (goal - at);
+    }
+  }
+  fit_error_mean_ = fit_count ? fit_sum / fit_count : 0;
+
+  // ground: shift the whole table along up until the first frame's lowest point just touches
+  // the floor (bisection on contacts with static geometry after one step from rest)
+  height_offset_ = map.height_offset_m.value_or(0.0);
+  if (!map.height_offset_m) {
+    auto shifted = [&](double shift, Eigen::VectorXd& out) {
+      out = frame(0);
+      set_joint_translation(
+          *free_joint, frame_translation(*free_joint, out) + translation_inverse * (shift * up),
+          out);
+    };
+    auto touches = [&](double shift) {
+      shifted(shift, qp);
+      pose_at(qp);
+      probe.step();
+      for (int i = 0; i < probe.num_contacts(); ++i) {
+        Contact c = probe.contact(i);
+        if (c.body1 < 0 || c.body2 < 0) return true;
+      }
+      return false;
+    };
+    double lo = -0.5, hi = 0.5;  // m: touching at lo, clear at hi
+    if (touches(lo) && !touches(hi)) {
+      for (int i = 0; i < 40; ++i) {
+        double mid = 0.5 * (lo + hi);
+        (touches(mid) ? lo : hi) = mid;
+      }
+      height_offset_ = hi;
+      for (int f = 0; f < frames_; ++f) {
+        Eigen::Map<Eigen::VectorXd> qf(q_.data() + static_cast<size_t>(f) * nq_, nq_);
+        set_joint_translation(
+            *free_joint, frame_translation(*free_joint, qf) + translation_inverse * (hi * up), qf);
+        for (int i = 0; i < nmapped; ++i)
+          position_[static_cast<size_t>(f) * nmapped + i] += hi * up;
+      }
+    }
+  }
+
+  // velocities: central differences in the engine's own tangent space
+  v_.resize(static_cast<size_t>(frames_) * nv_);
+  Eigen::VectorXd dv(nv_);
+  for (int f = 0; f < frames_; ++f) {
+    int a = std::max(f - 1, 0), b = std::min(f + 1, frames_ - 1);
+    probe.difference_positions(frame(a), frame(b), dv);
+    Eigen::Map<Eigen::VectorXd>(v_.data() + static_cast<size_t>(f) * nv_, nv_) =
+        dv / ((b - a) * frame_time_);
+  }
+  // ends of the character: mapped bodies with no mapped body below them
+  for (int i = 0; i < nmapped; ++i) {
+    bool leaf = true;
+    for (int k = 0; k < nmapped; ++k)
+      for (int a = model[bodies_[k].body].parent; a >= 0 && k != i; a = model[a].parent)
+        if (a == bodies_[i].body) leaf = false;
+    if (leaf) end_bodies_.push_back(i);
+  }
+  probe.set_positions(frame(0));
+  probe.forward();
+}
+
+void RetargetedMotion::locate(double t, int& f, double& alpha) const {
+  double x = std::max(t, 0.0) / frame_time_;
+  f = std::min(static_cast<int>(x), frames_ - 2);
+  alpha = std::clamp(x - f, 0.0, 1.0);
+}
+
+void RetargetedMotion::sample(const Engine& engine, double t, Eigen::Ref<Eigen::VectorXd> q,
+                              Eigen::Ref<Eigen::VectorXd> v,
+                              Eigen::Ref<Eigen::VectorXd> scratch) const {
+  int f;
+  double alpha;
+  locate(t, f, alpha);
+  engine.difference_positions(frame(f), frame(f + 1), scratch);
+  engine.integrate_positions(frame(f), scratch, alpha, q);
+  Eigen::Map<const Eigen::VectorXd> v0(v_.data() + static_cast<size_t>(f) * nv_, nv_);
+  Eigen::Map<const Eigen::VectorXd> v1(v_.data() + static_cast<size_t>(f + 1) * nv_, nv_);
+  v = (1 - alpha) * v0 + alpha * v1;
+}
+
+void RetargetedMotion::sample_bodies(double t, std::vector<Eigen::Quaterniond>& local,
+                                     std::vector<Eigen::Vector3d>& position) const {
+  int f;
+  double alpha;
+  locate(t, f, alpha);
+  const size_t n = bodies_.size();
+  for (size_t i = 0; i < n; ++i) {
+    size_t a = static_cast<size_t>(f) * n + i, b = a + n;
+    local[i] = slerp(local_[a], local_[b], alpha);
+    position[i] = (1 - alpha) * position_[a] + alpha * position_[b];
+  }
+}
+
+}  // namespace stance

@@ -1,0 +1,118 @@
+// A BVH clip mapped onto an existing model through a YAML joint-name map (retargeting), for
+// models not built by `stance bvh2mjcf`: MuJoCo's humanoid.xml, DART's fullbody1, your robot.
+//
+// The map pairs clip segments with model bodies. Each mapped body is turned the way its segment
+// turns away from the rest pose, in the world:
+//     R_b(t) = M W_s(t) A_s M^T R_b(rest)
+// with W_s the segment's world rotation (rest = identity, Z-up), M the rotation from the clip's
+// Z-up world to the model's world (its up axis and a yaw, found by aligning the two rest
+// skeletons), and A_s a rest-pose correction that turns the model's bone onto the clip's bone
+// direction (a model standing with its arms down then follows a clip recorded from a T-pose).
+// Bodies are solved from the root down, each relative to its parent as actually posed, so a
+// joint that cannot reach its target (a knee hinge asked to twist) leaves the error to be
+// corrected by the bodies below. Hinge chains are solved by Gauss-Newton (continued from the
+// previous frame), ball and free joints exactly; unmapped joints stay at zero.
+//
+// Everything about the model comes from probing a scratch engine (body tree, hinge axes, ball
+// and free joint frames, translation directions), so the same map works on MuJoCo and DART.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <yaml-cpp/yaml.h>
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include "motion/reference_motion.h"
+
+namespace stance {
+
+class Engine;
+
+struct JointMapEntry {
+  std::string segment;  // clip joint (a MotionSkeleton segment)
+  std::string body;     // model body
+  int line = 0;         // in the map file, for messages
+};
+
+struct JointMap {
+  std::string source;  // file name, for messages
+  std::vector<JointMapEntry> joints;
+  char model_up = 'z';            // the model's up axis: 'z' (MuJoCo) or 'y' (DART .skel)
+  std::optional<double> yaw_deg;  // clip -> model yaw about up; empty: aligned automatically
+  std::optional<double> scale;    // model length per clip metre; empty: ratio of heights
+  // added to the root along up; empty: found so that the model's lowest point touches the
+  // floor in the first frame (the clip's ankles and the model's differ in height above the sole)
+  std::optional<double> height_offset_m;
+  bool align_bones = true;  // rest-pose correction A_s
+};
+
+// throws InputError naming the file and line
+JointMap parse_joint_map(const YAML::Node& node, const std::string& source);
+JointMap read_joint_map(const std::string& path);
+
+// per mapped body: the joint rotation's dofs, for error metrics
+struct RetargetBody {
+  int body = -1;     // engine body
+  int segment = -1;  // clip segment
+  std::string name;  // "segment -> body"
+};
+
+class RetargetedMotion {
+ public:
+  // Builds the model's pose table at the clip's frame rate over [0, duration_s] (at least one
+  // pass of the clip; the reference loops or clamps). `probe` is a scratch engine of the model:
+  // its state is overwritten. Throws InputError for unknown names, a root segment that is not
+  // mapped, or a model without a free root.
+  RetargetedMotion(const ReferenceMotion& reference, const JointMap& map, Engine& probe,
+                   double duration_s);
+
+  int nq() const { return nq_; }
+  int nv() const { return nv_; }
+  int frame_count() const { return frames_; }
+  double frame_time_s() const { return frame_time_; }
+  double duration_s() const { return (frames_ - 1) * frame_time_; }
+  const std::vector<RetargetBody>& bodies() const { return bodies_; }
+  double yaw_rad() const { return yaw_; }
+  double scale() const { return scale_; }
+  double height_offset_m() const { return height_offset_; }
+  // mean and max geodesic angle (deg) between each mapped body's wanted world rotation and the
+  // one its joints reach: what the model's joints cannot express (hinges asked to twist)
+  double mean_fit_error_deg() const { return fit_error_mean_; }
+  double max_fit_error_deg() const { return fit_error_max_; }
+  // the same per mapped body (the order of bodies()), mean over the table
+  double body_fit_error_deg(int i) const { return body_fit_error_[i]; }
+
+  // the pose and velocity at time t (clamped to the table), interpolated with the engine's own
+  // position arithmetic; `scratch` has dim nv. Allocates nothing.
+  void sample(const Engine& engine, double t, Eigen::Ref<Eigen::VectorXd> q,
+              Eigen::Ref<Eigen::VectorXd> v, Eigen::Ref<Eigen::VectorXd> scratch) const;
+  // the reference local rotation (relative to the engine parent body) and world position of
+  // each mapped body at time t; vectors sized bodies().size(). Allocates nothing.
+  void sample_bodies(double t, std::vector<Eigen::Quaterniond>& local,
+                     std::vector<Eigen::Vector3d>& position) const;
+  // mapped bodies with no mapped body below them (feet, hands, head): indices into bodies()
+  const std::vector<int>& end_bodies() const { return end_bodies_; }
+  // the stored pose of frame f
+  Eigen::Map<const Eigen::VectorXd> frame(int f) const {
+    return Eigen::Map<const Eigen::VectorXd>(q_.data() + static_cast<size_t>(f) * nq_, nq_);
+  }
+
+ private:
+  int nq_ = 0, nv_ = 0, frames_ = 0;
+  double frame_time_ = 0;
+  double yaw_ = 0, scale_ = 1, height_offset_ = 0;
+  double fit_error_mean_ = 0, fit_error_max_ = 0;
+  std::vector<RetargetBody> bodies_;
+  std::vector<double> q_, v_;              // frame-major
+  std::vector<Eigen::Quaterniond> local_;  // frame-major, per mapped body
+  std::vector<Eigen::Vector3d> position_;
+  std::vector<int> end_bodies_;
+  std::vector<double> body_fit_error_;
+
+  void locate(double t, int& frame, double& alpha) const;
+};
+
+}  // namespace stance

@@ -1,0 +1,241 @@
+// Retargeting a BVH clip onto an existing model through a YAML joint map: exact on the clip's
+// own character (identity map: yaw 0, scale 1, every rotation and the root reproduced), the same
+// table on MuJoCo and DART, and tracking MuJoCo's humanoid.xml in the three root modes.
+#include "control/mocap_retarget_tracker.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "core/error.h"
+#include "engine/world_spec.h"
+#include "math/rotations.h"
+#include "model/bvh_to_mjcf.h"
+#include "motion/retarget.h"
+#include "scenario/runner.h"
+#include "scenario/scenario.h"
+#include "test_support.h"
+
+namespace stance {
+namespace {
+
+constexpr const char* kHumanoid = "/usr/share/mujoco/model/humanoid/humanoid.xml";
+
+// the synthetic walk, its bvh2mjcf character, and a map of every segment onto its own body
+struct OwnCharacter {
+  BvhClip clip = make_synthetic_walk_clip();
+  std::string xml;
+  std::unique_ptr<ReferenceMotion> reference;
+  JointMap map;
+
+  explicit OwnCharacter(const std::string& height_offset) {
+    BvhCharacterOptions o;
+    BvhCharacter c = make_bvh_character(clip, o);
+    xml = test::write_temp_file("retarget_own.xml", c.mjcf);
+    ReferenceOptions ro;
+    ro.loop = true;
+    reference = std::make_unique<ReferenceMotion>(clip, c.skeleton, ro);
+    std::string text = "height_offset: " + height_offset + "\njoints:\n";
+    for (const auto& s : c.skeleton.segments) text += "  " + s.name + ": " + s.name + "\n";
+    map = parse_joint_map(YAML::Load(text), "own.yaml");
+  }
+};
+
+std::unique_ptr<Engine> engine_of(const std::string& engine_name, const std::string& file) {
+  WorldSpec spec;
+  spec.models.push_back({file});
+  return make_engine(engine_name, spec);
+}
+
+TEST(Retarget, IdentityMapOnTheClipsOwnCharacterIsExact) {
+  OwnCharacter own("0");
+  auto probe = engine_of("mujoco", own.xml);
+  RetargetedMotion motion(*own.reference, own.map, *probe, 2.5);
+  EXPECT_NEAR(motion.yaw_rad(), 0.0, 1e-9);
+  EXPECT_NEAR(motion.scale(), 1.0, 1e-9);
+  EXPECT_LT(motion.max_fit_error_deg(), 1e-6);
+  // longer than a pass: the table runs on through the loop
+  EXPECT_GE(motion.duration_s(), 2.5);
+  ReferencePose pose = own.reference->make_pose();
+  const MotionSkeleton& sk = own.reference->skeleton();
+  std::vector<Eigen::Vector3d> pos(sk.segment_count());
+  std::vector<Eigen::Quaterniond> rot(sk.segment_count());
+  for (int f : {0, 17, 66, 100, motion.frame_count() - 1}) {
+    probe->set_positions(motion.frame(f));
+    probe->forward();
+    own.reference->sample(f * motion.frame_time_s(), pose);
+    own.reference->forward_kinematics(pose, pos, rot);
+    for (int k = 0; k < sk.segment_count(); ++k) {
+      BodyPose b = probe->body_pose(probe->body_index(sk.segments[k].name));
+      EXPECT_LT(geodesic_angle(b.quat, rot[k]), 1e-9) << sk.segments[k].name << " frame " << f;
+      EXPECT_LT((b.pos - pos[k]).norm(), 1e-9) << sk.segments[k].name << " frame " << f;
+    }
+  }
+}
+
+TEST(Retarget, AutomaticHeightPutsTheLowestPointOnTheFloor) {
+  // the character's feet already stand on the floor at the start: the offset found is ~0
+  OwnCharacter own("auto");
+  auto probe = engine_of("mujoco", own.xml);
+  RetargetedMotion motion(*own.reference, own.map, *probe, 0);
+  EXPECT_LT(std::abs(motion.height_offset_m()), 0.01);
+  // and a map whose clip is lifted 10 cm is brought back down by the same amount
+  OwnCharacter lifted("auto");
+  ReferenceOptions ro;
+  ro.ground_height_m = 0.1;
+  BvhCharacterOptions o;
+  lifted.reference = std::make_unique<ReferenceMotion>(
+      lifted.clip, make_bvh_character(lifted.clip, o).skeleton, ro);
+  RetargetedMotion down(*lifted.reference, lifted.map, *probe, 0);
+  EXPECT_NEAR(down.height_offset_m(), motion.height_offset_m() - 0.1, 1e-4);
+}
+
+TEST(Retarget, SameTableOnMujocoAndDart) {
+  // DART stores ball and free joints as rotation vectors, MuJoCo as quaternions; the probed
+  // frames must give the same bodies in the world
+  OwnCharacter own("0");
+  auto mj = engine_of("mujoco", own.xml);
+  std::unique_ptr<Engine> dart;
+  try {
+    dart = engine_of("dart", own.xml);
+  } catch (const InputError& e) {
+    GTEST_SKIP() << "DART cannot load the character: " << e.what();
+  }
+  RetargetedMotion a(*own.reference, own.map, *mj, 0);
+  RetargetedMotion b(*own.reference, own.map, *dart, 0);
+  ASSERT_EQ(a.frame_count(), b.frame_count());
+  const MotionSkeleton& sk = own.reference->skeleton();
+  for (int f = 0; f < a.frame_count(); f += 7) {
+    mj->set_positions(a.frame(f));
+    mj->forward();
+    dart->set_positions(b.frame(f));
+    dart->forward();
+    for (const auto& seg : sk.segments) {
+      BodyPose pa = mj->body_pose(mj->body_index(seg.name));
+      BodyPose pb = dart->body_pose(dart->body_index(seg.name));
+      EXPECT_LT(geodesic_angle(pa.quat, pb.quat), 1e-8) << seg.name << " frame " << f;
+      EXPECT_LT((pa.pos - pb.pos).norm(), 1e-8) << seg.name << " frame " << f;
+    }
+  }
+}
+
+// fullbody1 (Y-up, euler/universal/revolute joints) on both engines: the same joint angles
+TEST(Retarget, Fullbody1AnglesAgreeOnMujocoAndDart) {
+  const std::string skel = "/usr/share/doc/dart/data/skel/fullbody1.skel";
+  if (!std::filesystem::exists(skel)) GTEST_SKIP() << "no " << skel;
+  const char* text = R"(
+model_up: y
+joints:
+  Hips: h_pelvis
+  Spine: h_abdomen
+  Chest: h_spine
+  Head: h_head
+  LeftUpLeg: h_thigh_left
+  LeftLeg: h_shin_left
+  LeftFoot: h_heel_left
+  RightUpLeg: h_thigh_right
+  RightLeg: h_shin_right
+  RightFoot: h_heel_right
+  LeftArm: h_bicep_left
+  LeftForeArm: h_forearm_left
+  RightArm: h_bicep_right
+  RightForeArm: h_forearm_right
+)";
+  JointMap map = parse_joint_map(YAML::Load(text), "fullbody1.yaml");
+  BvhClip clip = make_synthetic_walk_clip();
+  BvhCharacterOptions o;
+  ReferenceMotion reference(clip, make_bvh_character(clip, o).skeleton, ReferenceOptions{});
+  auto mj = engine_of("mujoco", skel);
+  auto dart = engine_of("dart", skel);
+  RetargetedMotion a(reference, map, *mj, 0);
+  RetargetedMotion b(reference, map, *dart, 0);
+  // the legs' hinge chains reach their targets: the fit error is in the 1-2 dof joints
+  EXPECT_LT(a.body_fit_error_deg(4), 0.5);  // h_thigh_left: three hinges
+  EXPECT_NEAR(a.mean_fit_error_deg(), b.mean_fit_error_deg(), 1e-6);
+  EXPECT_NEAR(a.height_offset_m(), b.height_offset_m(), 2e-3);  // contact models differ
+  int compared = 0;
+  for (int j = 0; j < mj->njoint(); ++j) {
+    const JointInfo& ja = mj->joint(j);
+    if (ja.type != JointType::kHinge) continue;
+    int jb = dart->joint_index(ja.name);
+    ASSERT_GE(jb, 0) << ja.name;
+    for (int f = 0; f < a.frame_count(); f += 5)
+      EXPECT_NEAR(a.frame(f)[ja.qpos_adr], b.frame(f)[dart->joint(jb).qpos_adr], 1e-6)
+          << ja.name << " frame " << f;
+    ++compared;
+  }
+  EXPECT_GT(compared, 20);
+}
+
+nlohmann::json run_humanoid(const std::string& mode, double seconds) {
+  LoadedScenario loaded =
+      load_scenario(test::source_dir() + "/scenarios/mocap_retarget.yaml",
+                    {"controllers.0.mode=" + mode, fmt::format("duration={}", seconds)});
+  ScenarioRun run(loaded, RunOptions{});
+  RunResult r = run.run();
+  nlohmann::json j = r.metrics["mocap"];
+  j["fell"] = r.fell;
+  return j;
+}
+
+TEST(MocapRetarget, HumanoidKinematicFollowsTheTable) {
+  if (!std::filesystem::exists(kHumanoid)) GTEST_SKIP() << "no " << kHumanoid;
+  nlohmann::json m = run_humanoid("kinematic", 2.5);
+  EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 0.5);
+  EXPECT_LT(m["mean_root_error_m"].get<double>(), 1e-3);
+  EXPECT_FALSE(m["fell"].get<bool>());
+  // three hinges reach any hip rotation; a one-hinge forearm cannot follow the clip's
+  EXPECT_LT(m["map_fit_error_deg"]["LeftUpLeg -> left_thigh"].get<double>(), 0.5);
+  EXPECT_GT(m["map_fit_error_deg"]["LeftForeArm -> left_lower_arm"].get<double>(), 5.0);
+}
+
+TEST(MocapRetarget, HumanoidAssistedStaysUpWithAMeasuredHelper) {
+  if (!std::filesystem::exists(kHumanoid)) GTEST_SKIP() << "no " << kHumanoid;
+  nlohmann::json m = run_humanoid("assisted", 10);
+  EXPECT_FALSE(m["fell"].get<bool>());
+  EXPECT_TRUE(m["root_fall_time_s"].is_null());
+  EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 5.0);
+  EXPECT_LT(m["mean_root_error_m"].get<double>(), 0.1);
+  EXPECT_GT(m["helper_impulse_Ns"].get<double>(), 0.0);
+  // without the helper (and with no balance layer on a mapped model) the humanoid falls
+  nlohmann::json f = run_humanoid("free", 3);
+  EXPECT_EQ(f["helper_impulse_Ns"].get<double>(), 0.0);
+  EXPECT_FALSE(f["root_fall_time_s"].is_null());
+}
+
+TEST(MocapRetarget, BadMapsAreNamed) {
+  OwnCharacter own("0");
+  auto probe = engine_of("mujoco", own.xml);
+  auto expect_error = [&](const std::string& text, const std::string& want) {
+    try {
+      JointMap map = parse_joint_map(YAML::Load(text), "bad.yaml");
+      RetargetedMotion motion(*own.reference, map, *probe, 0);
+      ADD_FAILURE() << "no error for:\n" << text;
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(want), std::string::npos) << e.what();
+    }
+  };
+  expect_error("joints:\n  Hips: Hips\n  LeftLegg: LeftLeg\n",
+               "bad.yaml:3: the clip has no joint 'LeftLegg' (did you mean 'LeftLeg'?)");
+  expect_error("joints:\n  Hips: Hips\n  LeftLeg: LeftLog\n",
+               "bad.yaml:3: the model has no body 'LeftLog' (did you mean 'LeftLeg'?)");
+  expect_error("joints:\n  LeftLeg: LeftLeg\n", "map the clip's root 'Hips'");
+  expect_error("joints:\n  Hips: Hips\n  LeftLeg: Hips\n", "model body 'Hips' is mapped twice");
+  expect_error("joint:\n  Hips: Hips\n",
+               "bad.yaml:1: unknown key 'joint' (did you mean 'joints'?)");
+  expect_error("scale: big\njoints:\n  Hips: Hips\n",
+               "bad.yaml:1: scale: expected a number, found 'big'");
+  expect_error("model_up: x\njoints:\n  Hips: Hips\n", "model_up: expected y or z");
+  // a file that is not YAML names its line
+  std::string path = test::write_temp_file("bad_map.yaml", "joints:\n  Hips: [pelvis\n");
+  try {
+    read_joint_map(path);
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(path + ":"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(read_joint_map("/no/such/map.yaml"), InputError);
+}
+
+}  // namespace
+}  // namespace stance
