@@ -97,16 +97,16 @@ void MocapRetargetTracker::reset(const Engine& engine) {
   fall_time_ = -1;
   Eigen::Vector3d g = engine.gravity();
   up_ = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
-  motion_->sample_bodies(0, ref_local_, ref_position_);
-  root_height0_ = 0;
-  for (size_t i = 0; i < motion_->bodies().size(); ++i)
-    if (motion_->bodies()[i].segment == 0) root_height0_ = up_.dot(ref_position_[i]);
 }
 
 void MocapRetargetTracker::accumulate_metrics(const Engine& engine) {
   const double t = engine.time();
   motion_->sample_bodies(t, ref_local_, ref_position_);
   const auto& bodies = motion_->bodies();
+  // the lowest mapped body of the reference (a foot): falls are measured from it, so the
+  // model's floor may be anywhere (fullbody1's is at y = -0.895)
+  double lowest = 1e300;
+  for (size_t i = 0; i < bodies.size(); ++i) lowest = std::min(lowest, up_.dot(ref_position_[i]));
   double sum = 0;
   for (size_t i = 0; i < bodies.size(); ++i) {
     const int b = bodies[i].body;
@@ -119,8 +119,8 @@ void MocapRetargetTracker::accumulate_metrics(const Engine& engine) {
       last_root_error_ = r;
       root_error_sum_ += r;
       root_error_max_ = std::max(root_error_max_, r);
-      if (fall_time_ < 0 && up_.dot(engine.body_pose(b).pos) < 0.5 * up_.dot(ref_position_[i]))
-        fall_time_ = t;
+      const double drop = up_.dot(ref_position_[i] - engine.body_pose(b).pos);
+      if (fall_time_ < 0 && drop > 0.5 * (up_.dot(ref_position_[i]) - lowest)) fall_time_ = t;
       continue;  // the root's orientation is the root's business, not a joint's
     }
     sum += e;

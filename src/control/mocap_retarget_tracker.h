@@ -10,7 +10,8 @@
 // Metrics: joint error (geodesic angle between each mapped body's rotation relative to its
 // parent body and the table's, deg), root position error, end error (mapped bodies with no
 // mapped body below them: feet, hands, head), the map's fit error (what the model's joints
-// cannot express), helper impulse and the time of fall.
+// cannot express), helper impulse and the time of fall (the root more than half its reference
+// height above the lowest mapped body below where it should be).
 #pragma once
 
 #include <memory>
@@ -100,7 +101,6 @@ class MocapRetargetTracker final : public Controller {
   long steps_ = 0;
   double helper_impulse_ = 0, helper_angular_impulse_ = 0;
   double fall_time_ = -1;
-  double root_height0_ = 0;
   Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
 };
 

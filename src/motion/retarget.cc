@@ -506,7 +506,8 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   fit_error_mean_ = fit_count ? fit_sum / fit_count : 0;
 
   // ground: shift the whole table along up until the first frame's lowest point just touches
-  // the floor (bisection on contacts with static geometry after one step from rest)
+  // the floor (bisection on contacts with static geometry after one step from rest). A model
+  // with no floor within 8 m keeps the clip's height.
   height_offset_ = map.height_offset_m.value_or(0.0);
   if (!map.height_offset_m) {
     auto shifted = [&](double shift, Eigen::VectorXd& out) {
@@ -525,7 +526,9 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
       }
       return false;
     };
-    double lo = -0.5, hi = 0.5;  // m: touching at lo, clear at hi
+    double lo = -0.25, hi = 0.25;  // m: touching at lo, clear at hi (widened as needed)
+    while (!touches(lo) && lo > -8) lo *= 2;
+    while (touches(hi) && hi < 8) hi *= 2;
     if (touches(lo) && !touches(hi)) {
       for (int i = 0; i < 40; ++i) {
         double mid = 0.5 * (lo + hi);

@@ -203,6 +203,30 @@ TEST(MocapRetarget, HumanoidAssistedStaysUpWithAMeasuredHelper) {
   EXPECT_FALSE(f["root_fall_time_s"].is_null());
 }
 
+TEST(MocapRetarget, Fullbody1AssistedAgreesOnMujocoAndDart) {
+  if (!std::filesystem::exists("/usr/share/doc/dart/data/skel/fullbody1.skel"))
+    GTEST_SKIP() << "no fullbody1.skel";
+  nlohmann::json m[2];
+  const char* engines[2] = {"mujoco", "dart"};
+  for (int e = 0; e < 2; ++e) {
+    LoadedScenario loaded =
+        load_scenario(test::source_dir() + "/scenarios/mocap_retarget_fullbody1.yaml",
+                      {"duration=3", std::string("engine=") + engines[e]});
+    ScenarioRun run(loaded, RunOptions{});
+    RunResult r = run.run();
+    EXPECT_FALSE(r.fell) << engines[e];
+    m[e] = r.metrics["mocap"];
+    EXPECT_TRUE(m[e]["root_fall_time_s"].is_null()) << engines[e];
+    EXPECT_LT(m[e]["mean_joint_error_deg"].get<double>(), 5.0) << engines[e];
+    // the floor (y = -0.895) was found by contact: the model's lowest point starts on it
+    EXPECT_NEAR(m[e]["map_height_offset_m"].get<double>(), -0.889, 0.01) << engines[e];
+  }
+  EXPECT_NEAR(m[0]["mean_joint_error_deg"].get<double>(),
+              m[1]["mean_joint_error_deg"].get<double>(), 0.5);
+  EXPECT_NEAR(m[0]["helper_impulse_Ns"].get<double>() / m[1]["helper_impulse_Ns"].get<double>(),
+              1.0, 0.1);
+}
+
 TEST(MocapRetarget, BadMapsAreNamed) {
   OwnCharacter own("0");
   auto probe = engine_of("mujoco", own.xml);
