@@ -262,6 +262,33 @@ void apply_neighbour(YAML::Node& root, const Neighbour& n) {
 }
 
 std::optional<double> metric_at(const nlohmann::json& metrics, const std::string& path) {
+  // a weighted sum: "a.b+2.5*c.d"
+  if (path.find('+') != std::string::npos) {
+    double sum = 0;
+    size_t start = 0;
+    while (start <= path.size()) {
+      size_t end = path.find('+', start);
+      if (end == std::string::npos) end = path.size();
+      std::optional<double> term = metric_at(metrics, path.substr(start, end - start));
+      if (!term) return std::nullopt;
+      sum += *term;
+      start = end + 1;
+    }
+    return sum;
+  }
+  if (size_t star = path.find('*'); star != std::string::npos) {
+    double weight = 0;
+    try {
+      size_t used = 0;
+      weight = std::stod(path.substr(0, star), &used);
+      if (used != star) return std::nullopt;
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
+    std::optional<double> value = metric_at(metrics, path.substr(star + 1));
+    if (!value) return std::nullopt;
+    return weight * *value;
+  }
   const nlohmann::json* j = &metrics;
   if (metrics.is_object() && metrics.contains(path)) {
     j = &metrics[path];

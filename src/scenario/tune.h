@@ -63,7 +63,8 @@ std::optional<double> yaml_number_at(const YAML::Node& root, const std::string& 
 void apply_neighbour(YAML::Node& root, const Neighbour& n);
 
 // a number at a dotted path into a run's metrics ("mocap.mean_joint_error_deg"); also accepts a
-// top-level key that itself contains dots
+// top-level key that itself contains dots, and weighted sums of such paths
+// ("mocap.mean_joint_error_deg+2*mocap.mean_root_error_m")
 std::optional<double> metric_at(const nlohmann::json& metrics, const std::string& path);
 
 struct TuneOptions {

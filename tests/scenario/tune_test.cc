@@ -76,6 +76,12 @@ TEST(Tune, RobustScoreIsTheWorstRun) {
   EXPECT_DOUBLE_EQ(score_run(result(true, 0.5, 9.0), 2.0, "", 10).score, 15.0);
   EXPECT_EQ(metric_at(result(false, 0, 4.0).metrics, metric), 4.0);
   EXPECT_FALSE(metric_at(result(false, 0, 4.0).metrics, "mocap.nope"));
+  // weighted sums of metrics
+  nlohmann::json m = {{"a", {{"x", 1.5}}}, {"b", 4.0}};
+  EXPECT_DOUBLE_EQ(*metric_at(m, "a.x+2*b"), 9.5);
+  EXPECT_DOUBLE_EQ(*metric_at(m, "0.5*a.x+b+b"), 8.75);
+  EXPECT_FALSE(metric_at(m, "a.x+c"));
+  EXPECT_FALSE(metric_at(m, "two*b"));
 }
 
 TEST(Tune, MultiplicativeNeighbourScalesTheCurrentValue) {
