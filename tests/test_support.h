@@ -5,14 +5,21 @@
 #include <fstream>
 #include <string>
 
+#include <unistd.h>
+
 namespace stance::test {
 
-// write text to a fresh file under the system temp folder and return its path
+// write text to a fresh file under the system temp folder and return its path. ctest runs
+// tests as parallel processes that may write the same file: each writes a private copy and
+// renames it into place (atomic), so no reader ever sees a half-written file.
 inline std::string write_temp_file(const std::string& name, const std::string& text) {
   auto dir = std::filesystem::temp_directory_path() / "stance_tests";
   std::filesystem::create_directories(dir);
   auto path = dir / name;
-  std::ofstream(path) << text;
+  static int counter = 0;
+  auto tmp = dir / (name + ".tmp" + std::to_string(::getpid()) + "_" + std::to_string(counter++));
+  std::ofstream(tmp) << text;
+  std::filesystem::rename(tmp, path);
   return path.string();
 }
 

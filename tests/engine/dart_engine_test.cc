@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "test_support.h"
 
 namespace stance {
 namespace {
@@ -27,11 +28,7 @@ std::unique_ptr<Engine> load_fullbody() {
 
 // a file under the test temp dir holding `text`; returns its path
 std::string write_temp(const std::string& name, const std::string& text) {
-  std::filesystem::path dir = std::filesystem::temp_directory_path() / "stance_dart_test";
-  std::filesystem::create_directories(dir);
-  std::filesystem::path path = dir / name;
-  std::ofstream(path) << text;
-  return path.string();
+  return test::write_temp_file("dart_" + name, text);
 }
 
 // a 1 m pendulum: point-like 1 kg bob, hinge about y at the origin

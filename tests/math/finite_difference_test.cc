@@ -12,6 +12,7 @@
 #include <string>
 
 #include "engine/world_spec.h"
+#include "test_support.h"
 
 namespace stance {
 namespace {
@@ -392,9 +393,7 @@ constexpr const char* kContactXml = R"(
 )";
 
 std::string write_model(const std::string& name, const char* xml) {
-  std::filesystem::path path = std::filesystem::path(::testing::TempDir()) / (name + ".xml");
-  std::ofstream(path) << xml;
-  return path.string();
+  return test::write_temp_file("fd_" + name + ".xml", xml);
 }
 
 struct MjModelDeleter {
