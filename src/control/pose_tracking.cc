@@ -8,9 +8,8 @@ namespace stance {
 
 void PoseTrackingWork::resize(int nq, int nv) {
   q_pred.setZero(nq);
-  for (Eigen::VectorXd* x : {&err, &p, &d, &c, &f, &rhs}) x->setZero(nv);
+  for (Eigen::VectorXd* x : {&err, &p, &d, &c, &f, &rhs, &shift}) x->setZero(nv);
   m.setZero(nv, nv);
-  llt = Eigen::LLT<Eigen::MatrixXd>(nv);
 }
 
 void add_deadbeat_torques(const Engine& engine, const Eigen::VectorXd& q, const Eigen::VectorXd& v,
@@ -30,17 +29,16 @@ void add_stable_pd_torques(const Engine& engine, const Eigen::VectorXd& q, const
                            int skip_begin, int skip_end, PoseTrackingWork& w,
                            Eigen::VectorXd& tau) {
   const double dt = engine.timestep();
-  engine.mass_matrix(w.m);
   engine.bias_forces(w.c);
   engine.constraint_forces(w.f);
   engine.integrate_positions(q, v, dt, w.q_pred);
   engine.difference_positions(q_ref, w.q_pred, w.err);
   w.p = -kp.cwiseProduct(w.err);
   w.d = -kd.cwiseProduct(v - v_ref);
-  w.m.diagonal() += kd * dt;
-  w.llt.compute(w.m);
+  // (M + Kd dt)^-1 by the engine: MuJoCo's sparse tree factor, DART's articulated-body pass
+  w.shift = kd * dt;
   w.rhs = w.p + w.d - w.c + w.f + tau;
-  w.llt.solveInPlace(w.rhs);
+  engine.solve_mass_shifted(w.shift, w.rhs);
   Eigen::VectorXd& spd = w.err;  // reuse: the SPD torque
   spd = w.p + w.d - (kd * dt).cwiseProduct(w.rhs);
   if (max_torque > 0)

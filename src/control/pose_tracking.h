@@ -1,10 +1,9 @@
 // The torque laws shared by the motion-capture trackers (mocap_tracker on a bvh2mjcf character,
 // mocap_retarget on any model): deadbeat inverse dynamics for the kinematic root mode, and stable
-// PD (Tan et al. 2011) towards a pose with target velocities, solved densely with the mass
-// matrix. Work vectors are sized once; the calls allocate nothing.
+// PD (Tan et al. 2011) towards a pose with target velocities, solved by the engine's shifted
+// mass solve (no dense mass matrix). Work vectors are sized once; the calls allocate nothing.
 #pragma once
 
-#include <Eigen/Cholesky>
 #include <Eigen/Core>
 
 namespace stance {
@@ -12,9 +11,8 @@ namespace stance {
 class Engine;
 
 struct PoseTrackingWork {
-  Eigen::VectorXd q_pred, err, p, d, c, f, rhs;
-  Eigen::MatrixXd m;
-  Eigen::LLT<Eigen::MatrixXd> llt;
+  Eigen::VectorXd q_pred, err, p, d, c, f, rhs, shift;
+  Eigen::MatrixXd m;  // the deadbeat law's mass matrix
   void resize(int nq, int nv);
 };
 

@@ -407,12 +407,13 @@ class DartEngine final : public Engine {
   void set_gravity(const Eigen::Vector3d& g) override { world_->setGravity(g); }
 
   void get_positions(Eigen::Ref<Eigen::VectorXd> q) const override {
+    // per dof: getPositions() returns a fresh vector
     for (const SkeletonBlock& b : blocks_)
-      q.segment(b.dof_start, b.ndof) = b.skeleton->getPositions();
+      for (int i = 0; i < b.ndof; ++i) q[b.dof_start + i] = b.skeleton->getPosition(i);
   }
   void get_velocities(Eigen::Ref<Eigen::VectorXd> v) const override {
     for (const SkeletonBlock& b : blocks_)
-      v.segment(b.dof_start, b.ndof) = b.skeleton->getVelocities();
+      for (int i = 0; i < b.ndof; ++i) v[b.dof_start + i] = b.skeleton->getVelocity(i);
   }
   void set_positions(const Eigen::Ref<const Eigen::VectorXd>& q) override {
     check_size(q.size(), ndof_, "set_positions");
