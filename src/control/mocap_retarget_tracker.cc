@@ -43,8 +43,11 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params, co
 
   // the root: the free joint above the body the clip's root is mapped onto
   int top = -1;
-  for (const RetargetBody& b : motion_->bodies())
-    if (b.segment == 0) top = b.body;
+  for (size_t i = 0; i < motion_->bodies().size(); ++i)
+    if (motion_->bodies()[i].segment == 0) {
+      top = motion_->bodies()[i].body;
+      root_mapped_ = static_cast<int>(i);
+    }
   while (engine.body_parent(top) >= 0) top = engine.body_parent(top);
   root_body_ = top;
   for (int j = 0; j < engine.njoint(); ++j)
@@ -95,6 +98,14 @@ void MocapRetargetTracker::reset(const Engine& engine) {
   steps_ = 0;
   helper_impulse_ = helper_angular_impulse_ = 0;
   fall_time_ = -1;
+  recorded_rotations_.clear();
+  recorded_roots_.clear();
+  next_record_t_ = 0;
+  if (!params_.export_bvh.empty()) {
+    const size_t frames = static_cast<size_t>(120.0 / clip_.reference->frame_time_s());
+    recorded_rotations_.reserve(frames * motion_->bodies().size());
+    recorded_roots_.reserve(frames);
+  }
   Eigen::Vector3d g = engine.gravity();
   up_ = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
 }
@@ -146,6 +157,12 @@ void MocapRetargetTracker::compute(const Engine& engine, ControlOutput& out) {
   engine.get_positions(q_);
   engine.get_velocities(v_);
   accumulate_metrics(engine);
+  if (!params_.export_bvh.empty() && engine.time() + 1e-9 >= next_record_t_) {
+    for (const RetargetBody& b : motion_->bodies())
+      recorded_rotations_.push_back(engine.body_pose(b.body).quat);
+    recorded_roots_.push_back(engine.body_pose(motion_->bodies()[root_mapped_].body).pos);
+    next_record_t_ = recorded_roots_.size() * clip_.reference->frame_time_s();
+  }
   motion_->sample(engine, engine.time() + dt, q_ref_, v_ref_, scratch_);
   tau_.setZero();
   if (mode_ == MocapRootMode::kKinematic) {
@@ -204,6 +221,39 @@ void MocapRetargetTracker::add_metrics(nlohmann::json& metrics) const {
   j["root_fall_time_s"] = fall_time_ >= 0 ? nlohmann::json(fall_time_) : nlohmann::json(nullptr);
   j["clip_duration_s"] = clip_.reference->duration_s();
   metrics["mocap"] = j;
+}
+
+BvhClip MocapRetargetTracker::recorded_clip() const {
+  const ReferenceMotion& ref = *clip_.reference;
+  const MotionSkeleton& sk = ref.skeleton();
+  const int n = sk.segment_count();
+  const auto& bodies = motion_->bodies();
+  std::vector<int> mapped(n, -1);
+  for (size_t i = 0; i < bodies.size(); ++i) mapped[bodies[i].segment] = static_cast<int>(i);
+  const int frames = static_cast<int>(recorded_roots_.size());
+  std::vector<Eigen::Quaterniond> locals(static_cast<size_t>(frames) * n);
+  std::vector<Eigen::Vector3d> roots(frames);
+  std::vector<Eigen::Quaterniond> world(n);
+  ReferencePose pose = ref.make_pose();
+  for (int f = 0; f < frames; ++f) {
+    ref.sample(f * ref.frame_time_s(), pose);  // unmapped joints keep the clip's rotations
+    for (int k = 0; k < n; ++k) {
+      const int parent = sk.segments[k].parent;
+      const int i = mapped[k];
+      world[k] = i >= 0 ? motion_->clip_world_rotation(
+                              i, recorded_rotations_[static_cast<size_t>(f) * bodies.size() + i])
+                        : world[parent] * pose.rotations[k];
+      locals[static_cast<size_t>(f) * n + k] =
+          parent >= 0 ? (world[parent].conjugate() * world[k]).normalized() : world[k];
+    }
+    roots[f] = motion_->clip_root_position(recorded_roots_[f]);
+  }
+  return clip_from_segment_poses(clip_, locals, roots);
+}
+
+void MocapRetargetTracker::write_outputs(const std::string& out_dir) const {
+  if (params_.export_bvh.empty() || recorded_roots_.empty()) return;
+  write_exported_bvh(recorded_clip(), params_.export_bvh, out_dir);
 }
 
 }  // namespace stance

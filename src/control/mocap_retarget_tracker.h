@@ -11,7 +11,9 @@
 // parent body and the table's, deg), root position error, end error (mapped bodies with no
 // mapped body below them: feet, hands, head), the map's fit error (what the model's joints
 // cannot express), helper impulse and the time of fall (the root more than half its reference
-// height above the lowest mapped body below where it should be).
+// height above the lowest mapped body below where it should be). With export_bvh set, the
+// simulated motion is mapped back onto the clip's skeleton (the inverse of the map; joints not
+// mapped keep the clip's rotations) and written at the clip's frame rate.
 #pragma once
 
 #include <memory>
@@ -67,12 +69,15 @@ class MocapRetargetTracker final : public Controller {
   void signal_names(std::vector<std::string>& names) const override;
   void signals(std::vector<double>& values) const override;
   void add_metrics(nlohmann::json& metrics) const override;
+  void write_outputs(const std::string& out_dir) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
   bool reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const override;
   bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
                      Eigen::VectorXd& qvel) const override;
 
   const RetargetedMotion& motion() const { return *motion_; }
+  // the simulated motion so far, mapped back onto the clip's skeleton (file units, as read)
+  BvhClip recorded_clip() const;
   double mean_joint_error_deg() const;
   double helper_impulse_ns() const { return helper_impulse_; }
   std::optional<double> fall_time() const {
@@ -101,6 +106,12 @@ class MocapRetargetTracker final : public Controller {
   long steps_ = 0;
   double helper_impulse_ = 0, helper_angular_impulse_ = 0;
   double fall_time_ = -1;
+  // export: per recorded frame (the clip's rate), the mapped bodies' world rotations and the
+  // root-mapped body's position
+  std::vector<Eigen::Quaterniond> recorded_rotations_;
+  std::vector<Eigen::Vector3d> recorded_roots_;
+  double next_record_t_ = 0;
+  int root_mapped_ = -1;  // index into motion().bodies() of the clip root's body
   Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
 };
 

@@ -523,36 +523,35 @@ void MocapTracker::add_metrics(nlohmann::json& metrics) const {
   metrics["mocap"] = j;
 }
 
-BvhClip MocapTracker::recorded_clip() const {
-  const MocapTrackerModel& m = model_;
-  const BvhClip& src = *m.clip;
-  const MotionSkeleton& sk = m.reference->skeleton();
+BvhClip clip_from_segment_poses(const MocapClip& mocap,
+                                const std::vector<Eigen::Quaterniond>& locals,
+                                const std::vector<Eigen::Vector3d>& roots) {
+  const BvhClip& src = *mocap.clip;
+  const MotionSkeleton& sk = mocap.reference->skeleton();
+  const int n = sk.segment_count();
   BvhClip out;
   out.source = src.source;
   out.joints = src.joints;
   out.channel_count = src.channel_count;
   out.frame_time_s = src.frame_time_s;
   out.position_joint_count = src.position_joint_count;
-  const int frames = recorded_frames_;
+  const int frames = static_cast<int>(roots.size());
   out.frame_count = frames;
   const size_t nj = src.joints.size();
   out.rotations.resize(nj * frames);
   out.positions.resize(static_cast<size_t>(src.position_joint_count) * frames);
   const Eigen::Quaterniond c = sk.to_z_up, ct = c.conjugate();
-  const int nq = q_.size();
-  const int range = m.reference->frame_count();
+  const int range = mocap.reference->frame_count();
   for (int f = 0; f < frames; ++f) {
-    const double* q = recorded_.data() + static_cast<size_t>(f) * nq;
-    Eigen::Map<const Eigen::VectorXd> qf(q, nq);
     // joints that are no segment keep the clip's own values at the matching frame
-    int sf = m.first_frame + (f % range);
+    int sf = mocap.first_frame + (f % range);
     for (size_t j = 0; j < nj; ++j) out.rotation(f, j) = src.rotation(sf, j);
     for (int s = 0; s < src.position_joint_count; ++s)
       out.positions[static_cast<size_t>(f) * src.position_joint_count + s] =
           src.positions[static_cast<size_t>(sf) * src.position_joint_count + s];
-    for (int k = 0; k < sk.segment_count(); ++k) {
+    for (int k = 0; k < n; ++k) {
       const MotionSegment& seg = sk.segments[k];
-      Eigen::Quaterniond r = ct * read_quat(qf, m.qpos_adr[k]).normalized() * c;
+      Eigen::Quaterniond r = ct * locals[static_cast<size_t>(f) * n + k].normalized() * c;
       // merged helpers keep their clip rotation; the segment's own joint takes the rest
       Eigen::Quaterniond helpers = Eigen::Quaterniond::Identity();
       for (size_t i = 0; i + 1 < seg.rotation_chain.size(); ++i)
@@ -562,16 +561,36 @@ BvhClip MocapTracker::recorded_clip() const {
     const BvhJoint& root = src.joints[sk.segments[0].bvh_joint];
     if (root.position_slot >= 0)
       out.positions[static_cast<size_t>(f) * src.position_joint_count + root.position_slot] =
-          (ct * Eigen::Vector3d(qf.segment<3>(m.qpos_adr[0]))) / sk.scale_to_meters;
+          (ct * roots[f]) / sk.scale_to_meters;
   }
   return out;
 }
 
+void write_exported_bvh(const BvhClip& clip, const std::string& export_path,
+                        const std::string& out_dir) {
+  std::filesystem::path path(export_path);
+  if (path.is_relative() && !out_dir.empty()) path = std::filesystem::path(out_dir) / path;
+  write_bvh(clip, path.string());
+}
+
+BvhClip MocapTracker::recorded_clip() const {
+  const MocapTrackerModel& m = model_;
+  const int n = m.reference->skeleton().segment_count();
+  const int nq = q_.size();
+  std::vector<Eigen::Quaterniond> locals(static_cast<size_t>(recorded_frames_) * n);
+  std::vector<Eigen::Vector3d> roots(recorded_frames_);
+  for (int f = 0; f < recorded_frames_; ++f) {
+    Eigen::Map<const Eigen::VectorXd> qf(recorded_.data() + static_cast<size_t>(f) * nq, nq);
+    for (int k = 0; k < n; ++k)
+      locals[static_cast<size_t>(f) * n + k] = read_quat(qf, m.qpos_adr[k]);
+    roots[f] = qf.segment<3>(m.qpos_adr[0]);
+  }
+  return clip_from_segment_poses({m.clip, m.reference, m.first_frame}, locals, roots);
+}
+
 void MocapTracker::write_outputs(const std::string& out_dir) const {
   if (model_.params.export_bvh.empty() || recorded_frames_ == 0) return;
-  std::filesystem::path path(model_.params.export_bvh);
-  if (path.is_relative() && !out_dir.empty()) path = std::filesystem::path(out_dir) / path;
-  write_bvh(recorded_clip(), path.string());
+  write_exported_bvh(recorded_clip(), model_.params.export_bvh, out_dir);
 }
 
 bool MocapTracker::reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const {

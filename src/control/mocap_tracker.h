@@ -50,6 +50,7 @@ struct MocapClipParams {
   bool loop = true;
   bool align_ground = true;
   std::string ground = "start";  // align at the start, or the lowest point of the whole clip
+  std::string export_bvh;        // write the simulated motion here (relative: to the output)
 
   template <class V>
   void visit(V& v) {
@@ -64,6 +65,7 @@ struct MocapClipParams {
     v("align_ground", align_ground, {.help = "lowest point on the floor at the start"});
     v("ground", ground,
       {.help = "start: lowest point at the start on the floor; clip: over the clip"});
+    v("export_bvh", export_bvh, {.help = "write the simulated motion as BVH"});
   }
 };
 
@@ -75,6 +77,16 @@ struct MocapClip {
 };
 // reads params.bvh (relative to base_dir) and builds its reference; throws InputError
 MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base_dir);
+
+// a clip on the source's skeleton from per-frame segment poses: local rotations (Z-up, as in
+// ReferencePose::rotations; frame-major, segment_count per frame) and root positions (m, Z-up
+// world). Joints that are no segment keep the clip's values at the matching frame of the range.
+BvhClip clip_from_segment_poses(const MocapClip& mocap,
+                                const std::vector<Eigen::Quaterniond>& locals,
+                                const std::vector<Eigen::Vector3d>& roots);
+// writes clip to export_path (relative: to out_dir)
+void write_exported_bvh(const BvhClip& clip, const std::string& export_path,
+                        const std::string& out_dir);
 
 struct MocapTrackerParams : MocapClipParams {
   std::string mode = "assisted";  // kinematic, assisted or free
@@ -115,8 +127,7 @@ struct MocapTrackerParams : MocapClipParams {
   std::string right_hip;
   std::string left_foot;  // feet; empty: the first foot/toe/ankle segment per leg
   std::string right_foot;
-  double max_torque = 0;   // N m clamp on joint torques; 0: none
-  std::string export_bvh;  // write the simulated motion here (relative: to the output)
+  double max_torque = 0;  // N m clamp on joint torques; 0: none
 
   template <class V>
   void visit(V& v) {
@@ -166,7 +177,6 @@ struct MocapTrackerParams : MocapClipParams {
     v("left_foot", left_foot);
     v("right_foot", right_foot);
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
-    v("export_bvh", export_bvh, {.help = "write the simulated motion as BVH"});
   }
 };
 

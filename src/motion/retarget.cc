@@ -411,6 +411,11 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
     }
   }
 
+  to_model_ = to_model;
+  up_ = up;
+  bone_fix_ = bone_fix;
+  for (const RetargetBody& rb : bodies_) rest_world_.push_back(model[rb.body].rest_world);
+
   // the table: one pose per clip frame over the run (at least one pass)
   int frames = reference.frame_count();
   if (reference.loops() && duration_s > 0) {
@@ -564,6 +569,18 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   }
   probe.set_positions(frame(0));
   probe.forward();
+}
+
+Eigen::Quaterniond RetargetedMotion::clip_world_rotation(
+    int i, const Eigen::Quaterniond& body_world) const {
+  // inverts R_b = M W_s A_s M^T R_b(rest)
+  return (to_model_.conjugate() * body_world * rest_world_[i].conjugate() * to_model_ *
+          bone_fix_[i].conjugate())
+      .normalized();
+}
+
+Eigen::Vector3d RetargetedMotion::clip_root_position(const Eigen::Vector3d& body_position) const {
+  return to_model_.conjugate() * (body_position - height_offset_ * up_) / scale_;
 }
 
 void RetargetedMotion::locate(double t, int& f, double& alpha) const {

@@ -95,6 +95,10 @@ class RetargetedMotion {
                      std::vector<Eigen::Vector3d>& position) const;
   // mapped bodies with no mapped body below them (feet, hands, head): indices into bodies()
   const std::vector<int>& end_bodies() const { return end_bodies_; }
+  // back to the clip (export): the clip-world rotation of mapped body i's segment given the
+  // body's world rotation, and the clip root position given the root-mapped body's position
+  Eigen::Quaterniond clip_world_rotation(int i, const Eigen::Quaterniond& body_world) const;
+  Eigen::Vector3d clip_root_position(const Eigen::Vector3d& body_position) const;
   // the stored pose of frame f
   Eigen::Map<const Eigen::VectorXd> frame(int f) const {
     return Eigen::Map<const Eigen::VectorXd>(q_.data() + static_cast<size_t>(f) * nq_, nq_);
@@ -111,6 +115,9 @@ class RetargetedMotion {
   std::vector<Eigen::Vector3d> position_;
   std::vector<int> end_bodies_;
   std::vector<double> body_fit_error_;
+  Eigen::Quaterniond to_model_ = Eigen::Quaterniond::Identity();  // M
+  Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
+  std::vector<Eigen::Quaterniond> rest_world_, bone_fix_;  // per mapped body
 
   void locate(double t, int& frame, double& alpha) const;
 };

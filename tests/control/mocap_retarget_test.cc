@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <numbers>
 
 #include "core/error.h"
 #include "engine/world_spec.h"
@@ -225,6 +226,88 @@ TEST(MocapRetarget, Fullbody1AssistedAgreesOnMujocoAndDart) {
               m[1]["mean_joint_error_deg"].get<double>(), 0.5);
   EXPECT_NEAR(m[0]["helper_impulse_Ns"].get<double>() / m[1]["helper_impulse_Ns"].get<double>(),
               1.0, 0.1);
+}
+
+TEST(MocapRetarget, ExportMapsTheMotionBackOntoTheClip) {
+  // the identity map on the clip's own character, tracked kinematically: the exported clip is
+  // the source clip up to the tracking error (joint 0, the root, is compared on its own)
+  OwnCharacter own("0");
+  MocapRetargetParams p;
+  p.bvh = test::write_temp_file("retarget_export.bvh", format_bvh(own.clip));
+  std::string map_text = "height_offset: 0\njoints:\n";
+  for (const auto& s : own.reference->skeleton().segments)
+    map_text += "  " + s.name + ": " + s.name + "\n";
+  p.joint_map = test::write_temp_file("retarget_export.yaml", map_text);
+  p.mode = "kinematic";
+  p.export_bvh = "unused";
+  auto engine = engine_of("mujoco", own.xml);
+  auto probe = engine_of("mujoco", own.xml);
+  MocapRetargetTracker tracker(p, *engine, *probe, 1.0);
+  Eigen::VectorXd q0, v0;
+  ASSERT_TRUE(tracker.initial_state(*engine, q0, v0));
+  engine->set_positions(q0);
+  engine->set_velocities(v0);
+  engine->forward();
+  tracker.reset(*engine);
+  ControlOutput out;
+  out.resize(engine->nv(), engine->nu());
+  for (int k = 0; k < 500; ++k) {  // 1 s
+    engine->forward();
+    out.clear();
+    tracker.compute(*engine, out);
+    engine->set_generalized_forces(out.tau);
+    engine->step();
+  }
+  const std::string file = test::write_temp_file("retarget_exported.bvh", "");
+  write_bvh(tracker.recorded_clip(), file);
+  BvhClip back = read_bvh(file);
+  const BvhClip& src = own.clip;
+  ASSERT_EQ(back.joints.size(), src.joints.size());
+  ASSERT_GE(back.frame_count, 60);
+  double worst = 0;
+  for (int f = 0; f < 60; ++f) {
+    for (size_t j = 1; j < src.joints.size(); ++j)
+      worst = std::max(worst, geodesic_angle(back.rotation(f, j), src.rotation(f, j)));
+    Eigen::Vector3d moved = back.translation(f, 0) - back.translation(0, 0);
+    Eigen::Vector3d want = src.translation(f, 0) - src.translation(0, 0);
+    EXPECT_LT((moved - want).norm(), 1.0) << "frame " << f;  // file units: cm
+  }
+  // the export adds nothing to the tracking error (feet deflected by contacts, which the
+  // kinematic mode does not feed back): its worst joint is the tracker's own worst
+  nlohmann::json metrics;
+  tracker.add_metrics(metrics);
+  const double tracked = metrics["mocap"]["max_joint_error_deg"].get<double>();
+  EXPECT_LT(worst * 180 / std::numbers::pi, tracked + 1e-6);
+  EXPECT_LT(tracked, 3.0);
+  // and the root joint's orientation comes back as the clip's
+  for (int f = 0; f < 60; ++f)
+    EXPECT_LT(geodesic_angle(back.rotation(f, 0), src.rotation(f, 0)), 0.01) << "frame " << f;
+}
+
+TEST(MocapRetarget, HumanoidExportReadsBackOnTheClipsSkeleton) {
+  if (!std::filesystem::exists(kHumanoid)) GTEST_SKIP() << "no " << kHumanoid;
+  LoadedScenario loaded =
+      load_scenario(test::source_dir() + "/scenarios/mocap_retarget.yaml",
+                    {"duration=2", "controllers.0.export_bvh=humanoid_walk.bvh"});
+  RunOptions o;
+  o.out_dir = (std::filesystem::temp_directory_path() / "stance_tests" / "retarget_run").string();
+  o.quiet = true;
+  ScenarioRun(loaded, o).run();
+  BvhClip back = read_bvh(o.out_dir + "/humanoid_walk.bvh");
+  BvhClip src = read_bvh(test::source_dir() + "/models/synthetic_walk.bvh");
+  EXPECT_EQ(back.joints.size(), src.joints.size());
+  EXPECT_NEAR(back.frame_count, 2.0 / src.frame_time_s, 1.5);
+  EXPECT_DOUBLE_EQ(back.frame_time_s, src.frame_time_s);
+  // the legs went through the map and back: they move like the clip's, within a few degrees
+  // (assisted tracking on a different body), where the clip's own hip swings tens of degrees
+  const int hip = src.find_joint("LeftUpLeg");
+  ASSERT_GE(hip, 0);
+  double sum = 0, swing = 0;
+  for (int f = 0; f < 60; ++f) {
+    sum += geodesic_angle(back.rotation(f, hip), src.rotation(f, hip));
+    swing = std::max(swing, geodesic_angle(src.rotation(f, hip), src.rotation(0, hip)));
+  }
+  EXPECT_LT(sum / 60, 0.25 * swing);
 }
 
 TEST(MocapRetarget, BadMapsAreNamed) {
