@@ -78,7 +78,8 @@ int main(int argc, char** argv) {
   bvh2mjcf_cmd->add_option("--timestep", bvh2mjcf.timestep_s, "simulation timestep, s");
   // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion
   std::string export_bvh;
-  run_cmd->add_option("--export-bvh", export_bvh, "mocap_tracker / mocap_retarget: write the simulated motion");
+  run_cmd->add_option("--export-bvh", export_bvh,
+                      "mocap_tracker / mocap_retarget: write the simulated motion");
 
   std::string list_dir = "scenarios";
   auto* list_cmd = app.add_subcommand("list", "controllers and scenarios");
