@@ -27,18 +27,14 @@
 
 namespace stance {
 
-struct MocapRetargetParams : MocapClipParams {
+struct MocapRetargetParams : MocapClipParams, MocapHelperParams {
   std::string joint_map;          // YAML map file; relative paths start at the scenario's folder
   std::string mode = "assisted";  // kinematic, assisted or free
   double kp = 300;                // N m/rad on every joint dof
   double kd = 30;                 // N m s/rad
   NamedValues kp_joints;          // per-dof kp (dof name)
   NamedValues kd_joints;
-  double root_kp = 20000;     // assisted: N/m on the root position
-  double root_kd = 2000;      // N s/m
-  double root_kp_rot = 2000;  // N m/rad on the root orientation
-  double root_kd_rot = 200;   // N m s/rad
-  double max_torque = 0;      // N m clamp on joint torques; 0: none
+  double max_torque = 0;  // N m clamp on joint torques; 0: none
 
   template <class V>
   void visit(V& v) {
@@ -49,10 +45,7 @@ struct MocapRetargetParams : MocapClipParams {
     v("kd", kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
     v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-dof kp"});
     v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-dof kd"});
-    v("root_kp", root_kp, {.unit = "N/m", .min = 0, .max = 1e8, .help = "assisted mode"});
-    v("root_kd", root_kd, {.unit = "N s/m", .min = 0, .max = 1e7});
-    v("root_kp_rot", root_kp_rot, {.unit = "N m/rad", .min = 0, .max = 1e8});
-    v("root_kd_rot", root_kd_rot, {.unit = "N m s/rad", .min = 0, .max = 1e7});
+    MocapHelperParams::visit(v);
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
   }
 };

@@ -69,6 +69,22 @@ struct MocapClipParams {
   }
 };
 
+// the assisted mode's helper: PD gains on the root, inside the SPD solve
+struct MocapHelperParams {
+  double root_kp = 20000;     // assisted: N/m on the root position
+  double root_kd = 2000;      // N s/m
+  double root_kp_rot = 2000;  // N m/rad on the root orientation
+  double root_kd_rot = 200;   // N m s/rad
+
+  template <class V>
+  void visit(V& v) {
+    v("root_kp", root_kp, {.unit = "N/m", .min = 0, .max = 1e8, .help = "assisted mode"});
+    v("root_kd", root_kd, {.unit = "N s/m", .min = 0, .max = 1e7});
+    v("root_kp_rot", root_kp_rot, {.unit = "N m/rad", .min = 0, .max = 1e8});
+    v("root_kd_rot", root_kd_rot, {.unit = "N m s/rad", .min = 0, .max = 1e7});
+  }
+};
+
 // a clip read and made ready to track
 struct MocapClip {
   std::shared_ptr<const BvhClip> clip;
@@ -88,16 +104,12 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
 void write_exported_bvh(const BvhClip& clip, const std::string& export_path,
                         const std::string& out_dir);
 
-struct MocapTrackerParams : MocapClipParams {
+struct MocapTrackerParams : MocapClipParams, MocapHelperParams {
   std::string mode = "assisted";  // kinematic, assisted or free
   double kp = 1000;               // N m/rad on every ball joint
   double kd = 100;                // N m s/rad
   NamedValues kp_joints;          // per-joint kp (joint name)
   NamedValues kd_joints;
-  double root_kp = 20000;     // assisted: N/m on the root position
-  double root_kd = 2000;      // N s/m
-  double root_kp_rot = 2000;  // N m/rad on the root orientation
-  double root_kd_rot = 200;   // N m s/rad
   // free mode balance layer
   bool balance = true;
   double cd_sagittal = 0.5;  // rad/m
@@ -137,10 +149,7 @@ struct MocapTrackerParams : MocapClipParams {
     v("kd", kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
     v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-joint kp"});
     v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-joint kd"});
-    v("root_kp", root_kp, {.unit = "N/m", .min = 0, .max = 1e8, .help = "assisted mode"});
-    v("root_kd", root_kd, {.unit = "N s/m", .min = 0, .max = 1e7});
-    v("root_kp_rot", root_kp_rot, {.unit = "N m/rad", .min = 0, .max = 1e8});
-    v("root_kd_rot", root_kd_rot, {.unit = "N m s/rad", .min = 0, .max = 1e7});
+    MocapHelperParams::visit(v);
     v("balance", balance, {.help = "free mode: SIMBICON balance layer"});
     v("cd_sagittal", cd_sagittal, {.unit = "rad/m", .min = -100, .max = 100});
     v("cv_sagittal", cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
