@@ -352,7 +352,12 @@ dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const
     printed = capture.text() + printed;
   }
   if (!world) {
-    std::string why = leading_message_lines(printed);
+    // DART prints warnings before the error that stopped it: the error lines say why
+    std::string errors;
+    std::istringstream lines(printed);
+    for (std::string line; std::getline(lines, line);)
+      if (line.find("rror") != std::string::npos) errors += line + "\n";
+    std::string why = leading_message_lines(errors.empty() ? printed : errors);
     if (why.empty()) why = "DART could not parse the file";
     throw InputError(located(shown_name, 0, "cannot load model: " + why));
   }
