@@ -94,6 +94,16 @@ expect 2 "--push 'hand,1,2': expected body,fx,fy,fz,start,duration" -- \
 expect 2 "(from --set) parameter 'duration': expected a number" -- \
   "$stance" run "$tmp/ok.yaml" --set duration=abc
 
+# a joint map with a misspelt clip joint names the map file and line (mocap_retarget)
+if [ -f /usr/share/mujoco/model/humanoid/humanoid.xml ]; then
+  sed 's/LeftLeg: left_shin/LeftLegg: left_shin/' models/maps/synthetic_walk_to_humanoid.yaml \
+    >"$tmp/map.yaml"
+  expect 2 "map.yaml:15: the clip has no joint 'LeftLegg' (did you mean 'LeftLeg'?)" -- \
+    "$stance" run scenarios/mocap_retarget.yaml --set "controllers.0.joint_map=$tmp/map.yaml"
+  expect 2 "none.yaml: cannot read the joint map" -- \
+    "$stance" run scenarios/mocap_retarget.yaml --set "controllers.0.joint_map=$tmp/none.yaml"
+fi
+
 # a diverging run exits 3, says when, and still writes valid outputs
 good diverge.yaml
 sed -i 's/kp: 10/kp: 1e9/; s/kd: 1/kd: 1e7/' "$tmp/diverge.yaml"

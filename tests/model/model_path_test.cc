@@ -30,6 +30,32 @@ TEST(ModelPath, EnvironmentOverridesDartData) {
   fs::remove_all(dir);
 }
 
+TEST(ModelPath, MujocoModelResolvesToTheSamples) {
+  unsetenv("STANCE_MUJOCO_MODELS");
+  if (!fs::exists("/usr/share/mujoco/model/humanoid/humanoid.xml"))
+    GTEST_SKIP() << "no libmujoco-samples";
+  EXPECT_EQ(resolve_model_path("mujoco://model/humanoid/humanoid.xml"),
+            "/usr/share/mujoco/model/humanoid/humanoid.xml");
+  // a missing sample names what was looked for
+  try {
+    resolve_model_path("mujoco://model/nope.xml");
+    FAIL() << "expected InputError";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "mujoco://model/nope.xml: no such file (looked for /usr/share/mujoco/model/nope.xml)");
+  }
+}
+
+TEST(ModelPath, EnvironmentOverridesMujocoModels) {
+  fs::path dir = fs::temp_directory_path() / "stance_model_path_mujoco";
+  fs::create_directories(dir);
+  std::ofstream(dir / "a.xml") << "<mujoco/>";
+  setenv("STANCE_MUJOCO_MODELS", dir.c_str(), 1);
+  EXPECT_EQ(resolve_model_path("mujoco://model/a.xml"), (dir / "a.xml").string());
+  unsetenv("STANCE_MUJOCO_MODELS");
+  fs::remove_all(dir);
+}
+
 TEST(ModelPath, PlainPathsStayAsGiven) {
   fs::path dir = fs::temp_directory_path() / "stance_model_path_plain";
   fs::create_directories(dir);
