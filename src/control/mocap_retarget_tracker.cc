@@ -216,6 +216,10 @@ void MocapRetargetTracker::add_metrics(nlohmann::json& metrics) const {
   for (size_t i = 0; i < motion_->bodies().size(); ++i)
     pairs[motion_->bodies()[i].name] = motion_->body_fit_error_deg(static_cast<int>(i));
   j["map_fit_error_deg"] = pairs;
+  nlohmann::json aims = nlohmann::json::object();
+  for (size_t i = 0; i < motion_->bodies().size(); ++i)
+    aims[motion_->bodies()[i].name] = motion_->body_aim_error_deg(static_cast<int>(i));
+  j["map_aim_error_deg"] = aims;
   j["helper_impulse_Ns"] = helper_impulse_;
   j["helper_angular_impulse_Nms"] = helper_angular_impulse_;
   j["root_fall_time_s"] = fall_time_ >= 0 ? nlohmann::json(fall_time_) : nlohmann::json(nullptr);

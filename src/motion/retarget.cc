@@ -100,18 +100,32 @@ Eigen::Quaterniond hinge_rotation(const std::vector<JointSlot>& joints, const do
   return r;
 }
 
-// hinge angles whose product is closest to `want` (Gauss-Newton from `angles`, then limits)
+// the hinge angles whose product is closest to `want` (Gauss-Newton from `angles`, then limits).
+// With a bone direction `bone` (unit, body frame; zero: none), a chain too short to reach every
+// rotation (fewer than three hinges) puts the bone on the wanted direction first and fits the
+// twist only as well as it can: a two-hinge shoulder aims the upper arm rather than splitting
+// the difference between aim and twist.
 void solve_hinges(const std::vector<JointSlot>& joints, const Eigen::Quaterniond& want,
-                  double* angles, int n) {
-  Eigen::MatrixXd jac(3, n);
+                  const Eigen::Vector3d& bone, double* angles, int n) {
+  const bool aim = n < 3 && bone.squaredNorm() > 0;
+  const double twist_weight = aim ? 0.1 : 1.0;
+  const Eigen::Vector3d bone_want = want * bone;
+  auto residual = [&](Eigen::Matrix<double, 6, 1>& r) {
+    const Eigen::Quaterniond q = hinge_rotation(joints, angles);
+    r.head<3>() = twist_weight * quaternion_log(want.conjugate() * q);
+    r.tail<3>() = aim ? Eigen::Vector3d(q * bone - bone_want) : Eigen::Vector3d::Zero();
+  };
+  Eigen::MatrixXd jac(6, n);
   Eigen::VectorXd step(n);
-  for (int iter = 0; iter < 20; ++iter) {
-    Eigen::Vector3d r = quaternion_log(want.conjugate() * hinge_rotation(joints, angles));
+  Eigen::Matrix<double, 6, 1> r, rh;
+  for (int iter = 0; iter < 30; ++iter) {
+    residual(r);
     if (r.norm() < 1e-12) break;
     const double h = 1e-7;
     for (int k = 0; k < n; ++k) {
       angles[k] += h;
-      jac.col(k) = (quaternion_log(want.conjugate() * hinge_rotation(joints, angles)) - r) / h;
+      residual(rh);
+      jac.col(k) = (rh - r) / h;
       angles[k] -= h;
     }
     Eigen::MatrixXd jtj = jac.transpose() * jac;
@@ -384,16 +398,24 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   // rest-pose correction: a body with one mapped child bone turns onto the clip's bone
   const int nmapped = static_cast<int>(bodies_.size());
   std::vector<Eigen::Quaterniond> bone_fix(nmapped, Eigen::Quaterniond::Identity());
+  std::vector<int> mapped_of_segment(sk.segment_count(), -1);
+  for (int i = 0; i < nmapped; ++i) mapped_of_segment[bodies_[i].segment] = i;
+  std::vector<std::vector<int>> mapped_children(nmapped);
+  for (int i = 0; i < nmapped; ++i)
+    for (int a = sk.segments[bodies_[i].segment].parent; a >= 0; a = sk.segments[a].parent)
+      if (mapped_of_segment[a] >= 0) {
+        mapped_children[mapped_of_segment[a]].push_back(i);
+        break;
+      }
+  // each mapped body's bone towards its one mapped child, in its own frame (the hinge fit aims it)
+  std::vector<Eigen::Vector3d> bone(nb, Eigen::Vector3d::Zero());
+  for (int i = 0; i < nmapped; ++i) {
+    if (mapped_children[i].size() != 1) continue;
+    const int b = bodies_[i].body;
+    Eigen::Vector3d d = model[bodies_[mapped_children[i][0]].body].rest_pos - model[b].rest_pos;
+    if (d.norm() > 1e-6) bone[b] = model[b].rest_world.conjugate() * d.normalized();
+  }
   if (map.align_bones) {
-    std::vector<int> mapped_of_segment(sk.segment_count(), -1);
-    for (int i = 0; i < nmapped; ++i) mapped_of_segment[bodies_[i].segment] = i;
-    std::vector<std::vector<int>> mapped_children(nmapped);
-    for (int i = 0; i < nmapped; ++i)
-      for (int a = sk.segments[bodies_[i].segment].parent; a >= 0; a = sk.segments[a].parent)
-        if (mapped_of_segment[a] >= 0) {
-          mapped_children[mapped_of_segment[a]].push_back(i);
-          break;
-        }
     for (int i = 0; i < nmapped; ++i) {
       const RetargetBody& rb = bodies_[i];
       if (rb.segment == 0) continue;
@@ -429,6 +451,7 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   position_.resize(static_cast<size_t>(frames_) * nmapped);
   std::vector<Eigen::Quaterniond> want(nb), actual(nb);
   body_fit_error_.assign(nmapped, 0.0);
+  body_aim_error_.assign(nmapped, 0.0);
   std::vector<double> angles(8);
   Eigen::VectorXd q = q0;
   double fit_sum = 0;
@@ -470,7 +493,7 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
         int k = 0;
         for (const JointSlot& j : mb.joints)
           if (j.type == JointType::kHinge) angles[k++] = f > 0 ? q[j.qpos] : 0.0;
-        if (mb.mapped >= 0) solve_hinges(mb.joints, local_want, angles.data(), hinges);
+        if (mb.mapped >= 0) solve_hinges(mb.joints, local_want, bone[b], angles.data(), hinges);
         k = 0;
         for (const JointSlot& j : mb.joints)
           if (j.type == JointType::kHinge) q[j.qpos] = angles[k++];
@@ -487,6 +510,11 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
       if (mb.mapped >= 0) {
         double e = geodesic_angle(actual[b], want[b]) * kRadToDeg;
         body_fit_error_[mb.mapped] += e / frames_;
+        if (bone[b].squaredNorm() > 0) {
+          const Eigen::Vector3d got = actual[b] * bone[b], wanted = want[b] * bone[b];
+          body_aim_error_[mb.mapped] +=
+              std::atan2(got.cross(wanted).norm(), got.dot(wanted)) * kRadToDeg / frames_;
+        }
         fit_sum += e;
         ++fit_count;
         fit_error_max_ = std::max(fit_error_max_, e);

@@ -84,6 +84,9 @@ class RetargetedMotion {
   double max_fit_error_deg() const { return fit_error_max_; }
   // the same per mapped body (the order of bodies()), mean over the table
   double body_fit_error_deg(int i) const { return body_fit_error_[i]; }
+  // the angle between each mapped body's bone (towards its one mapped child; 0 without one)
+  // as posed and as wanted, mean over the table (deg): where the limbs point
+  double body_aim_error_deg(int i) const { return body_aim_error_[i]; }
 
   // the pose and velocity at time t (clamped to the table), interpolated with the engine's own
   // position arithmetic; `scratch` has dim nv. Allocates nothing.
@@ -114,7 +117,7 @@ class RetargetedMotion {
   std::vector<Eigen::Quaterniond> local_;  // frame-major, per mapped body
   std::vector<Eigen::Vector3d> position_;
   std::vector<int> end_bodies_;
-  std::vector<double> body_fit_error_;
+  std::vector<double> body_fit_error_, body_aim_error_;
   Eigen::Quaterniond to_model_ = Eigen::Quaterniond::Identity();  // M
   Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
   std::vector<Eigen::Quaterniond> rest_world_, bone_fix_;  // per mapped body
