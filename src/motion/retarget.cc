@@ -149,6 +149,100 @@ Eigen::Vector3d probed_axis(const Eigen::Quaterniond& before, const Eigen::Quate
   return quaternion_log((before.conjugate() * after).normalized()) / kProbeAngle;
 }
 
+// the model's bodies (parents, depths) and the joints on each
+std::vector<ModelBody> read_model_tree(const Engine& probe) {
+  std::vector<ModelBody> model(probe.nbody());
+  for (int b = 0; b < probe.nbody(); ++b) model[b].parent = probe.body_parent(b);
+  for (int j = 0; j < probe.njoint(); ++j) {
+    const JointInfo& info = probe.joint(j);
+    if (info.body < 0) continue;
+    JointSlot slot;
+    slot.type = info.type;
+    slot.qpos = info.qpos_adr;
+    slot.nq = info.nq;
+    slot.limited = info.has_limits;
+    slot.lower = info.lower;
+    slot.upper = info.upper;
+    model[info.body].joints.push_back(slot);
+  }
+  for (int b = 0; b < probe.nbody(); ++b)
+    for (int a = model[b].parent; a >= 0; a = model[a].parent) ++model[b].depth;
+  return model;
+}
+
+// positions q at rest, kinematics updated
+void set_pose(Engine& probe, const Eigen::VectorXd& q) {
+  probe.set_positions(q);
+  probe.set_velocities(Eigen::VectorXd::Zero(probe.nv()));
+  probe.forward();
+}
+
+// Fills the bodies' rest poses (in q0, the zero pose it writes), hinge axes and ball/free joint
+// frames by setting one coordinate at a time and reading the body's rotation; returns the
+// inverse of the free joint's translation map (coordinates -> world displacement).
+Eigen::Matrix3d probe_kinematics(Engine& probe, std::vector<ModelBody>& model,
+                                 const std::vector<int>& order, int free_body,
+                                 const JointSlot& free_joint, Eigen::VectorXd& q0) {
+  // the zero pose: hinges and slides 0, balls and the free joint at identity, root at origin
+  probe.get_positions(q0);
+  for (int b : order)
+    for (const JointSlot& j : model[b].joints) {
+      if (j.type == JointType::kHinge || j.type == JointType::kSlide) q0[j.qpos] = 0;
+      if (j.type == JointType::kBall || j.type == JointType::kFree)
+        set_joint_rotation(j, Eigen::Quaterniond::Identity(), q0);
+      if (j.type == JointType::kFree) set_joint_translation(j, Eigen::Vector3d::Zero(), q0);
+    }
+  auto pose_at = [&](const Eigen::VectorXd& q) { set_pose(probe, q); };
+  pose_at(q0);
+  for (int b : order) {
+    BodyPose p = probe.body_pose(b);
+    model[b].rest_world = p.quat;
+    model[b].rest_pos = p.pos;
+  }
+  for (int b : order) {
+    Eigen::Quaterniond parent =
+        model[b].parent >= 0 ? model[model[b].parent].rest_world : Eigen::Quaterniond::Identity();
+    model[b].rest_local = (parent.conjugate() * model[b].rest_world).normalized();
+  }
+  // probe hinge axes and ball/free frames, one coordinate at a time from the zero pose
+  Eigen::VectorXd qp(q0.size());
+  for (int b : order)
+    for (JointSlot& j : model[b].joints) {
+      if (j.type == JointType::kHinge) {
+        qp = q0;
+        qp[j.qpos] = kProbeAngle;
+        pose_at(qp);
+        j.axis = probed_axis(model[b].rest_world, probe.body_pose(b).quat);
+        if (std::abs(j.axis.norm() - 1) > 1e-6)
+          throw InputError(fmt::format("retarget: cannot probe the axis of a hinge of body '{}'",
+                                       probe.body_name(b)));
+        j.axis.normalize();
+      } else if (j.type == JointType::kBall || j.type == JointType::kFree) {
+        for (int c = 0; c < 3; ++c) {
+          qp = q0;
+          set_joint_rotation(
+              j, Eigen::Quaterniond(Eigen::AngleAxisd(kProbeAngle, Eigen::Vector3d::Unit(c))), qp);
+          pose_at(qp);
+          j.frame.col(c) = probed_axis(model[b].rest_world, probe.body_pose(b).quat);
+        }
+        if ((j.frame.transpose() * j.frame - Eigen::Matrix3d::Identity()).norm() > 1e-6)
+          throw InputError(fmt::format("retarget: cannot probe the frame of the joint of body '{}'",
+                                       probe.body_name(b)));
+      }
+    }
+  // the free joint's translation: linear in its coordinates
+  Eigen::Matrix3d translation_map;
+  for (int c = 0; c < 3; ++c) {
+    qp = q0;
+    set_joint_translation(free_joint, Eigen::Vector3d::Unit(c), qp);
+    pose_at(qp);
+    translation_map.col(c) = probe.body_pose(free_body).pos - model[free_body].rest_pos;
+  }
+  if (std::abs(translation_map.determinant()) < 1e-9)
+    throw InputError("retarget: the free joint's translation could not be probed");
+  return translation_map.inverse();
+}
+
 }  // namespace
 
 JointMap parse_joint_map(const YAML::Node& node, const std::string& source) {
@@ -224,23 +318,7 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   nv_ = probe.nv();
   frame_time_ = reference.frame_time_s();
 
-  // the model's tree and joints
-  std::vector<ModelBody> model(nb);
-  for (int b = 0; b < nb; ++b) model[b].parent = probe.body_parent(b);
-  for (int j = 0; j < probe.njoint(); ++j) {
-    const JointInfo& info = probe.joint(j);
-    if (info.body < 0) continue;
-    JointSlot slot;
-    slot.type = info.type;
-    slot.qpos = info.qpos_adr;
-    slot.nq = info.nq;
-    slot.limited = info.has_limits;
-    slot.lower = info.lower;
-    slot.upper = info.upper;
-    model[info.body].joints.push_back(slot);
-  }
-  for (int b = 0; b < nb; ++b)
-    for (int a = model[b].parent; a >= 0; a = model[a].parent) ++model[b].depth;
+  std::vector<ModelBody> model = read_model_tree(probe);
 
   // the map's entries, resolved
   std::vector<int> segment_body(sk.segment_count(), -1);
@@ -296,70 +374,11 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
                                fmt::format("body '{}' is not part of the character under '{}'",
                                            probe.body_name(rb.body), probe.body_name(free_body))));
 
-  // the zero pose: hinges and slides 0, balls and the free joint at identity, root at origin
-  Eigen::VectorXd q0(nq_);
-  probe.get_positions(q0);
-  for (int b : order)
-    for (const JointSlot& j : model[b].joints) {
-      if (j.type == JointType::kHinge || j.type == JointType::kSlide) q0[j.qpos] = 0;
-      if (j.type == JointType::kBall || j.type == JointType::kFree)
-        set_joint_rotation(j, Eigen::Quaterniond::Identity(), q0);
-      if (j.type == JointType::kFree) set_joint_translation(j, Eigen::Vector3d::Zero(), q0);
-    }
-  Eigen::VectorXd qv = Eigen::VectorXd::Zero(nv_);
-  auto pose_at = [&](const Eigen::VectorXd& q) {
-    probe.set_positions(q);
-    probe.set_velocities(qv);
-    probe.forward();
-  };
-  pose_at(q0);
-  for (int b : order) {
-    BodyPose p = probe.body_pose(b);
-    model[b].rest_world = p.quat;
-    model[b].rest_pos = p.pos;
-  }
-  for (int b : order) {
-    Eigen::Quaterniond parent =
-        model[b].parent >= 0 ? model[model[b].parent].rest_world : Eigen::Quaterniond::Identity();
-    model[b].rest_local = (parent.conjugate() * model[b].rest_world).normalized();
-  }
-  // probe hinge axes and ball/free frames, one coordinate at a time from the zero pose
-  Eigen::VectorXd qp(nq_);
-  for (int b : order)
-    for (JointSlot& j : model[b].joints) {
-      if (j.type == JointType::kHinge) {
-        qp = q0;
-        qp[j.qpos] = kProbeAngle;
-        pose_at(qp);
-        j.axis = probed_axis(model[b].rest_world, probe.body_pose(b).quat);
-        if (std::abs(j.axis.norm() - 1) > 1e-6)
-          throw InputError(fmt::format("retarget: cannot probe the axis of a hinge of body '{}'",
-                                       probe.body_name(b)));
-        j.axis.normalize();
-      } else if (j.type == JointType::kBall || j.type == JointType::kFree) {
-        for (int c = 0; c < 3; ++c) {
-          qp = q0;
-          set_joint_rotation(
-              j, Eigen::Quaterniond(Eigen::AngleAxisd(kProbeAngle, Eigen::Vector3d::Unit(c))), qp);
-          pose_at(qp);
-          j.frame.col(c) = probed_axis(model[b].rest_world, probe.body_pose(b).quat);
-        }
-        if ((j.frame.transpose() * j.frame - Eigen::Matrix3d::Identity()).norm() > 1e-6)
-          throw InputError(fmt::format("retarget: cannot probe the frame of the joint of body '{}'",
-                                       probe.body_name(b)));
-      }
-    }
-  // the free joint's translation: linear in its coordinates
-  Eigen::Matrix3d translation_map;
-  for (int c = 0; c < 3; ++c) {
-    qp = q0;
-    set_joint_translation(*free_joint, Eigen::Vector3d::Unit(c), qp);
-    pose_at(qp);
-    translation_map.col(c) = probe.body_pose(free_body).pos - model[free_body].rest_pos;
-  }
-  if (std::abs(translation_map.determinant()) < 1e-9)
-    throw InputError("retarget: the free joint's translation could not be probed");
-  const Eigen::Matrix3d translation_inverse = translation_map.inverse();
+  // rest poses, hinge axes, joint frames and the root's translation, probed
+  Eigen::VectorXd q0(nq_), qp(nq_);
+  const Eigen::Matrix3d translation_inverse =
+      probe_kinematics(probe, model, order, free_body, *free_joint, q0);
+  auto pose_at = [&](const Eigen::VectorXd& q) { set_pose(probe, q); };
 
   // clip -> model world: the up axis, then a yaw and scale from the rest skeletons
   const Eigen::Quaterniond up_turn =
