@@ -69,6 +69,19 @@ int main(int argc, char** argv) {
   auto* bvh_synth_cmd = bvh_cmd->add_subcommand("synth-walk", "write the synthetic walking clip");
   bvh_synth_cmd->add_option("output", synth_out, "BVH file to write")->required();
 
+  stance::BvhRetargetCommand retarget;
+  auto* bvh_retarget_cmd =
+      bvh_cmd->add_subcommand("retarget", "a clip mapped onto a model, as a table of its q and v");
+  bvh_retarget_cmd->add_option("input", retarget.bvh, "BVH file")->required();
+  bvh_retarget_cmd->add_option("output", retarget.out, "CSV file to write")->required();
+  bvh_retarget_cmd->add_option("--map", retarget.map, "YAML joint map")->required();
+  bvh_retarget_cmd->add_option("--model", retarget.model, "model file (MJCF, URDF, SKEL)")
+      ->required();
+  bvh_retarget_cmd->add_option("--engine", retarget.engine, "mujoco or dart");
+  bvh_retarget_cmd->add_flag("--loop", retarget.loop, "repeat the clip for --duration");
+  bvh_retarget_cmd->add_option("--duration", retarget.duration_s, "seconds to write");
+  bvh_retarget_cmd->add_option("--first-frame", retarget.first_frame, "first frame of the range");
+  bvh_retarget_cmd->add_option("--last-frame", retarget.last_frame, "last frame (-1: the end)");
   stance::Bvh2MjcfCommand bvh2mjcf;
   auto* bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");
   bvh2mjcf_cmd->add_option("input", bvh2mjcf.bvh, "BVH file")->required();
@@ -189,6 +202,7 @@ int main(int argc, char** argv) {
   if (*bvh_info_cmd) return stance::bvh_info_command(bvh_file, bvh_json);
   if (*bvh2mjcf_cmd) return stance::bvh2mjcf_command(bvh2mjcf);
   if (*bvh_synth_cmd) return stance::bvh_synth_walk_command(synth_out);
+  if (*bvh_retarget_cmd) return stance::bvh_retarget_command(retarget);
   if (*list_cmd) return stance::list_command(list_dir);
   if (*sweep_cmd) return stance::sweep_command(sweep);
   if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);

@@ -10,8 +10,10 @@
 #include <fstream>
 #include <iostream>
 #include <limits>
+#include <numbers>
 
 #include "control/controller.h"
+#include "control/mocap_tracker.h"
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
@@ -19,6 +21,7 @@
 #include "model/skel_to_mjcf.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
+#include "motion/retarget.h"
 #include "scenario/push_threshold.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
@@ -123,6 +126,74 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
     if (!f || !(f << ch.mjcf)) throw InputError(cmd.mjcf + ": cannot write");
     std::cout << fmt::format("wrote {}: {} bodies, {:.6g} kg, {:.6g} m per file unit\n", cmd.mjcf,
                              ch.skeleton.segment_count(), cmd.mass_kg, ch.skeleton.scale_to_meters);
+    return kExitOk;
+  });
+}
+
+// the names of q's coordinates in the engine's layout, and of v's
+std::vector<std::string> position_names(const Engine& engine) {
+  std::vector<std::string> names(engine.nq());
+  for (int j = 0; j < engine.njoint(); ++j) {
+    const JointInfo& info = engine.joint(j);
+    std::vector<std::string> parts;
+    if (info.nq == 7) parts = {"pos_x", "pos_y", "pos_z", "qw", "qx", "qy", "qz"};  // MuJoCo free
+    if (info.nq == 6) parts = {"rot_x", "rot_y", "rot_z", "pos_x", "pos_y", "pos_z"};  // DART free
+    if (info.nq == 4) parts = {"qw", "qx", "qy", "qz"};  // MuJoCo ball
+    if (info.nq == 3) parts = {"x", "y", "z"};           // DART ball
+    if (info.nq == 1) {
+      names[info.qpos_adr] = info.name;
+      continue;
+    }
+    for (size_t k = 0; k < parts.size(); ++k) names[info.qpos_adr + k] = info.name + "_" + parts[k];
+  }
+  return names;
+}
+
+int bvh_retarget_command(const BvhRetargetCommand& cmd) {
+  return guarded([&] {
+    MocapClipParams clip_params;
+    clip_params.bvh = cmd.bvh;
+    clip_params.loop = cmd.loop;
+    clip_params.first_frame = cmd.first_frame;
+    clip_params.last_frame = cmd.last_frame;
+    MocapClip clip = load_mocap_clip(clip_params, "");
+    JointMap map = read_joint_map(cmd.map);
+    WorldSpec spec;
+    spec.models.push_back({cmd.model});
+    std::unique_ptr<Engine> engine = make_engine(cmd.engine, spec);
+    RetargetedMotion motion(*clip.reference, map, *engine, cmd.loop ? cmd.duration_s : 0);
+    const int frames = cmd.loop || cmd.duration_s <= 0
+                           ? motion.frame_count()
+                           : std::min(motion.frame_count(),
+                                      static_cast<int>(cmd.duration_s / motion.frame_time_s()) + 1);
+    // written beside the target and renamed into place: a failed run leaves the old file whole
+    const std::string tmp = cmd.out + ".tmp";
+    {
+      std::ofstream f(tmp, std::ios::binary);
+      if (!f) throw InputError(cmd.out + ": cannot write");
+      f << "time";
+      for (const auto& n : position_names(*engine)) f << ',' << n;
+      for (int i = 0; i < engine->nv(); ++i) f << ",v_" << engine->dof_name(i);
+      f << '\n';
+      Eigen::VectorXd q(engine->nq()), v(engine->nv()), scratch(engine->nv());
+      for (int fr = 0; fr < frames; ++fr) {
+        const double t = fr * motion.frame_time_s();
+        motion.sample(*engine, t, q, v, scratch);
+        f << fmt::format("{:.9g}", t);
+        for (int i = 0; i < q.size(); ++i) f << fmt::format(",{:.9g}", q[i]);
+        for (int i = 0; i < v.size(); ++i) f << fmt::format(",{:.9g}", v[i]);
+        f << '\n';
+      }
+      f.close();
+      if (!f) throw InputError(cmd.out + ": cannot write");
+    }
+    std::filesystem::rename(tmp, cmd.out);
+    std::cout << fmt::format(
+        "wrote {}: {} frames at {:.6g} Hz, {} positions and {} velocities per row; yaw {:.1f} "
+        "deg, scale {:.4g}, height offset {:.4g} m, fit error {:.2f} deg mean\n",
+        cmd.out, frames, 1 / motion.frame_time_s(), engine->nq(), engine->nv(),
+        motion.yaw_rad() * 180 / std::numbers::pi, motion.scale(), motion.height_offset_m(),
+        motion.mean_fit_error_deg());
     return kExitOk;
   });
 }

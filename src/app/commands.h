@@ -63,6 +63,19 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
 // `stance bvh synth-walk OUT.bvh`: the synthetic walking clip (motion/reference_motion.h)
 int bvh_synth_walk_command(const std::string& out_path);
 
+// `stance bvh retarget IN.bvh --map MAP.yaml --model MODEL OUT.csv`: the clip mapped onto a
+// model (motion/retarget.h), written as a table of the model's positions and velocities at the
+// clip's frame rate, for tools that want a reference in the robot's own coordinates
+struct BvhRetargetCommand {
+  std::string bvh, map, model, out;
+  std::string engine = "mujoco";
+  double duration_s = 0;  // > 0 with loop: that long; otherwise one pass of the clip range
+  bool loop = false;
+  int first_frame = 0;
+  int last_frame = -1;
+};
+int bvh_retarget_command(const BvhRetargetCommand& cmd);
+
 // list scenarios in a folder and the registered controllers
 int list_command(const std::string& scenario_dir);
 
