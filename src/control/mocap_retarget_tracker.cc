@@ -54,6 +54,47 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params, co
     if (engine.joint(j).body == top && engine.joint(j).type == JointType::kFree)
       root_dof_ = engine.joint(j).dof_adr;
 
+  // free mode balance: the legs, as mapped bodies
+  if (mode_ == MocapRootMode::kFree && params.balance) {
+    const MotionSkeleton& sk = clip_.reference->skeleton();
+    int hip_seg[2], foot_seg[2];
+    find_mocap_legs(sk, {params.left_hip, params.right_hip, params.left_foot, params.right_foot},
+                    hip_seg, foot_seg);
+    const auto& bodies = motion_->bodies();
+    for (int side = 0; side < 2; ++side)
+      for (size_t i = 0; i < bodies.size(); ++i) {
+        if (bodies[i].segment == hip_seg[side]) hip_[side] = static_cast<int>(i);
+        if (bodies[i].segment == foot_seg[side]) foot_[side] = static_cast<int>(i);
+      }
+    if (hip_[0] < 0 || hip_[1] < 0 || foot_[0] < 0 || foot_[1] < 0 || hip_[0] == hip_[1])
+      throw InputError(
+          "free mode balance: map both thighs and both feet (or set left_hip, right_hip, "
+          "left_foot and right_foot to mapped clip joints)");
+    for (int side = 0; side < 2; ++side)
+      for (int b = 0; b < engine.nbody(); ++b)
+        for (int a = b; a >= 0; a = engine.body_parent(a))
+          if (a == bodies[foot_[side]].body) {
+            foot_bodies_[side].push_back(b);
+            break;
+          }
+    // the walking direction in the root body's frame: the mean horizontal root velocity
+    std::vector<Eigen::Quaterniond> world(bodies.size()), local(bodies.size());
+    std::vector<Eigen::Vector3d> a(bodies.size()), b(bodies.size());
+    const Eigen::Vector3d g = engine.gravity();
+    const Eigen::Vector3d up = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : up_;
+    Eigen::Vector3d fwd = Eigen::Vector3d::Zero();
+    const double h = motion_->frame_time_s();
+    for (double t = 0; t + h <= clip_.reference->duration_s(); t += h) {
+      motion_->sample_bodies(t, local, a);
+      motion_->sample_bodies(t + h, local, b);
+      motion_->sample_world(t, world);
+      Eigen::Vector3d vel = b[root_mapped_] - a[root_mapped_];
+      vel -= vel.dot(up) * up;
+      fwd += world[root_mapped_].conjugate() * vel;
+    }
+    if (fwd.norm() > 1e-9) forward_in_root_ = fwd.normalized();
+  }
+
   // gains: every dof but the root's; the root's in assisted mode
   const int nv = engine.nv();
   kp_ = Eigen::VectorXd::Constant(nv, params.kp);
@@ -108,6 +149,16 @@ void MocapRetargetTracker::reset(const Engine& engine) {
   }
   Eigen::Vector3d g = engine.gravity();
   up_ = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
+  const size_t n = motion_->bodies().size();
+  bal_world_.assign(n, Eigen::Quaterniond::Identity());
+  bal_local_.assign(n, Eigen::Quaterniond::Identity());
+  bal_pos_.assign(n, Eigen::Vector3d::Zero());
+  bal_pos_ahead_.assign(n, Eigen::Vector3d::Zero());
+  jac_a_.setZero(3, engine.nv());
+  jac_b_.setZero(3, engine.nv());
+  stance_ = 0;
+  stance_share_[0] = 1;
+  stance_share_[1] = 0;
 }
 
 void MocapRetargetTracker::accumulate_metrics(const Engine& engine) {
@@ -168,6 +219,7 @@ void MocapRetargetTracker::compute(const Engine& engine, ControlOutput& out) {
   if (mode_ == MocapRootMode::kKinematic) {
     add_deadbeat_torques(engine, q_, v_, q_ref_, work_, tau_);
   } else {
+    if (mode_ == MocapRootMode::kFree && params_.balance) balance(engine, engine.time() + dt);
     add_stable_pd_torques(engine, q_, v_, q_ref_, v_ref_, kp_, kd_, params_.max_torque, root_dof_,
                           root_dof_ + 6, work_, tau_);
     if (mode_ == MocapRootMode::kFree) tau_.segment<6>(root_dof_).setZero();
@@ -181,6 +233,87 @@ void MocapRetargetTracker::compute(const Engine& engine, ControlOutput& out) {
   }
   out.tau += tau_;
   ++steps_;
+}
+
+// mocap_tracker's balance layer on the model's bodies: world-frame targets for the swing thigh
+// and foot and the stance thigh (the pelvis servo), fitted to joint coordinates in q_ref_, and a
+// virtual COM force carried by the stance leg(s) as joint torques in tau_
+void MocapRetargetTracker::balance(const Engine& engine, double t) {
+  const auto& bodies = motion_->bodies();
+  const MocapRetargetParams& p = params_;
+  const double h = 0.01;  // s: the reference root velocity by a forward difference
+  motion_->sample_world(t, bal_world_);
+  motion_->sample_bodies(t + h, bal_local_, bal_pos_ahead_);
+  motion_->sample_bodies(t, bal_local_, bal_pos_);
+  auto height = [&](const Eigen::Vector3d& x) { return up_.dot(x); };
+  auto horizontal = [&](const Eigen::Vector3d& x) { return Eigen::Vector3d(x - up_.dot(x) * up_); };
+  // stance: the foot that alone touches the ground, else the lower one in the reference
+  bool touch[2] = {false, false};
+  for (int side = 0; side < 2; ++side)
+    for (int b : foot_bodies_[side]) touch[side] = touch[side] || engine.body_touches_ground(b);
+  stance_ = height(bal_pos_[foot_[0]]) <= height(bal_pos_[foot_[1]]) ? 0 : 1;
+  if (touch[0] != touch[1]) stance_ = touch[0] ? 0 : 1;
+  for (int side = 0; side < 2; ++side)
+    stance_share_[side] = touch[side] ? (touch[1 - side] ? 0.5 : 1.0) : 0.0;
+  const int swing = 1 - stance_;
+  // headings of the simulation and the reference; the targets turn onto the simulated one
+  const int root_body = bodies[root_mapped_].body;
+  const BodyPose root = engine.body_pose(root_body);
+  auto heading = [&](const Eigen::Quaterniond& r) {
+    Eigen::Vector3d f = horizontal(r * forward_in_root_);
+    return f.norm() > 1e-9 ? Eigen::Vector3d(f.normalized()) : forward_in_root_;
+  };
+  const Eigen::Vector3d fwd = heading(root.quat), fwd_ref = heading(bal_world_[root_mapped_]);
+  const Eigen::Vector3d lat = up_.cross(fwd), lat_ref = up_.cross(fwd_ref);
+  const double yaw_error = std::atan2(up_.dot(fwd_ref.cross(fwd)), fwd_ref.dot(fwd));
+  const Eigen::Quaterniond yaw_fix(Eigen::AngleAxisd(yaw_error, up_));
+  // SIMBICON feedback on the root's offset from the stance ankle and its velocity
+  const Eigen::Vector3d ankle = engine.body_pose(bodies[foot_[stance_]].body).pos;
+  const Eigen::Vector3d ankle_ref = bal_pos_[foot_[stance_]];
+  const Eigen::Vector3d d = root.pos - ankle, d_ref = bal_pos_[root_mapped_] - ankle_ref;
+  const Eigen::Vector3d vel = engine.body_velocity(root_body).tail<3>();
+  const Eigen::Vector3d vel_ref = (bal_pos_ahead_[root_mapped_] - bal_pos_[root_mapped_]) / h;
+  const double th_sag = std::clamp(p.cd_sagittal * (d.dot(fwd) - d_ref.dot(fwd_ref)) +
+                                       p.cv_sagittal * (vel.dot(fwd) - vel_ref.dot(fwd_ref)),
+                                   -0.8, 0.8);
+  const double th_cor = std::clamp(p.cd_coronal * (d.dot(lat) - d_ref.dot(lat_ref)) +
+                                       p.cv_coronal * (vel.dot(lat) - vel_ref.dot(lat_ref)),
+                                   -0.5, 0.5);
+  const Eigen::Quaterniond delta = Eigen::Quaterniond(Eigen::AngleAxisd(th_sag, -lat)) *
+                                   Eigen::Quaterniond(Eigen::AngleAxisd(th_cor, fwd));
+  // a world rotation for mapped body i, as its joint rotation under the parent as it is
+  auto set_world = [&](int i, const Eigen::Quaterniond& world) {
+    const int parent = engine.body_parent(bodies[i].body);
+    Eigen::Quaterniond base = motion_->rest_local(i);
+    if (parent >= 0) base = engine.body_pose(parent).quat * base;
+    motion_->set_body_local(i, (base.conjugate() * world).normalized(), q_ref_);
+  };
+  set_world(hip_[swing], delta * yaw_fix * bal_world_[hip_[swing]]);
+  if (p.swing_foot_world) set_world(foot_[swing], yaw_fix * bal_world_[foot_[swing]]);
+  // the stance hip: the joint rotation that puts the pelvis at its reference over the thigh as
+  // it is, blended with the reference's own
+  const int hip = hip_[stance_];
+  if (engine.body_parent(bodies[hip].body) == root_body) {
+    const Eigen::Quaterniond pelvis = yaw_fix * bal_world_[root_mapped_];
+    const Eigen::Quaterniond servo =
+        ((pelvis * motion_->rest_local(hip)).conjugate() * engine.body_pose(bodies[hip].body).quat)
+            .normalized();
+    motion_->set_body_local(hip, bal_local_[hip].slerp(p.stance_hip_world_weight, servo), q_ref_);
+  }
+  // the virtual force at the COM, reacted by the supporting feet (Coros et al. 2010)
+  const double weight = engine.total_mass() * engine.gravity().norm();
+  Eigen::Vector3d force = -p.gravity_compensation * engine.total_mass() * engine.gravity();
+  const Eigen::Vector3d e = yaw_fix * d_ref - d, ev = yaw_fix * vel_ref - vel;
+  force += horizontal(p.root_force_kp * e + p.root_force_kd * ev);
+  force += p.root_force_kd_z * up_.dot(ev) * up_;
+  const double lift = std::clamp(up_.dot(force), 0.0, 2 * weight);  // the feet can only push
+  force = horizontal(force) + lift * up_;
+  if (force.squaredNorm() == 0) return;
+  engine.com_jacobian(jac_a_);
+  for (int side = 0; side < 2; ++side)
+    if (stance_share_[side] > 0)
+      add_com_support_torque(engine, bodies[foot_[side]].body, stance_share_[side] * force, jac_a_,
+                             jac_b_, tau_);
 }
 
 double MocapRetargetTracker::mean_joint_error_deg() const {

@@ -4,8 +4,11 @@
 //
 // Root modes as in mocap_tracker: kinematic (deadbeat inverse dynamics on every dof: the error
 // of the table's interpolation alone), assisted (root gains inside the SPD solve; the root's
-// share is the helper force, integrated into an impulse) and free (no root help; no balance
-// layer here: that needs a bvh2mjcf character, whose ball joints it servoes).
+// share is the helper force, integrated into an impulse) and free (no root help). Free mode has
+// mocap_tracker's balance layer in model terms: the stance side from the feet's contacts, the
+// swing thigh servoed in the world with SIMBICON feedback, the pelvis servoed through the stance
+// hip, the swing foot at its world orientation, and a virtual COM force carried by the stance
+// leg; world targets become joint coordinates by the map's own hinge fit.
 //
 // Metrics: joint error (geodesic angle between each mapped body's rotation relative to its
 // parent body and the table's, deg), root position error, end error (mapped bodies with no
@@ -35,6 +38,19 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams {
   NamedValues kp_joints;          // per-dof kp (dof name)
   NamedValues kd_joints;
   double max_torque = 0;  // N m clamp on joint torques; 0: none
+  // free mode balance layer (as mocap_tracker's, on the model's bodies; docs/mocap.md)
+  bool balance = true;
+  double cd_sagittal = 0.5;  // rad/m: swing-thigh feedback on the root's offset from the ankle
+  double cv_sagittal = 0.2;  // rad s/m: ... and on its velocity
+  double cd_coronal = 0.5;
+  double cv_coronal = 0.2;
+  double stance_hip_world_weight = 1;  // stance hip: 1 servoes the pelvis, 0 the reference angle
+  bool swing_foot_world = true;        // swing foot at its reference world orientation
+  double gravity_compensation = 0;     // weight fraction carried through the stance leg(s)
+  double root_force_kp = 0;            // N/m: virtual force holding the root over the stance foot
+  double root_force_kd = 0;            // N s/m
+  double root_force_kd_z = 0;          // N s/m, along up
+  std::string left_hip, right_hip, left_foot, right_foot;  // clip joints; empty: found by name
 
   template <class V>
   void visit(V& v) {
@@ -47,6 +63,24 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams {
     v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-dof kd"});
     MocapHelperParams::visit(v);
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
+    v("balance", balance, {.help = "free mode: SIMBICON balance layer"});
+    v("cd_sagittal", cd_sagittal, {.unit = "rad/m", .min = -100, .max = 100});
+    v("cv_sagittal", cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
+    v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("stance_hip_world_weight", stance_hip_world_weight,
+      {.min = 0, .max = 1, .help = "free mode: 1 pelvis servo, 0 the reference hip angle"});
+    v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});
+    v("gravity_compensation", gravity_compensation,
+      {.min = 0, .max = 2, .help = "free mode: weight fraction carried through the stance leg"});
+    v("root_force_kp", root_force_kp,
+      {.unit = "N/m", .min = 0, .max = 1e6, .help = "free mode: virtual root force, horizontal"});
+    v("root_force_kd", root_force_kd, {.unit = "N s/m", .min = 0, .max = 1e6});
+    v("root_force_kd_z", root_force_kd_z, {.unit = "N s/m", .min = 0, .max = 1e6});
+    v("left_hip", left_hip);
+    v("right_hip", right_hip);
+    v("left_foot", left_foot);
+    v("right_foot", right_foot);
   }
 };
 
@@ -79,6 +113,7 @@ class MocapRetargetTracker final : public Controller {
 
  private:
   void accumulate_metrics(const Engine& engine);
+  void balance(const Engine& engine, double t);
 
   // the immutable part
   MocapRetargetParams params_;
@@ -105,6 +140,16 @@ class MocapRetargetTracker final : public Controller {
   std::vector<Eigen::Vector3d> recorded_roots_;
   double next_record_t_ = 0;
   int root_mapped_ = -1;  // index into motion().bodies() of the clip root's body
+  // free mode balance: mapped indices of the thighs and feet, engine bodies of each foot's
+  // subtree, and the walking direction in the root body's frame
+  int hip_[2] = {-1, -1}, foot_[2] = {-1, -1};
+  std::vector<int> foot_bodies_[2];
+  Eigen::Vector3d forward_in_root_ = Eigen::Vector3d::UnitX();
+  std::vector<Eigen::Quaterniond> bal_world_, bal_local_;
+  std::vector<Eigen::Vector3d> bal_pos_, bal_pos_ahead_;
+  Eigen::MatrixXd jac_a_, jac_b_;
+  int stance_ = 0;
+  double stance_share_[2] = {1, 0};
   Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
 };
 

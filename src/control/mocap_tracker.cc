@@ -86,6 +86,38 @@ MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base
   return out;
 }
 
+void find_mocap_legs(const MotionSkeleton& sk, const std::array<std::string, 4>& names, int hip[2],
+                     int foot[2]) {
+  auto find = [&](const std::string& name, const char* what) {
+    int k = sk.find_segment(name);
+    if (k < 0) throw InputError(fmt::format("{}: unknown joint '{}'", what, name));
+    return k;
+  };
+  hip[0] = hip[1] = foot[0] = foot[1] = -1;
+  // the topmost foot segment of each chain, and the root's child above it
+  for (int k = 1; k < sk.segment_count(); ++k) {
+    if (!is_foot_segment_name(sk.segments[k].name)) continue;
+    bool top = true;
+    for (int a = sk.segments[k].parent; a > 0; a = sk.segments[a].parent)
+      if (is_foot_segment_name(sk.segments[a].name)) top = false;
+    if (!top) continue;
+    int side = lower(sk.segments[k].name).find("right") != std::string::npos ||
+                       sk.segments[k].name[0] == 'R'
+                   ? 1
+                   : 0;
+    if (foot[side] < 0) foot[side] = k;
+  }
+  if (!names[2].empty()) foot[0] = find(names[2], "left_foot");
+  if (!names[3].empty()) foot[1] = find(names[3], "right_foot");
+  for (int side = 0; side < 2; ++side) {
+    int k = foot[side];
+    while (k > 0 && sk.segments[k].parent > 0) k = sk.segments[k].parent;
+    hip[side] = k > 0 ? k : -1;
+  }
+  if (!names[0].empty()) hip[0] = find(names[0], "left_hip");
+  if (!names[1].empty()) hip[1] = find(names[1], "right_hip");
+}
+
 MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engine,
                            const std::string& base_dir) {
   MocapTrackerModel& m = model_;
@@ -160,34 +192,8 @@ MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engin
     m.end_points.push_back(tip);
   }
 
-  // legs: the topmost foot segment of each chain, and the root's child above it
-  auto find = [&](const std::string& name, const char* what) {
-    int k = sk.find_segment(name);
-    if (k < 0) throw InputError(fmt::format("{}: unknown joint '{}'", what, name));
-    return k;
-  };
-  std::vector<int> feet;
-  for (int k = 1; k < n; ++k) {
-    if (!is_foot_segment_name(sk.segments[k].name)) continue;
-    bool top = true;
-    for (int a = sk.segments[k].parent; a > 0; a = sk.segments[a].parent)
-      if (is_foot_segment_name(sk.segments[a].name)) top = false;
-    if (top) feet.push_back(k);
-  }
-  for (int k : feet) {
-    int side = lower(sk.segments[k].name).find("right") != std::string::npos ||
-                       sk.segments[k].name[0] == 'R'
-                   ? 1
-                   : 0;
-    if (m.foot[side] < 0) m.foot[side] = k;
-  }
-  if (!params.left_foot.empty()) m.foot[0] = find(params.left_foot, "left_foot");
-  if (!params.right_foot.empty()) m.foot[1] = find(params.right_foot, "right_foot");
-  for (int side = 0; side < 2; ++side) {
-    int k = m.foot[side];
-    while (k > 0 && sk.segments[k].parent > 0) k = sk.segments[k].parent;
-    m.hip[side] = k > 0 ? k : -1;
-  }
+  find_mocap_legs(sk, {params.left_hip, params.right_hip, params.left_foot, params.right_foot},
+                  m.hip, m.foot);
   for (int side = 0; side < 2; ++side) {
     if (m.foot[side] < 0) continue;
     for (int k = 0; k < n; ++k)
@@ -197,8 +203,6 @@ MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engin
           break;
         }
   }
-  if (!params.left_hip.empty()) m.hip[0] = find(params.left_hip, "left_hip");
-  if (!params.right_hip.empty()) m.hip[1] = find(params.right_hip, "right_hip");
   if (m.mode == MocapRootMode::kFree && params.balance &&
       (m.hip[0] < 0 || m.hip[1] < 0 || m.foot[0] < 0 || m.foot[1] < 0 || m.hip[0] == m.hip[1]))
     throw InputError(

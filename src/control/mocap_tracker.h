@@ -26,6 +26,7 @@
 // written back on the clip's own skeleton at the clip's frame rate.
 #pragma once
 
+#include <array>
 #include <memory>
 #include <string>
 #include <vector>
@@ -273,6 +274,12 @@ std::unique_ptr<Controller> make_mocap_tracker(const YAML::Node& node, const Con
 void add_com_support_torque(const Engine& engine, int support_body, const Eigen::Vector3d& force,
                             const Eigen::MatrixXd& jac_com, Eigen::MatrixXd& jac_scratch,
                             Eigen::VectorXd& tau);
+
+// the legs of a skeleton: per side (left, right) the thigh segment and the topmost foot segment
+// (named like a foot, toe or ankle; the side from "right"/"R"), or -1. Non-empty names
+// (left_hip, right_hip, left_foot, right_foot) override; unknown ones throw InputError.
+void find_mocap_legs(const MotionSkeleton& skeleton, const std::array<std::string, 4>& names,
+                     int hip[2], int foot[2]);
 
 // "kinematic", "assisted", "free"; throws InputError otherwise
 MocapRootMode parse_mocap_root_mode(const std::string& mode);

@@ -17,6 +17,7 @@ namespace {
 
 constexpr double kProbeAngle = 0.5;  // rad; rotations about one axis are probed exactly
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
+constexpr int kMaxHinges = 6;  // per body
 
 std::string scalar_of(const YAML::Node& node, const std::string& source, const char* key) {
   if (!node.IsScalar())
@@ -38,14 +39,7 @@ double number_of(const YAML::Node& node, const std::string& source, const char* 
 }
 
 // one joint of a model body, with what probing found out about it
-struct JointSlot {
-  JointType type = JointType::kHinge;
-  int qpos = -1, nq = 0;
-  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();      // hinge, in the body frame
-  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();  // ball/free: local = T Q T^T
-  bool limited = false;
-  double lower = 0, upper = 0;
-};
+using JointSlot = RetargetJoint;
 
 struct ModelBody {
   int parent = -1;
@@ -115,8 +109,9 @@ void solve_hinges(const std::vector<JointSlot>& joints, const Eigen::Quaterniond
     r.head<3>() = twist_weight * quaternion_log(want.conjugate() * q);
     r.tail<3>() = aim ? Eigen::Vector3d(q * bone - bone_want) : Eigen::Vector3d::Zero();
   };
-  Eigen::MatrixXd jac(6, n);
-  Eigen::VectorXd step(n);
+  // fixed capacity: the solve also runs inside controllers, which must not allocate
+  Eigen::Matrix<double, 6, Eigen::Dynamic, 0, 6, kMaxHinges> jac(6, n);
+  Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kMaxHinges, 1> step(n);
   Eigen::Matrix<double, 6, 1> r, rh;
   for (int iter = 0; iter < 30; ++iter) {
     residual(r);
@@ -128,7 +123,8 @@ void solve_hinges(const std::vector<JointSlot>& joints, const Eigen::Quaterniond
       jac.col(k) = (rh - r) / h;
       angles[k] -= h;
     }
-    Eigen::MatrixXd jtj = jac.transpose() * jac;
+    Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, kMaxHinges, kMaxHinges> jtj =
+        jac.transpose() * jac;
     jtj.diagonal().array() += 1e-9;
     step = jtj.ldlt().solve(jac.transpose() * r);
     double max_step = step.cwiseAbs().maxCoeff();
@@ -455,7 +451,17 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   to_model_ = to_model;
   up_ = up;
   bone_fix_ = bone_fix;
-  for (const RetargetBody& rb : bodies_) rest_world_.push_back(model[rb.body].rest_world);
+  for (const RetargetBody& rb : bodies_) {
+    rest_world_.push_back(model[rb.body].rest_world);
+    rest_local_.push_back(model[rb.body].rest_local);
+    joints_.push_back(model[rb.body].joints);
+    bone_.push_back(bone[rb.body]);
+    int hinges = 0;
+    for (const JointSlot& j : model[rb.body].joints) hinges += j.type == JointType::kHinge;
+    if (hinges > kMaxHinges)
+      throw InputError(fmt::format("retarget: body '{}' has {} hinges (at most {})",
+                                   probe.body_name(rb.body), hinges, kMaxHinges));
+  }
 
   // the table: one pose per clip frame over the run (at least one pass)
   int frames = reference.frame_count();
@@ -467,6 +473,7 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   frames_ = std::max(frames, 2);
   q_.resize(static_cast<size_t>(frames_) * nq_);
   local_.resize(static_cast<size_t>(frames_) * nmapped);
+  world_.resize(static_cast<size_t>(frames_) * nmapped);
   position_.resize(static_cast<size_t>(frames_) * nmapped);
   std::vector<Eigen::Quaterniond> want(nb), actual(nb);
   body_fit_error_.assign(nmapped, 0.0);
@@ -552,6 +559,7 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
       const int p = model[b].parent;
       local_[static_cast<size_t>(f) * nmapped + i] =
           p >= 0 ? (actual[p].conjugate() * actual[b]).normalized() : actual[b];
+      world_[static_cast<size_t>(f) * nmapped + i] = actual[b];
       position_[static_cast<size_t>(f) * nmapped + i] = probe.body_pose(b).pos + (goal - at);
     }
   }
@@ -628,6 +636,36 @@ Eigen::Quaterniond RetargetedMotion::clip_world_rotation(
 
 Eigen::Vector3d RetargetedMotion::clip_root_position(const Eigen::Vector3d& body_position) const {
   return to_model_.conjugate() * (body_position - height_offset_ * up_) / scale_;
+}
+
+void RetargetedMotion::sample_world(double t, std::vector<Eigen::Quaterniond>& world) const {
+  int f;
+  double alpha;
+  locate(t, f, alpha);
+  const size_t n = bodies_.size();
+  for (size_t i = 0; i < n; ++i) {
+    size_t a = static_cast<size_t>(f) * n + i;
+    world[i] = slerp(world_[a], world_[a + n], alpha);
+  }
+}
+
+void RetargetedMotion::set_body_local(int i, const Eigen::Quaterniond& local,
+                                      Eigen::VectorXd& q) const {
+  const std::vector<JointSlot>& joints = joints_[i];
+  double angles[kMaxHinges];
+  int n = 0;
+  for (const JointSlot& j : joints)
+    if (j.type == JointType::kHinge) angles[n++] = q[j.qpos];  // warm start: q's own values
+  if (n > 0) {
+    solve_hinges(joints, local, bone_[i], angles, n);
+    n = 0;
+    for (const JointSlot& j : joints)
+      if (j.type == JointType::kHinge) q[j.qpos] = angles[n++];
+  }
+  for (const JointSlot& j : joints)
+    if (j.type == JointType::kBall)
+      set_joint_rotation(
+          j, Eigen::Quaterniond(j.frame.transpose() * local.toRotationMatrix() * j.frame), q);
 }
 
 void RetargetedMotion::locate(double t, int& f, double& alpha) const {

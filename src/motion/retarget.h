@@ -25,11 +25,10 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "engine/engine.h"
 #include "motion/reference_motion.h"
 
 namespace stance {
-
-class Engine;
 
 struct JointMapEntry {
   std::string segment;  // clip joint (a MotionSkeleton segment)
@@ -52,6 +51,16 @@ struct JointMap {
 // throws InputError naming the file and line
 JointMap parse_joint_map(const YAML::Node& node, const std::string& source);
 JointMap read_joint_map(const std::string& path);
+
+// one joint of a model body, as probed: enough to turn a body rotation into coordinates
+struct RetargetJoint {
+  JointType type = JointType::kHinge;
+  int qpos = -1, nq = 0;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();      // hinge, in the body frame
+  Eigen::Matrix3d frame = Eigen::Matrix3d::Identity();  // ball/free: local = T Q T^T
+  bool limited = false;
+  double lower = 0, upper = 0;
+};
 
 // per mapped body: the joint rotation's dofs, for error metrics
 struct RetargetBody {
@@ -96,6 +105,16 @@ class RetargetedMotion {
   // each mapped body at time t; vectors sized bodies().size(). Allocates nothing.
   void sample_bodies(double t, std::vector<Eigen::Quaterniond>& local,
                      std::vector<Eigen::Vector3d>& position) const;
+  // the reference world rotation of each mapped body at time t; sized bodies().size().
+  // Allocates nothing.
+  void sample_world(double t, std::vector<Eigen::Quaterniond>& world) const;
+  // mapped body i's rest rotation relative to its engine parent body (the joints at zero):
+  // its world rotation is parent * rest_local * (joint rotation)
+  const Eigen::Quaterniond& rest_local(int i) const { return rest_local_[i]; }
+  // writes into q the joint coordinates of mapped body i that come closest to the joint
+  // rotation `local` (hinges by the same fit as the table, warm-started from q; ball joints
+  // exactly). Allocates nothing.
+  void set_body_local(int i, const Eigen::Quaterniond& local, Eigen::VectorXd& q) const;
   // mapped bodies with no mapped body below them (feet, hands, head): indices into bodies()
   const std::vector<int>& end_bodies() const { return end_bodies_; }
   // back to the clip (export): the clip-world rotation of mapped body i's segment given the
@@ -120,7 +139,10 @@ class RetargetedMotion {
   std::vector<double> body_fit_error_, body_aim_error_;
   Eigen::Quaterniond to_model_ = Eigen::Quaterniond::Identity();  // M
   Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
-  std::vector<Eigen::Quaterniond> rest_world_, bone_fix_;  // per mapped body
+  std::vector<Eigen::Quaterniond> rest_world_, rest_local_, bone_fix_;  // per mapped body
+  std::vector<std::vector<RetargetJoint>> joints_;
+  std::vector<Eigen::Vector3d> bone_;
+  std::vector<Eigen::Quaterniond> world_;  // frame-major, per mapped body
 
   void locate(double t, int& frame, double& alpha) const;
 };
