@@ -30,7 +30,8 @@
 
 namespace stance {
 
-struct MocapRetargetParams : MocapClipParams, MocapHelperParams {
+struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalanceParams {
+  MocapRetargetParams() { swing_foot_world = true; }
   std::string joint_map;          // YAML map file; relative paths start at the scenario's folder
   std::string mode = "assisted";  // kinematic, assisted or free
   double kp = 300;                // N m/rad on every joint dof
@@ -38,19 +39,6 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams {
   NamedValues kp_joints;          // per-dof kp (dof name)
   NamedValues kd_joints;
   double max_torque = 0;  // N m clamp on joint torques; 0: none
-  // free mode balance layer (as mocap_tracker's, on the model's bodies; docs/mocap.md)
-  bool balance = true;
-  double cd_sagittal = 0.5;  // rad/m: swing-thigh feedback on the root's offset from the ankle
-  double cv_sagittal = 0.2;  // rad s/m: ... and on its velocity
-  double cd_coronal = 0.5;
-  double cv_coronal = 0.2;
-  double stance_hip_world_weight = 1;  // stance hip: 1 servoes the pelvis, 0 the reference angle
-  bool swing_foot_world = true;        // swing foot at its reference world orientation
-  double gravity_compensation = 0;     // weight fraction carried through the stance leg(s)
-  double root_force_kp = 0;            // N/m: virtual force holding the root over the stance foot
-  double root_force_kd = 0;            // N s/m
-  double root_force_kd_z = 0;          // N s/m, along up
-  std::string left_hip, right_hip, left_foot, right_foot;  // clip joints; empty: found by name
 
   template <class V>
   void visit(V& v) {
@@ -63,24 +51,7 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams {
     v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-dof kd"});
     MocapHelperParams::visit(v);
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
-    v("balance", balance, {.help = "free mode: SIMBICON balance layer"});
-    v("cd_sagittal", cd_sagittal, {.unit = "rad/m", .min = -100, .max = 100});
-    v("cv_sagittal", cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
-    v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
-    v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
-    v("stance_hip_world_weight", stance_hip_world_weight,
-      {.min = 0, .max = 1, .help = "free mode: 1 pelvis servo, 0 the reference hip angle"});
-    v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});
-    v("gravity_compensation", gravity_compensation,
-      {.min = 0, .max = 2, .help = "free mode: weight fraction carried through the stance leg"});
-    v("root_force_kp", root_force_kp,
-      {.unit = "N/m", .min = 0, .max = 1e6, .help = "free mode: virtual root force, horizontal"});
-    v("root_force_kd", root_force_kd, {.unit = "N s/m", .min = 0, .max = 1e6});
-    v("root_force_kd_z", root_force_kd_z, {.unit = "N s/m", .min = 0, .max = 1e6});
-    v("left_hip", left_hip);
-    v("right_hip", right_hip);
-    v("left_foot", left_foot);
-    v("right_foot", right_foot);
+    MocapBalanceParams::visit(v);
   }
 };
 

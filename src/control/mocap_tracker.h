@@ -86,6 +86,45 @@ struct MocapHelperParams {
   }
 };
 
+// free mode's balance layer, shared by both trackers (docs/mocap.md, "Tracking")
+struct MocapBalanceParams {
+  bool balance = true;
+  double cd_sagittal = 0.5;  // rad/m: swing-thigh feedback on the root's offset from the ankle
+  double cv_sagittal = 0.2;  // rad s/m: ... and on its velocity
+  double cd_coronal = 0.5;
+  double cv_coronal = 0.2;
+  double stance_hip_world_weight = 1;  // stance hip: 1 servoes the pelvis, 0 the reference angle
+  bool swing_foot_world = false;       // swing foot at its reference world orientation
+  double gravity_compensation = 0;     // weight fraction carried through the stance leg(s)
+  double root_force_kp = 0;            // N/m: virtual force holding the root over the stance foot
+  double root_force_kd = 0;            // N s/m
+  double root_force_kd_z = 0;          // N s/m, along up
+  std::string left_hip, right_hip;     // thigh joints (clip names); empty: found from the feet
+  std::string left_foot, right_foot;   // feet; empty: the first foot/toe/ankle segment per leg
+
+  template <class V>
+  void visit(V& v) {
+    v("balance", balance, {.help = "free mode: SIMBICON balance layer"});
+    v("cd_sagittal", cd_sagittal, {.unit = "rad/m", .min = -100, .max = 100});
+    v("cv_sagittal", cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
+    v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("stance_hip_world_weight", stance_hip_world_weight,
+      {.min = 0, .max = 1, .help = "free mode: 1 pelvis servo, 0 the reference hip angle"});
+    v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});
+    v("gravity_compensation", gravity_compensation,
+      {.min = 0, .max = 2, .help = "free mode: weight fraction carried through the stance leg"});
+    v("root_force_kp", root_force_kp,
+      {.unit = "N/m", .min = 0, .max = 1e6, .help = "free mode: virtual root force, horizontal"});
+    v("root_force_kd", root_force_kd, {.unit = "N s/m", .min = 0, .max = 1e6});
+    v("root_force_kd_z", root_force_kd_z, {.unit = "N s/m", .min = 0, .max = 1e6});
+    v("left_hip", left_hip);
+    v("right_hip", right_hip);
+    v("left_foot", left_foot);
+    v("right_foot", right_foot);
+  }
+};
+
 // a clip read and made ready to track
 struct MocapClip {
   std::shared_ptr<const BvhClip> clip;
@@ -105,41 +144,26 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
 void write_exported_bvh(const BvhClip& clip, const std::string& export_path,
                         const std::string& out_dir);
 
-struct MocapTrackerParams : MocapClipParams, MocapHelperParams {
+struct MocapTrackerParams : MocapClipParams, MocapHelperParams, MocapBalanceParams {
   std::string mode = "assisted";  // kinematic, assisted or free
   double kp = 1000;               // N m/rad on every ball joint
   double kd = 100;                // N m s/rad
   NamedValues kp_joints;          // per-joint kp (joint name)
   NamedValues kd_joints;
-  // free mode balance layer
-  bool balance = true;
-  double cd_sagittal = 0.5;  // rad/m
-  double cv_sagittal = 0.2;  // rad s/m
-  double cd_coronal = 0.5;
-  double cv_coronal = 0.2;
-  bool stance_hip_world = true;        // stance hip target puts the pelvis at the reference
-  double stance_hip_world_weight = 1;  // blend of that target with the reference hip (0..1)
-  double torso_kp = 0;                 // N m/rad, extra explicit stance-hip torque on the pelvis
+  // free mode balance layer: MocapBalanceParams, and
+  bool stance_hip_world = true;  // stance hip target puts the pelvis at the reference
+  double torso_kp = 0;           // N m/rad, extra explicit stance-hip torque on the pelvis
   double torso_kd = 0;
-  bool contact_stance = false;      // stance from the feet's ground contacts, not the reference
-  bool com_feedback = false;        // swing-thigh feedback on the COM instead of the root
-  double gravity_compensation = 0;  // fraction of the weight carried by J^T through the stance
-  double root_force_kp = 0;         // N/m: virtual force on the root, relative to the stance foot
-  double root_force_kd = 0;         // N s/m
-  double root_force_kp_z = 0;       // N/m, vertical
-  double root_force_kd_z = 0;       // N s/m, vertical
-  bool swing_foot_world = false;    // swing foot at its reference world orientation
-  double heading_gain = 0;          // 0: targets on the simulated heading; 1: the reference's
-  double swing_heading_gain = 0;    // the same for the swing leg alone (its landing yaw)
-  double path_gain = 0;             // rad/m: the target heading turns towards the clip's path
-  double ankle_cd_sagittal = 0;     // rad/m: stance-ankle tilt against the balance offset error
-  double ankle_cv_sagittal = 0;     // rad s/m
+  bool contact_stance = false;    // stance from the feet's ground contacts, not the reference
+  bool com_feedback = false;      // swing-thigh feedback on the COM instead of the root
+  double root_force_kp_z = 0;     // N/m, vertical
+  double heading_gain = 0;        // 0: targets on the simulated heading; 1: the reference's
+  double swing_heading_gain = 0;  // the same for the swing leg alone (its landing yaw)
+  double path_gain = 0;           // rad/m: the target heading turns towards the clip's path
+  double ankle_cd_sagittal = 0;   // rad/m: stance-ankle tilt against the balance offset error
+  double ankle_cv_sagittal = 0;   // rad s/m
   double ankle_cd_coronal = 0;
   double ankle_cv_coronal = 0;
-  std::string left_hip;  // thigh joints; empty: found from the foot chains
-  std::string right_hip;
-  std::string left_foot;  // feet; empty: the first foot/toe/ankle segment per leg
-  std::string right_foot;
   double max_torque = 0;  // N m clamp on joint torques; 0: none
 
   template <class V>
@@ -151,26 +175,13 @@ struct MocapTrackerParams : MocapClipParams, MocapHelperParams {
     v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-joint kp"});
     v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-joint kd"});
     MocapHelperParams::visit(v);
-    v("balance", balance, {.help = "free mode: SIMBICON balance layer"});
-    v("cd_sagittal", cd_sagittal, {.unit = "rad/m", .min = -100, .max = 100});
-    v("cv_sagittal", cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
-    v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
-    v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
+    MocapBalanceParams::visit(v);
     v("stance_hip_world", stance_hip_world, {.help = "free mode: pelvis servo via stance hip"});
-    v("stance_hip_world_weight", stance_hip_world_weight,
-      {.min = 0, .max = 1, .help = "free mode: 1 pelvis servo, 0 the reference hip angle"});
     v("torso_kp", torso_kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
     v("torso_kd", torso_kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
     v("contact_stance", contact_stance, {.help = "free mode: stance from foot contacts"});
     v("com_feedback", com_feedback, {.help = "free mode: balance feedback on the COM"});
-    v("gravity_compensation", gravity_compensation,
-      {.min = 0, .max = 2, .help = "free mode: weight fraction carried through the stance leg"});
-    v("root_force_kp", root_force_kp,
-      {.unit = "N/m", .min = 0, .max = 1e6, .help = "free mode: virtual root force, horizontal"});
-    v("root_force_kd", root_force_kd, {.unit = "N s/m", .min = 0, .max = 1e6});
     v("root_force_kp_z", root_force_kp_z, {.unit = "N/m", .min = 0, .max = 1e6});
-    v("root_force_kd_z", root_force_kd_z, {.unit = "N s/m", .min = 0, .max = 1e6});
-    v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});
     v("heading_gain", heading_gain,
       {.min = 0, .max = 1, .help = "free mode: share of the heading error the targets correct"});
     v("swing_heading_gain", swing_heading_gain,
@@ -182,10 +193,6 @@ struct MocapTrackerParams : MocapClipParams, MocapHelperParams {
     v("ankle_cv_sagittal", ankle_cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
     v("ankle_cd_coronal", ankle_cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
     v("ankle_cv_coronal", ankle_cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
-    v("left_hip", left_hip);
-    v("right_hip", right_hip);
-    v("left_foot", left_foot);
-    v("right_foot", right_foot);
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
   }
 };
