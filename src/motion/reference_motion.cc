@@ -83,6 +83,7 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
 
   // owner[j]: the segment a joint's frame belongs to; chain[j]: helpers merged above j
   sk.segment_of_joint.assign(n, -1);
+  for (const BvhJoint& j : clip.joints) sk.joint_names.push_back(j.name);
   std::vector<int> owner(n, -1);
   std::vector<std::vector<int>> pending_chain(n);  // merged helpers between parent segment and j
   std::vector<Eigen::Vector3d> pending_offset(n, Eigen::Vector3d::Zero());  // file units

@@ -5,6 +5,7 @@
 #include <numbers>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <Eigen/Dense>
 
 #include "core/error.h"
@@ -325,6 +326,12 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
     if (s < 0) {
       std::vector<std::string> names;
       for (const auto& seg : sk.segments) names.push_back(seg.name);
+      if (std::find(sk.joint_names.begin(), sk.joint_names.end(), entry.segment) !=
+          sk.joint_names.end())
+        throw InputError(where(
+            fmt::format("clip joint '{}' is no segment of its own (merged into its parent: zero "
+                        "length, or a helper that is skipped); map one of: {}",
+                        entry.segment, fmt::join(names, ", "))));
       throw InputError(where(fmt::format("the clip has no joint '{}'{}", entry.segment,
                                          did_you_mean(entry.segment, names))));
     }

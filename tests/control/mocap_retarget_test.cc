@@ -346,6 +346,30 @@ TEST(MocapRetarget, HumanoidFreeModeBalanceLayer) {
   EXPECT_LT(*r.fall_time, 1.5);
 }
 
+// a clip joint merged into its parent (CMU's zero-length lowerback) is named as such, with the
+// segments a map can use
+TEST(Retarget, MergedClipJointIsNamed) {
+  const std::string cmu = test::shared_dir() + "/data/bvh/cmu_131_01.bvh";
+  if (!std::filesystem::exists(cmu)) GTEST_SKIP() << "no ../shared data";
+  if (!std::filesystem::exists(kHumanoid)) GTEST_SKIP() << "no " << kHumanoid;
+  BvhClip clip = read_bvh(cmu);
+  ReferenceMotion reference(clip, make_motion_skeleton(clip, MotionSkeletonOptions{}),
+                            ReferenceOptions{});
+  auto probe = engine_of("mujoco", kHumanoid);
+  JointMap map = parse_joint_map(YAML::Load("joints:\n  Hips: pelvis\n  lowerback: lower_waist\n"),
+                                 "cmu.yaml");
+  try {
+    RetargetedMotion motion(reference, map, *probe, 0);
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("cmu.yaml:3: clip joint 'lowerback' is no segment of its "
+                                         "own"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("Chest, Chest2"), std::string::npos) << e.what();
+  }
+}
+
 TEST(MocapRetarget, BadMapsAreNamed) {
   OwnCharacter own("0");
   auto probe = engine_of("mujoco", own.xml);
