@@ -56,8 +56,8 @@ struct MotionSegment {
 };
 
 struct MotionSkeleton {
-  std::vector<MotionSegment> segments;  // parents precede children; segments[0] is the root
-  std::vector<int> segment_of_joint;    // per BVH joint: its segment, or -1 (merged/skipped)
+  std::vector<MotionSegment> segments;   // parents precede children; segments[0] is the root
+  std::vector<int> segment_of_joint;     // per BVH joint: its segment, or -1 (merged/skipped)
   std::vector<std::string> joint_names;  // per BVH joint
   double scale_to_meters = 1;
   Eigen::Quaterniond to_z_up = Eigen::Quaterniond::Identity();  // C

@@ -41,8 +41,9 @@ TEST(ModelPath, MujocoModelResolvesToTheSamples) {
     resolve_model_path("mujoco://model/nope.xml");
     FAIL() << "expected InputError";
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()),
-              "mujoco://model/nope.xml: no such file (looked for /usr/share/mujoco/model/nope.xml)");
+    EXPECT_EQ(
+        std::string(e.what()),
+        "mujoco://model/nope.xml: no such file (looked for /usr/share/mujoco/model/nope.xml)");
   }
 }
 
