@@ -103,6 +103,7 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params, co
   for (const auto& [name, value] : params.kd_joints) kd_[engine.require_dof(name)] = value;
   for (int i = root_dof_; i < root_dof_ + 6; ++i) {
     const bool translation = engine.dof_name(i).find("_pos_") != std::string::npos;
+    root_translation_[i - root_dof_] = translation;
     const bool assisted = mode_ == MocapRootMode::kAssisted;
     kp_[i] = assisted ? (translation ? params.root_kp : params.root_kp_rot) : 0;
     kd_[i] = assisted ? (translation ? params.root_kd : params.root_kd_rot) : 0;
@@ -226,8 +227,8 @@ void MocapRetargetTracker::compute(const Engine& engine, ControlOutput& out) {
   }
   if (mode_ != MocapRootMode::kFree) {
     double force = 0, torque = 0;
-    for (int i = root_dof_; i < root_dof_ + 6; ++i)
-      (engine.dof_name(i).find("_pos_") != std::string::npos ? force : torque) += tau_[i] * tau_[i];
+    for (int k = 0; k < 6; ++k)
+      (root_translation_[k] ? force : torque) += tau_[root_dof_ + k] * tau_[root_dof_ + k];
     helper_impulse_ += std::sqrt(force) * dt;
     helper_angular_impulse_ += std::sqrt(torque) * dt;
   }

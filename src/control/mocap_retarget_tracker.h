@@ -92,6 +92,8 @@ class MocapRetargetTracker final : public Controller {
   MocapClip clip_;
   std::shared_ptr<const RetargetedMotion> motion_;
   int root_body_ = -1, root_dof_ = -1;
+  // per root dof: a translation (MuJoCo's free joint lists them first, DART's last)
+  bool root_translation_[6] = {false, false, false, false, false, false};
   Eigen::VectorXd kp_, kd_;
   // per-run state
   Eigen::VectorXd q_, v_, q_ref_, v_ref_, tau_, scratch_;
