@@ -1,11 +1,12 @@
 # stance: two commands on a fresh Debian bookworm machine.
 #   make demo   install dependencies if missing, build (Release), run the main job
-#   make test   install dependencies if missing, build, run ctest
+#   make test   install dependencies if missing, build, run ctest (every test)
+#   make test-fast   the unit and cli tests only (labels: unit, physics, cli, viz)
 BUILD ?= build
 JOBS ?= $(shell nproc)
 STANCE = $(BUILD)/stance
 
-.PHONY: demo test build deps bench clean format
+.PHONY: demo test test-fast build deps bench clean format
 
 deps:
 	@bash scripts/install-deps.sh
@@ -17,7 +18,10 @@ build: deps $(BUILD)/CMakeCache.txt
 	cmake --build $(BUILD) -j$(JOBS)
 
 test: build
-	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) --timeout 900
+	cd $(BUILD) && ctest --output-on-failure -j$(JOBS)
+
+test-fast: build
+	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -L '^(unit|cli)$$'
 
 demo: build
 	@bash scripts/demo.sh $(STANCE)

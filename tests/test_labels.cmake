@@ -1,0 +1,41 @@
+# ctest reads this after the discovered gtest lists (<target>_TESTS): every gtest test gets one
+# label and that label's timeout, by its name, whatever executable it is in. The first pattern that
+# matches wins; a test no pattern matches is a unit test, so a new slow test fails on the unit
+# timeout until it is listed here. The shell tests (cli.*) and viz.xvfb are labelled where they are
+# added, in tests/CMakeLists.txt.
+#   unit     functions, parsing, single steps, short checks          make test-fast
+#   physics  simulated seconds of a controlled system and its outcome
+#   viz      rendering: the viewer window and the offscreen recorder
+#   cli      the stance binary end to end (tests/cli/*.sh)            make test-fast
+set(stance_timeout_unit 60)
+set(stance_timeout_physics 600)
+set(stance_timeout_viz 600)
+
+set(stance_label_patterns
+  viz "^(ViewerTest|RecorderTest)\\."
+  physics "^(BipedStand|BipedSkateboard|LqrBalance|SimbiconWalk|SimbiconGaits|Simbicon3d)\\."
+  physics "^SimbiconDart\\.Walks"
+  physics "^SlopeWalker\\.(Walks|LockedKnees)"
+  physics "^StablePd\\.StandsWherePlainPdDiverges$"
+  physics "^DartEngine\\.(BipedFallsAndRestsOnGround|MjcfPendulumPeriod)"
+  physics "^PdHoldScenario\\.HoldsOnMujocoAndDart$"
+  physics "^PushThreshold\\.BipedStand"
+  physics "^MocapTracker\\.(FreeModeMassWalk|FreeScenario|MassWalkTenSeconds|Assisted)"
+  physics "^MocapRetarget\\.(Fullbody1Assisted|HumanoidAssisted|HumanoidFreeMode)"
+  physics "^Tune\\.FindsGainsThatStand"
+  physics "^Sweep\\.SameCsvsWhateverTheThreadCount$")
+
+foreach(target IN LISTS STANCE_GTEST_TARGETS)
+  foreach(test IN LISTS ${target}_TESTS)
+    set(label unit)
+    set(patterns ${stance_label_patterns})
+    while(patterns)
+      list(POP_FRONT patterns candidate pattern)
+      if(test MATCHES "${pattern}")
+        set(label ${candidate})
+        break()
+      endif()
+    endwhile()
+    set_tests_properties("${test}" PROPERTIES LABELS ${label} TIMEOUT ${stance_timeout_${label}})
+  endforeach()
+endforeach()
