@@ -119,7 +119,7 @@ Eigen::MatrixXd lqr_state_cost(const LqrParams& params, const Eigen::MatrixXd& j
   return q;
 }
 
-LqrDesign design_lqr(const LqrParams& params, const Engine& engine) {
+LqrDesign design_lqr(const LqrParams& params, Engine& engine) {
   const auto t0 = std::chrono::steady_clock::now();
   LqrDesign design;
   const int nv = engine.nv(), nu = engine.nu();
@@ -190,8 +190,8 @@ void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engi
   s.max_com_foot_distance_m = std::max(s.max_com_foot_distance_m, s.com_foot_distance_m);
 }
 
-Lqr::Lqr(const LqrParams& params, const Engine& engine)
-    : params_(params), design_(design_lqr(params, engine)) {
+Lqr::Lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine)
+    : params_(params), design_(design_lqr(params, ctx, engine)) {
   state_.resize(engine.nq(), engine.nv(), engine.nu());
 }
 

@@ -10,9 +10,9 @@
 //  4. the DARE (math/dare.h) and K = (R + B'PB)^-1 B'PA;
 //  5. per step, ctrl = ctrl0 - K [q (-) q0; v], allocation-free.
 //
-// The controller is engine-agnostic. The set-point and the linearisation need the backend's
-// inverse dynamics; they sit behind find_lqr_setpoint / linearize_lqr_plant, implemented for
-// MuJoCo in control/lqr_setpoint_mujoco.cc.
+// The controller is engine-agnostic: the set-point and the linearisation use the engine
+// interface's inverse dynamics, actuator moments, Jacobians and steps (control/lqr_design.cc).
+// They need actuators, so the design runs on MuJoCo only (DART models have none).
 #pragma once
 
 #include <Eigen/Core>
@@ -94,11 +94,11 @@ struct LqrDesign {
   double setpoint_ms = 0, linearize_ms = 0, dare_ms = 0, design_ms = 0;  // wall times
 };
 
-// backend hooks (control/lqr_setpoint_mujoco.cc). `engine` is at the target pose; its state is
-// not changed. Throw InputError for unknown bodies, a root without a free joint, no sign change
-// of the vertical force, or an engine without inverse dynamics (DART).
-LqrSetPoint find_lqr_setpoint(const LqrParams& params, const Engine& engine);
-void linearize_lqr_plant(const LqrParams& params, const Engine& engine, const LqrSetPoint& sp,
+// the design's steps (control/lqr_design.cc). `engine` is at the target pose; they move it and
+// restore its state on return. Throw InputError for unknown bodies, a root without a free
+// joint, no sign change of the vertical force, or a model without actuators (DART).
+LqrSetPoint find_lqr_setpoint(const LqrParams& params, Engine& engine);
+void linearize_lqr_plant(const LqrParams& params, Engine& engine, const LqrSetPoint& sp,
                          LqrPlant& plant);
 
 // Q (2nv x 2nv) from the Jacobians and the dof classes: root dofs 0, balance_dofs
@@ -110,7 +110,9 @@ Eigen::MatrixXd lqr_state_cost(const LqrParams& params, const Eigen::MatrixXd& j
 std::vector<int> match_dofs(const Engine& engine, const std::vector<std::string>& patterns);
 
 // the whole pipeline; throws InputError when the DARE fails
-LqrDesign design_lqr(const LqrParams& params, const Engine& engine);
+LqrDesign design_lqr(const LqrParams& params, Engine& engine);
+// the same on the context's scratch engine put at `engine`'s pose: the run's engine is not moved
+LqrDesign design_lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine);
 
 // a root of f in [a, b] by Brent's method, given f(a) f(b) <= 0; stops when the bracket is
 // narrower than tol. Returns the end of the final bracket with the smaller |f|.
@@ -140,7 +142,7 @@ void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engi
 
 class Lqr final : public Controller {
  public:
-  Lqr(const LqrParams& params, const Engine& engine);
+  Lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return "lqr"; }
   void reset(const Engine& engine) override;
   void compute(const Engine& engine, ControlOutput& out) override;

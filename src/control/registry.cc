@@ -48,7 +48,10 @@ const std::vector<ControllerType>& controller_registry() {
       {"slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)",
        factory_of<SlopeWalker, SlopeWalkerParams>()},
       {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
-       factory_of<Lqr, LqrParams>()},
+       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
+         return std::unique_ptr<Controller>(
+             new Lqr(read_params<LqrParams>(node, ctx), ctx, engine));
+       }},
       {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root",
        make_mocap_tracker},
       {"mocap_retarget", "BVH tracking on any model through a YAML joint map (retargeting)",

@@ -85,6 +85,11 @@ void Engine::solve_mass_shifted(const Eigen::Ref<const Eigen::VectorXd>& d,
   shifted_llt_.solveInPlace(x);
 }
 
+void Engine::apply_keyframe(std::string_view name) {
+  throw InputError(
+      fmt::format("keyframe '{}': the {} engine has no keyframes", name, engine_name()));
+}
+
 bool Engine::dof_is_root(int dof) const {
   return joint(dof_joint(dof)).type == JointType::kFree;
 }

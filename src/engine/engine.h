@@ -56,7 +56,7 @@ struct Contact {
 struct EngineState {
   double time = 0;
   Eigen::VectorXd q, v, act, ctrl;
-  std::vector<double> extra;  // backend-specific warm-start data
+  std::vector<double> extra;  // backend-specific warm-start data; empty: a cold start
 };
 
 class Engine {
@@ -123,6 +123,13 @@ class Engine {
                                   Eigen::Ref<Eigen::VectorXd> x) const;
   virtual void bias_forces(Eigen::Ref<Eigen::VectorXd> c) const = 0;        // Coriolis + gravity
   virtual void constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const = 0;  // last step's
+  // inverse dynamics at the current q and v: the generalised force tau (dim nv) that, applied
+  // together with nothing else, gives the acceleration vdot (dim nv). MuJoCo computes it as
+  // mj_inverse does, tau = M vdot + bias - passive - the constraint forces this vdot implies
+  // (soft contacts and limits); DART as M vdot + bias (no contact or limit forces). The
+  // simulation state, its constraint forces included, is unchanged.
+  virtual void inverse_dynamics(const Eigen::Ref<const Eigen::VectorXd>& vdot,
+                                Eigen::Ref<Eigen::VectorXd> tau) const = 0;
 
   // kinematics, valid after forward().
   virtual Eigen::Vector3d com() const = 0;           // of the mobile bodies
@@ -138,6 +145,10 @@ class Engine {
                               Eigen::Ref<Eigen::MatrixXd> jac_rot) const = 0;
   // Jacobian of the COM of all mobile bodies, 3 x nv.
   virtual void com_jacobian(Eigen::Ref<Eigen::MatrixXd> jac) const = 0;
+  // Jacobian of the COM of `body` and all bodies below it, 3 x nv (MuJoCo's mj_jacSubtreeCom).
+  virtual void subtree_com_jacobian(int body, Eigen::Ref<Eigen::MatrixXd> jac) const = 0;
+  // world position of that subtree's COM
+  virtual Eigen::Vector3d subtree_com(int body) const = 0;
 
   // contacts, valid after step() (forces) or forward() (geometry)
   virtual int num_contacts() const = 0;
@@ -151,11 +162,23 @@ class Engine {
   virtual void set_generalized_forces(const Eigen::Ref<const Eigen::VectorXd>& tau) = 0;
   virtual void set_controls(const Eigen::Ref<const Eigen::VectorXd>& ctrl) = 0;  // dim nu
   virtual void get_controls(Eigen::Ref<Eigen::VectorXd> ctrl) const = 0;
+  // the actuators' moment matrix at the current state, nu x nv: the generalised force of the
+  // controls is moment^T ctrl (transmission and gear times the fixed gain; plus the bias of
+  // servo-like actuators; within control limits). Valid after forward(). Throws InputError on
+  // engines without actuators (DART) and for actuators without a fixed gain.
+  virtual void actuator_moment(Eigen::Ref<Eigen::MatrixXd> moment) const = 0;
   // force (N, world) at a world point fixed to the body.
   virtual void apply_external_force(int body, const Eigen::Vector3d& force_world,
                                     const Eigen::Vector3d& point_world) = 0;
   // velocity servo on a hinge/slide dof (e.g. skateboard wheels); NaN disables it.
   virtual void set_dof_velocity_command(int dof, double velocity) = 0;
+
+  // keyframes stored in the model file (MuJoCo's <key>), by name. apply_keyframe sets the
+  // time, q, v, activations and controls to the keyframe's and clears the per-step inputs; it
+  // throws InputError for an unknown name (suggesting the nearest) and on engines without
+  // keyframes (DART).
+  virtual std::vector<std::string> keyframe_names() const { return {}; }
+  virtual void apply_keyframe(std::string_view name);
 
   // state save/restore (finite differences, replay)
   virtual void save_state(EngineState& s) const = 0;

@@ -9,7 +9,6 @@
 #include <sstream>
 
 #include "core/error.h"
-#include "engine/mujoco/mujoco_engine.h"
 #include "engine/world_spec.h"
 
 namespace stance {
@@ -71,20 +70,11 @@ std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::strin
   }
   std::unique_ptr<Engine> engine = make_engine(engine_name, spec);
   if (!s.keyframe.empty()) {
-    auto* mj = dynamic_cast<MujocoEngine*>(engine.get());
-    if (!mj) throw InputError("keyframe '" + s.keyframe + "': keyframes exist on MuJoCo only");
-    int key = mj_name2id(mj->model(), mjOBJ_KEY, s.keyframe.c_str());
-    if (key < 0) {
-      std::vector<std::string> names;
-      for (int k = 0; k < mj->model()->nkey; ++k) {
-        const char* n = mj_id2name(mj->model(), mjOBJ_KEY, k);
-        if (n) names.emplace_back(n);
-      }
-      throw InputError(
-          fmt::format("unknown keyframe '{}'{}", s.keyframe, did_you_mean(s.keyframe, names)));
+    try {
+      engine->apply_keyframe(s.keyframe);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("keyframe: {}", e.what()));
     }
-    mj_resetDataKeyframe(mj->model(), mj->data(), key);
-    mj->invalidate();
   }
   for (const auto& [name, value] : s.initial_pose) {
     int dof = engine->dof_index(name);

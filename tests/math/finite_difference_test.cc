@@ -71,6 +71,10 @@ class FakeEngine : public Engine {
   void solve_mass(Eigen::Ref<VectorXd>) const override {}
   void bias_forces(Eigen::Ref<VectorXd> c) const override { c.setZero(); }
   void constraint_forces(Eigen::Ref<VectorXd> f) const override { f.setZero(); }
+  void inverse_dynamics(const Eigen::Ref<const VectorXd>& vdot,
+                        Eigen::Ref<VectorXd> tau) const override {
+    tau = vdot;
+  }
   Eigen::Vector3d com() const override { return Eigen::Vector3d::Zero(); }
   Eigen::Vector3d com_velocity() const override { return Eigen::Vector3d::Zero(); }
   BodyPose body_pose(int) const override { return {}; }
@@ -81,11 +85,14 @@ class FakeEngine : public Engine {
   void point_jacobian(int, const Eigen::Vector3d&, Eigen::Ref<MatrixXd>,
                       Eigen::Ref<MatrixXd>) const override {}
   void com_jacobian(Eigen::Ref<MatrixXd>) const override {}
+  void subtree_com_jacobian(int, Eigen::Ref<MatrixXd>) const override {}
+  Eigen::Vector3d subtree_com(int) const override { return Eigen::Vector3d::Zero(); }
   int num_contacts() const override { return 0; }
   Contact contact(int) const override { return {}; }
   void set_generalized_forces(const Eigen::Ref<const VectorXd>& tau) override { tau_ = tau; }
   void set_controls(const Eigen::Ref<const VectorXd>& ctrl) override { ctrl_ = ctrl; }
   void get_controls(Eigen::Ref<VectorXd> ctrl) const override { ctrl = ctrl_; }
+  void actuator_moment(Eigen::Ref<MatrixXd> moment) const override { moment.setIdentity(); }
   void apply_external_force(int, const Eigen::Vector3d&, const Eigen::Vector3d&) override {}
   void set_dof_velocity_command(int, double) override {}
   void save_state(EngineState& s) const override {

@@ -604,6 +604,24 @@ class DartEngine final : public Engine {
       f.segment(b.dof_start, b.ndof) = b.skeleton->getConstraintForces();
   }
 
+  void inverse_dynamics(const Eigen::Ref<const Eigen::VectorXd>& vdot,
+                        Eigen::Ref<Eigen::VectorXd> tau) const override {
+    check_size(vdot.size(), ndof_, "inverse_dynamics vdot");
+    check_size(tau.size(), ndof_, "inverse_dynamics tau");
+    // M vdot + C, plus what the joints' damping and springs take away (DART treats them
+    // implicitly in a step; here they are the continuous-time forces). Per dof: no allocation.
+    for (const SkeletonBlock& b : blocks_) {
+      auto out = tau.segment(b.dof_start, b.ndof);
+      out.noalias() = b.skeleton->getMassMatrix() * vdot.segment(b.dof_start, b.ndof);
+      out += b.skeleton->getCoriolisAndGravityForces();
+      for (int i = 0; i < b.ndof; ++i) {
+        const dart::dynamics::DegreeOfFreedom* dof = b.skeleton->getDof(i);
+        out[i] += dof->getDampingCoefficient() * dof->getVelocity() +
+                  dof->getSpringStiffness() * (dof->getPosition() - dof->getRestPosition());
+      }
+    }
+  }
+
   Eigen::Vector3d com() const override {
     if (!positions_usable()) return Eigen::Vector3d::Constant(kNaN);
     Eigen::Vector3d sum = Eigen::Vector3d::Zero();
@@ -664,6 +682,28 @@ class DartEngine final : public Engine {
     }
   }
 
+  void subtree_com_jacobian(int body, Eigen::Ref<Eigen::MatrixXd> jac) const override {
+    check_size(jac.cols(), ndof_, "subtree_com_jacobian columns");
+    jac.setZero();
+    const SkeletonBlock& b = blocks_[body_block_.at(body)];
+    const double mass = subtree_mass(body);
+    if (mass <= 0) return;
+    // every body whose chain of parents reaches `body`, weighted by its mass
+    for (int other = 0; other < nbody(); ++other) {
+      if (!in_subtree(other, body)) continue;
+      const BodyNode* bn = bodies_[other];
+      jac.middleCols(b.dof_start, b.ndof) +=
+          (bn->getMass() / mass) * b.skeleton->getLinearJacobian(bn, bn->getLocalCOM());
+    }
+  }
+  Eigen::Vector3d subtree_com(int body) const override {
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (int other = 0; other < nbody(); ++other)
+      if (in_subtree(other, body)) sum += bodies_[other]->getMass() * bodies_[other]->getCOM();
+    const double mass = subtree_mass(body);
+    return mass > 0 ? Eigen::Vector3d(sum / mass) : bodies_.at(body)->getCOM();
+  }
+
   int num_contacts() const override { return static_cast<int>(contacts().getNumContacts()); }
   Contact contact(int i) const override {
     const dart::collision::Contact& c = contacts().getContact(i);
@@ -687,6 +727,9 @@ class DartEngine final : public Engine {
   }
   void get_controls(Eigen::Ref<Eigen::VectorXd> ctrl) const override {
     check_size(ctrl.size(), 0, "get_controls (DART models have no actuators)");
+  }
+  void actuator_moment(Eigen::Ref<Eigen::MatrixXd>) const override {
+    throw InputError("actuator moments: the dart engine has no actuators (nu = 0)");
   }
   void apply_external_force(int body, const Eigen::Vector3d& force_world,
                             const Eigen::Vector3d& point_world) override {
@@ -764,6 +807,19 @@ class DartEngine final : public Engine {
       }
     }
     return std::isfinite(sum);
+  }
+
+  // true when `body` is `root` or hangs below it
+  bool in_subtree(int body, int root) const {
+    for (int b = body; b >= 0; b = body_parent(b))
+      if (b == root) return true;
+    return false;
+  }
+  double subtree_mass(int root) const {
+    double mass = 0;
+    for (int b = 0; b < nbody(); ++b)
+      if (in_subtree(b, root)) mass += bodies_[b]->getMass();
+    return mass;
   }
 
   static int find(const Lookup& lookup, std::string_view name) {

@@ -134,6 +134,7 @@ MujocoEngine::MujocoEngine(mjModel* model, std::string source)
 }
 
 MujocoEngine::~MujocoEngine() {
+  if (inverse_data_) mj_deleteData(inverse_data_);
   if (d_) mj_deleteData(d_);
   if (m_) mj_deleteModel(m_);
 }
@@ -327,6 +328,26 @@ void MujocoEngine::constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const {
   f = Eigen::Map<const Eigen::VectorXd>(d_->qfrc_constraint, m_->nv);
 }
 
+void MujocoEngine::inverse_dynamics(const Eigen::Ref<const Eigen::VectorXd>& vdot,
+                                    Eigen::Ref<Eigen::VectorXd> tau) const {
+  if (vdot.size() != m_->nv || tau.size() != m_->nv)
+    throw std::invalid_argument(fmt::format("inverse_dynamics: expected dim nv = {}, got {} and {}",
+                                            m_->nv, vdot.size(), tau.size()));
+  if (!inverse_data_) {
+    inverse_data_ = mj_makeData(m_);
+    if (!inverse_data_) throw InputError(source_ + ": MuJoCo could not allocate data");
+  }
+  // the state mj_inverse reads: positions, velocities, activations and the acceleration
+  mjData* d = inverse_data_;
+  d->time = d_->time;
+  mju_copy(d->qpos, d_->qpos, m_->nq);
+  mju_copy(d->qvel, d_->qvel, m_->nv);
+  mju_copy(d->act, d_->act, m_->na);
+  Eigen::Map<Eigen::VectorXd>(d->qacc, m_->nv) = vdot;
+  mj_inverse(m_, d);
+  tau = Eigen::Map<const Eigen::VectorXd>(d->qfrc_inverse, m_->nv);
+}
+
 Eigen::Vector3d MujocoEngine::com() const {
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (int b : mobile_bodies_)
@@ -385,6 +406,15 @@ void MujocoEngine::com_jacobian(Eigen::Ref<Eigen::MatrixXd> jac) const {
   }
 }
 
+void MujocoEngine::subtree_com_jacobian(int body, Eigen::Ref<Eigen::MatrixXd> jac) const {
+  mj_jacSubtreeCom(m_, d_, jac_scratch_.data(), mobile_bodies_[body]);
+  jac = jac_scratch_;
+}
+
+Eigen::Vector3d MujocoEngine::subtree_com(int body) const {
+  return Eigen::Map<const Eigen::Vector3d>(d_->subtree_com + 3 * mobile_bodies_[body]);
+}
+
 Contact MujocoEngine::contact(int i) const {
   const mjContact& c = d_->contact[i];
   Contact out;
@@ -408,6 +438,45 @@ void MujocoEngine::set_controls(const Eigen::Ref<const Eigen::VectorXd>& ctrl) {
 }
 void MujocoEngine::get_controls(Eigen::Ref<Eigen::VectorXd> ctrl) const {
   ctrl = Eigen::Map<const Eigen::VectorXd>(d_->ctrl, m_->nu);
+}
+
+void MujocoEngine::actuator_moment(Eigen::Ref<Eigen::MatrixXd> moment) const {
+  if (moment.rows() != m_->nu || moment.cols() != m_->nv)
+    throw std::invalid_argument(fmt::format("actuator_moment: expected {} x {}, got {} x {}",
+                                            m_->nu, m_->nv, moment.rows(), moment.cols()));
+  // MuJoCo 2.2 stores actuator_moment dense, nu x nv row-major: qfrc_actuator = moment^T force,
+  // and a fixed-gain actuator's force is gain * ctrl
+  for (int i = 0; i < m_->nu; ++i) {
+    if (m_->actuator_gaintype[i] != mjGAIN_FIXED || m_->actuator_dyntype[i] != mjDYN_NONE)
+      throw InputError(fmt::format(
+          "actuator '{}': actuator_moment needs a fixed gain and no activation dynamics",
+          actuator_names_[i]));
+    const double gain = m_->actuator_gainprm[mjNGAIN * i];
+    for (int j = 0; j < m_->nv; ++j) moment(i, j) = gain * d_->actuator_moment[m_->nv * i + j];
+  }
+}
+
+std::vector<std::string> MujocoEngine::keyframe_names() const {
+  std::vector<std::string> names;
+  for (int k = 0; k < m_->nkey; ++k) names.push_back(name_of(m_, mjOBJ_KEY, k, ""));
+  return names;
+}
+
+void MujocoEngine::apply_keyframe(std::string_view name) {
+  const int key = mj_name2id(m_, mjOBJ_KEY, std::string(name).c_str());
+  if (key < 0) {
+    std::vector<std::string> names = keyframe_names();
+    throw InputError(fmt::format(
+        "unknown keyframe '{}'{}", name,
+        names.empty() ? std::string(" (the model has none)") : did_you_mean(name, names)));
+  }
+  mj_resetDataKeyframe(m_, d_, key);
+  pending_tau_.setZero();
+  forwarded_ = false;
+  diverged_ = false;
+  // the reset cleared MuJoCo's warning counters too
+  warnings_seen_ = d_->warning[mjWARN_BADQACC].number + d_->warning[mjWARN_BADQPOS].number +
+                   d_->warning[mjWARN_BADQVEL].number;
 }
 
 void MujocoEngine::apply_external_force(int body, const Eigen::Vector3d& force_world,
@@ -443,6 +512,8 @@ void MujocoEngine::restore_state(const EngineState& s) {
   if (m_->nu) Eigen::Map<Eigen::VectorXd>(d_->ctrl, m_->nu) = s.ctrl;
   if (static_cast<int>(s.extra.size()) == m_->nv)
     std::copy(s.extra.begin(), s.extra.end(), d_->qacc_warmstart);
+  else if (s.extra.empty())
+    mju_zero(d_->qacc_warmstart, m_->nv);  // a cold start
   mju_zero(d_->xfrc_applied, 6 * m_->nbody);
   pending_tau_.setZero();
   forwarded_ = false;

@@ -1,5 +1,5 @@
-// MuJoCo backend of the engine interface. Only src/engine/mujoco and code that genuinely needs
-// MuJoCo's own API (LQR set-point, mjd_transitionFD, the renderer) include this header.
+// MuJoCo backend of the engine interface. Only src/engine/mujoco and the renderer (src/viz),
+// which needs MuJoCo's own API, include this header; everything else sees the Engine.
 #pragma once
 
 #include <mujoco/mujoco.h>
@@ -69,6 +69,8 @@ class MujocoEngine final : public Engine {
                           Eigen::Ref<Eigen::VectorXd> x) const override;
   void bias_forces(Eigen::Ref<Eigen::VectorXd> c) const override;
   void constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const override;
+  void inverse_dynamics(const Eigen::Ref<const Eigen::VectorXd>& vdot,
+                        Eigen::Ref<Eigen::VectorXd> tau) const override;
 
   Eigen::Vector3d com() const override;
   Eigen::Vector3d com_velocity() const override;
@@ -79,6 +81,8 @@ class MujocoEngine final : public Engine {
                       Eigen::Ref<Eigen::MatrixXd> jac_pos,
                       Eigen::Ref<Eigen::MatrixXd> jac_rot) const override;
   void com_jacobian(Eigen::Ref<Eigen::MatrixXd> jac) const override;
+  void subtree_com_jacobian(int body, Eigen::Ref<Eigen::MatrixXd> jac) const override;
+  Eigen::Vector3d subtree_com(int body) const override;
 
   int num_contacts() const override { return d_->ncon; }
   Contact contact(int i) const override;
@@ -86,9 +90,13 @@ class MujocoEngine final : public Engine {
   void set_generalized_forces(const Eigen::Ref<const Eigen::VectorXd>& tau) override;
   void set_controls(const Eigen::Ref<const Eigen::VectorXd>& ctrl) override;
   void get_controls(Eigen::Ref<Eigen::VectorXd> ctrl) const override;
+  void actuator_moment(Eigen::Ref<Eigen::MatrixXd> moment) const override;
   void apply_external_force(int body, const Eigen::Vector3d& force_world,
                             const Eigen::Vector3d& point_world) override;
   void set_dof_velocity_command(int dof, double velocity) override;
+
+  std::vector<std::string> keyframe_names() const override;
+  void apply_keyframe(std::string_view name) override;
 
   void save_state(EngineState& s) const override;
   void restore_state(const EngineState& s) override;
@@ -127,6 +135,9 @@ class MujocoEngine final : public Engine {
       jac_scratch2_;
   mutable std::vector<double> vec_scratch_;
   mutable TreeLdl shifted_mass_ldl_;  // M + diag(shift), apart from mjData's own factor
+  // inverse dynamics runs on data of its own, so the simulation's constraint forces stay;
+  // made on first use
+  mutable mjData* inverse_data_ = nullptr;
   int warnings_seen_ = 0;
   bool diverged_ = false;
   std::string last_warning_;

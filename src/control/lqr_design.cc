@@ -1,8 +1,8 @@
-// The MuJoCo side of the LQR design: inverse dynamics (mj_inverse) for the set-point, the COM
-// Jacobians, and mjd_transitionFD for A and B. Everything runs on a private mjData, so the
-// scenario's engine keeps its state.
+// The LQR design's engine side: inverse dynamics for the set-point, the COM Jacobians and one
+// step's A and B by finite differences, all through the engine interface. The design moves
+// the engine it is given and puts it back; the controller gives it a scratch engine of the
+// scenario's world, so the run's engine keeps its state.
 #include <fmt/format.h>
-#include <mujoco/mujoco.h>
 
 #include <Eigen/SVD>
 #include <algorithm>
@@ -11,28 +11,11 @@
 
 #include "control/lqr.h"
 #include "core/error.h"
-#include "engine/mujoco/mujoco_engine.h"
+#include "math/finite_difference.h"
 
 namespace stance {
 
 namespace {
-
-using RowMatrix = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-
-struct DataDeleter {
-  void operator()(mjData* d) const { mj_deleteData(d); }
-};
-using DataPtr = std::unique_ptr<mjData, DataDeleter>;
-
-const MujocoEngine& require_mujoco(const Engine& engine) {
-  auto* mj = dynamic_cast<const MujocoEngine*>(&engine);
-  if (!mj)
-    throw InputError(fmt::format(
-        "lqr: the set-point needs inverse dynamics, available on the mujoco engine only "
-        "(found '{}')",
-        engine.engine_name()));
-  return *mj;
-}
 
 // the free joint of the root body: its qpos and dof addresses
 struct RootJoint {
@@ -60,45 +43,57 @@ int require_body(const Engine& engine, const std::string& name, const char* what
   return body;
 }
 
-Eigen::Vector3d up_axis(const mjModel* m) {
-  Eigen::Vector3d g(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]);
+Eigen::Vector3d up_axis(const Engine& engine) {
+  Eigen::Vector3d g = engine.gravity();
   if (g.norm() == 0) throw InputError("lqr: the set-point search needs gravity");
   return -g.normalized();
 }
 
+// puts the engine back into the state it had when the design started
+struct StateGuard {
+  Engine& engine;
+  EngineState saved;
+  explicit StateGuard(Engine& e) : engine(e) { engine.save_state(saved); }
+  ~StateGuard() {
+    engine.restore_state(saved);
+    engine.forward();
+  }
+};
+
 }  // namespace
 
-LqrSetPoint find_lqr_setpoint(const LqrParams& params, const Engine& engine) {
-  const MujocoEngine& mj = require_mujoco(engine);
-  const mjModel* m = mj.model();
-  const int nq = m->nq, nv = m->nv, nu = m->nu;
-  if (nu == 0) throw InputError("lqr: the model has no actuators");
-  if (m->na != 0) throw InputError("lqr: actuators with activation states are not supported");
+LqrSetPoint find_lqr_setpoint(const LqrParams& params, Engine& engine) {
+  const int nq = engine.nq(), nv = engine.nv(), nu = engine.nu();
+  if (nu == 0)
+    throw InputError(
+        fmt::format("lqr: the model has no actuators (on the {} engine)", engine.engine_name()));
+  StateGuard guard(engine);
+  if (guard.saved.act.size() != 0)
+    throw InputError("lqr: actuators with activation states are not supported");
   const RootJoint root = find_root_joint(params, engine);
-  const Eigen::Vector3d up = up_axis(m);
-  DataPtr d(mj_makeData(m));
+  const Eigen::Vector3d up = up_axis(engine);
 
   LqrSetPoint sp;
-  Eigen::VectorXd pose(nq);
+  Eigen::VectorXd pose(nq), q(nq), tau(nv);
+  const Eigen::VectorXd zero_v = Eigen::VectorXd::Zero(nv);
   engine.get_positions(pose);
-  sp.weight_N = engine.total_mass() *
-                Eigen::Vector3d(m->opt.gravity[0], m->opt.gravity[1], m->opt.gravity[2]).norm();
+  sp.weight_N = engine.total_mass() * engine.gravity().norm();
+  engine.set_velocities(zero_v);
+  engine.set_controls(Eigen::VectorXd::Zero(nu));
 
-  // inverse dynamics at rest with the root shifted by h along up: qfrc_inverse lands in d
+  // inverse dynamics at rest with the root shifted by h along up: the force lands in tau
   auto place = [&](double h) {
-    Eigen::Map<Eigen::VectorXd>(d->qpos, nq) = pose;
-    for (int k = 0; k < 3; ++k) d->qpos[root.qpos_adr + k] += h * up[k];
-    mju_zero(d->qvel, nv);
-    mju_zero(d->ctrl, nu);
-    mj_forward(m, d.get());
-    mju_zero(d->qacc, nv);
-    mj_inverse(m, d.get());
+    q = pose;
+    for (int k = 0; k < 3; ++k) q[root.qpos_adr + k] += h * up[k];
+    engine.set_positions(q);
+    engine.forward();
+    engine.inverse_dynamics(zero_v, tau);
   };
   // the fictitious force along up on the root: positive when the body is held up by it
   auto vertical_force = [&](double h) {
     place(h);
     ++sp.offset_evaluations;
-    return up.dot(Eigen::Map<const Eigen::Vector3d>(d->qfrc_inverse + root.dof_adr));
+    return up.dot(tau.segment<3>(root.dof_adr));
   };
 
   // bracket: walk away from 0, doubling the step, in the direction that reduces the force
@@ -124,18 +119,16 @@ LqrSetPoint find_lqr_setpoint(const LqrParams& params, const Engine& engine) {
 
   // the set-point itself
   place(sp.height_offset_m);
-  sp.q0 = Eigen::Map<const Eigen::VectorXd>(d->qpos, nq);
-  sp.qfrc0 = Eigen::Map<const Eigen::VectorXd>(d->qfrc_inverse, nv);
-  // MuJoCo 2.2 stores actuator_moment dense, nu x nv row-major: qfrc_actuator = M^T (gain ctrl)
-  Eigen::Map<const RowMatrix> moment(d->actuator_moment, nu, nv);
+  sp.q0 = q;
+  sp.qfrc0 = tau;
+  Eigen::MatrixXd moment(nu, nv);
+  engine.actuator_moment(moment);
+  // least-squares, minimum-norm: the generalised force of ctrl is moment^T ctrl
   Eigen::MatrixXd moment_t = moment.transpose();
-  // least-squares, minimum-norm: pinv(M)^T qfrc0 == pinv(M^T) qfrc0
   sp.ctrl0 = moment_t.jacobiSvd(Eigen::ComputeThinU | Eigen::ComputeThinV).solve(sp.qfrc0);
 
-  // verify by forward dynamics: the actuator forces ctrl0 produces, against qfrc0
-  Eigen::Map<Eigen::VectorXd>(d->ctrl, nu) = sp.ctrl0;
-  mj_forward(m, d.get());
-  Eigen::Map<const Eigen::VectorXd> qfrc_actuator(d->qfrc_actuator, nv);
+  // the actuator forces ctrl0 produces, against qfrc0
+  const Eigen::VectorXd qfrc_actuator = moment_t * sp.ctrl0;
   for (int i = 0; i < nv; ++i) {
     double err = std::abs(qfrc_actuator[i] - sp.qfrc0[i]);
     bool is_root = i >= root.dof_adr && i < root.dof_adr + 6;
@@ -153,36 +146,55 @@ LqrSetPoint find_lqr_setpoint(const LqrParams& params, const Engine& engine) {
     double h = sp.height_offset_m - half + 2 * half * i / (samples - 1);
     place(h);
     sp.curve_offset_m.push_back(h);
-    sp.curve_force_N.push_back(
-        up.dot(Eigen::Map<const Eigen::Vector3d>(d->qfrc_inverse + root.dof_adr)));
+    sp.curve_force_N.push_back(up.dot(tau.segment<3>(root.dof_adr)));
   }
   return sp;
 }
 
-void linearize_lqr_plant(const LqrParams& params, const Engine& engine, const LqrSetPoint& sp,
+void linearize_lqr_plant(const LqrParams& params, Engine& engine, const LqrSetPoint& sp,
                          LqrPlant& plant) {
-  const MujocoEngine& mj = require_mujoco(engine);
-  const mjModel* m = mj.model();
-  const int nv = m->nv, nu = m->nu;
+  const int nv = engine.nv();
   const int root = require_body(engine, params.root_body, "root_body");
   const int foot = require_body(engine, params.stance_foot, "stance_foot");
-  DataPtr d(mj_makeData(m));
-  Eigen::Map<Eigen::VectorXd>(d->qpos, m->nq) = sp.q0;
-  Eigen::Map<Eigen::VectorXd>(d->ctrl, nu) = sp.ctrl0;
-  mj_forward(m, d.get());
+  StateGuard guard(engine);
+  engine.set_positions(sp.q0);
+  engine.set_velocities(Eigen::VectorXd::Zero(nv));
+  engine.set_controls(sp.ctrl0);
+  engine.forward();
 
   // COM Jacobians at the set-point
-  RowMatrix jac(3, nv);
-  mj_jacSubtreeCom(m, d.get(), jac.data(), mj.mj_body_id(root));
-  plant.jac_com = jac;
-  mj_jacBodyCom(m, d.get(), jac.data(), nullptr, mj.mj_body_id(foot));
-  plant.jac_foot = jac;
+  plant.jac_com.resize(3, nv);
+  plant.jac_foot.resize(3, nv);
+  engine.subtree_com_jacobian(root, plant.jac_com);
+  Eigen::MatrixXd none(3, 0);
+  engine.point_jacobian(foot, engine.body_com(foot), plant.jac_foot, none);
+
+  // the solver's warm start from the set-point alone, not from the engine's history: one step
+  // from a cold start leaves its solution there
+  EngineState x0, stepped;
+  engine.save_state(x0);
+  x0.extra.clear();
+  engine.restore_state(x0);
+  engine.step();
+  engine.save_state(stepped);
+  x0.extra = stepped.extra;
 
   // A and B of one step, centred differences
-  RowMatrix a(2 * nv, 2 * nv), b(2 * nv, nu);
-  mjd_transitionFD(m, d.get(), params.fd_eps, 1, a.data(), b.data(), nullptr, nullptr);
-  plant.A = a;
-  plant.B = b;
+  linearize_fd(engine, x0, sp.ctrl0, params.fd_eps, true, plant.A, plant.B);
+}
+
+LqrDesign design_lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine) {
+  if (!ctx.scratch_engine)
+    throw InputError("lqr: the design needs a scratch engine of the scenario's world");
+  std::unique_ptr<Engine> scratch = ctx.scratch_engine();
+  if (scratch->nq() != engine.nq() || scratch->nv() != engine.nv() || scratch->nu() != engine.nu())
+    throw InputError("lqr: the scratch engine is not the run's model");
+  // the run's pose on the scratch engine
+  Eigen::VectorXd q(engine.nq());
+  engine.get_positions(q);
+  scratch->set_positions(q);
+  scratch->forward();
+  return design_lqr(params, *scratch);
 }
 
 }  // namespace stance
