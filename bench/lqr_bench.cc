@@ -31,7 +31,9 @@ std::unique_ptr<Engine> one_leg_engine() {
 void BM_LqrCompute(benchmark::State& state) {
   if (humanoid_missing(state)) return;
   auto engine = one_leg_engine();
-  Lqr lqr(LqrParams{}, *engine);
+  ControllerContext ctx;
+  ctx.scratch_engine = one_leg_engine;  // the design's own engine
+  Lqr lqr(LqrParams{}, ctx, *engine);
   lqr.reset(*engine);
   ControlOutput out;
   out.resize(engine->nv(), engine->nu());
