@@ -11,7 +11,7 @@
 
 #include "control/lqr.h"
 #include "core/error.h"
-#include "math/finite_difference.h"
+#include "analysis/finite_difference.h"
 
 namespace stance {
 

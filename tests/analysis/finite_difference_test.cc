@@ -1,4 +1,4 @@
-#include "math/finite_difference.h"
+#include "analysis/finite_difference.h"
 
 #include <gtest/gtest.h>
 #include <mujoco/mujoco.h>
