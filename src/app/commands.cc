@@ -21,7 +21,7 @@
 #include "model/skel_to_mjcf.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
-#include "motion/retarget.h"
+#include "control/retarget.h"
 #include "scenario/push_threshold.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"

@@ -64,7 +64,7 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
 int bvh_synth_walk_command(const std::string& out_path);
 
 // `stance bvh retarget IN.bvh --map MAP.yaml --model MODEL OUT.csv`: the clip mapped onto a
-// model (motion/retarget.h), written as a table of the model's positions and velocities at the
+// model (control/retarget.h), written as a table of the model's positions and velocities at the
 // clip's frame rate, for tools that want a reference in the robot's own coordinates
 struct BvhRetargetCommand {
   std::string bvh, map, model, out;

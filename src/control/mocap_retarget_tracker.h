@@ -1,5 +1,5 @@
 // Motion-capture tracking on an existing model: a BVH clip mapped onto the model's bodies by a
-// YAML joint-name map (motion/retarget.h), then tracked by stable PD with target velocities on
+// YAML joint-name map (control/retarget.h), then tracked by stable PD with target velocities on
 // every dof, on MuJoCo or DART. The run starts on the clip's first mapped frame.
 //
 // Root modes as in mocap_tracker: kinematic (deadbeat inverse dynamics on every dof: the error
@@ -26,7 +26,7 @@
 #include "control/controller.h"
 #include "control/mocap_tracker.h"
 #include "control/pose_tracking.h"
-#include "motion/retarget.h"
+#include "control/retarget.h"
 
 namespace stance {
 

@@ -12,7 +12,7 @@
 #include "engine/world_spec.h"
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
-#include "motion/retarget.h"
+#include "control/retarget.h"
 #include "scenario/runner.h"
 #include "scenario/scenario.h"
 #include "test_support.h"
