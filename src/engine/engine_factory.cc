@@ -1,20 +1,71 @@
+// The engine factory: resolves model paths and translates what a backend cannot read, then
+// hands the backend its input (engine/backend_world.h).
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "engine/backend_world.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "model/model_path.h"
+#include "model/skel_to_mjcf.h"
 
 namespace stance {
 
+namespace {
+
+BackendWorld world_options(const WorldSpec& spec) {
+  if (spec.models.empty()) throw InputError("no model given");
+  BackendWorld world;
+  world.timestep = spec.timestep;
+  world.gravity = spec.gravity;
+  return world;
+}
+
+}  // namespace
+
+std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
+  BackendWorld world = world_options(spec);
+  std::vector<SkelInput> skel_inputs;
+  for (const auto& mf : spec.models) {
+    std::string path = resolve_model_path(mf.path);
+    if (model_format(path) == ModelFormat::kSkel) skel_inputs.push_back({path, mf.offset});
+  }
+  if (!skel_inputs.empty()) {
+    // SKEL through its MJCF translation, which keeps DART's initial state (<init_pos>) in
+    // keyframe "init": start there, as DART does
+    if (skel_inputs.size() != spec.models.size())
+      throw InputError(
+          "composing SKEL files with MJCF/URDF files is not supported on MuJoCo; "
+          "convert the SKEL files first with `stance convert`");
+    SkelTranslation t = skel_to_mjcf(skel_inputs);
+    world.models.push_back({spec.models.front().path, "", t.mjcf, ModelFormat::kMjcf, {}});
+    world.start_keyframe = "init";
+    return open_mujoco_engine(world);
+  }
+  if (spec.models.size() != 1)
+    throw InputError("MuJoCo loads one MJCF/URDF file per world; use <include> to compose");
+  const ModelFile& mf = spec.models.front();
+  const std::string path = resolve_model_path(mf.path);
+  world.models.push_back({path, path, "", model_format(path), mf.offset});
+  return open_mujoco_engine(world);
+}
+
+std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
+#ifdef STANCE_HAVE_DART
+  BackendWorld world = world_options(spec);
+  for (const auto& mf : spec.models) {
+    const std::string path = resolve_model_path(mf.path);
+    world.models.push_back({mf.path, path, "", model_format(path), mf.offset});
+  }
+  return open_dart_engine(world);
+#else
+  throw InputError("this build of stance has no DART backend");
+#endif
+}
+
 std::unique_ptr<Engine> make_engine(const std::string& engine_name, const WorldSpec& spec) {
   if (engine_name == "mujoco") return make_mujoco_engine(spec);
-  if (engine_name == "dart") {
-#ifdef STANCE_HAVE_DART
-    return make_dart_engine(spec);
-#else
-    throw InputError("this build of stance has no DART backend");
-#endif
-  }
+  if (engine_name == "dart") return make_dart_engine(spec);
   throw InputError(fmt::format("unknown engine '{}' (expected mujoco or dart)", engine_name));
 }
 

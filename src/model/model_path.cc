@@ -1,7 +1,5 @@
 #include "model/model_path.h"
 
-#include <algorithm>
-#include <cctype>
 #include <cstdlib>
 #include <filesystem>
 
@@ -38,17 +36,6 @@ std::string resolve_model_path(const std::string& path) {
     throw InputError(path + ": no such file (looked for " + resolved + ")");
   }
   return resolved;
-}
-
-ModelFormat model_format(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  if (ext == ".xml" || ext == ".mjcf") return ModelFormat::kMjcf;
-  if (ext == ".urdf") return ModelFormat::kUrdf;
-  if (ext == ".skel") return ModelFormat::kSkel;
-  throw InputError(path + ": unknown model format '" + ext +
-                   "' (expected .xml or .mjcf for MJCF, .urdf, or .skel)");
 }
 
 }  // namespace stance

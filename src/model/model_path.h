@@ -1,7 +1,10 @@
-// Model file names: "dart://sample/..." resolution and format detection by extension.
+// Model file names: "dart://sample/..." and "mujoco://model/..." resolution; the format by
+// extension comes from core/model_format.h.
 #pragma once
 
 #include <string>
+
+#include "core/model_format.h"  // ModelFormat, model_format()
 
 namespace stance {
 
@@ -12,11 +15,5 @@ namespace stance {
 // Other paths, relative ones included, are returned unchanged.
 // Throws InputError "<path>: no such file" when the resolved file does not exist.
 std::string resolve_model_path(const std::string& path);
-
-enum class ModelFormat { kMjcf, kUrdf, kSkel };
-
-// by extension, case-insensitive: .xml/.mjcf -> kMjcf, .urdf -> kUrdf, .skel -> kSkel.
-// Throws InputError for anything else.
-ModelFormat model_format(const std::string& path);
 
 }  // namespace stance

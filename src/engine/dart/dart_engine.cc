@@ -41,9 +41,8 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "engine/backend_world.h"
 #include "engine/engine.h"
-#include "engine/world_spec.h"
-#include "model/model_path.h"
 
 namespace stance {
 
@@ -308,10 +307,9 @@ void apply_inertials(dart::simulation::World& world,
 
 // parses one model file into a temporary world of its own
 dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const std::string& file,
-                                            std::string& warnings) {
+                                            ModelFormat format, std::string& warnings) {
   const std::string absolute = std::filesystem::absolute(file).string();
   const dart::common::Uri uri = dart::common::Uri::createFromPath(absolute);
-  const ModelFormat format = model_format(shown_name);
   dart::simulation::WorldPtr world;
   std::string printed;
   {
@@ -367,7 +365,7 @@ dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const
 
 class DartEngine final : public Engine {
  public:
-  explicit DartEngine(const WorldSpec& spec) {
+  explicit DartEngine(const BackendWorld& spec) {
     load(spec);
     index_model();
   }
@@ -845,11 +843,14 @@ class DartEngine final : public Engine {
   }
 
   // builds world_ from the spec's files
-  void load(const WorldSpec& spec) {
+  void load(const BackendWorld& spec) {
     if (spec.models.empty()) throw InputError("world spec: no model files given");
-    for (const ModelFile& model : spec.models) {
-      const std::string file = resolve_model_path(model.path);
-      dart::simulation::WorldPtr parsed = read_model_world(model.path, file, load_warnings_);
+    for (const BackendModel& model : spec.models) {
+      if (model.file.empty())
+        throw InputError(model.name + ": the DART backend reads model files, not text");
+      const std::string& file = model.file;
+      dart::simulation::WorldPtr parsed =
+          read_model_world(model.name, file, model.format, load_warnings_);
       std::vector<SkeletonPtr> skeletons;
       for (size_t i = 0; i < parsed->getNumSkeletons(); ++i)
         skeletons.push_back(parsed->getSkeleton(i));
@@ -864,7 +865,7 @@ class DartEngine final : public Engine {
           }
         }
       }
-      if (!world_ && model_format(file) != ModelFormat::kUrdf) {
+      if (!world_ && model.format != ModelFormat::kUrdf) {
         // the first world file supplies gravity, timestep and collision detector
         world_ = parsed;
         continue;
@@ -1045,7 +1046,7 @@ class DartEngine final : public Engine {
 
 }  // namespace
 
-std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
+std::unique_ptr<Engine> open_dart_engine(const BackendWorld& spec) {
   return std::make_unique<DartEngine>(spec);
 }
 

@@ -7,8 +7,7 @@
 #include <memory>
 
 #include "core/error.h"
-#include "model/model_path.h"
-#include "model/skel_to_mjcf.h"
+#include "engine/backend_world.h"
 
 namespace stance {
 
@@ -61,58 +60,43 @@ mjModel* load_from_text(const std::string& text, const std::string& source) {
 
 }  // namespace
 
-mjModel* load_mujoco_model(const WorldSpec& spec) {
-  if (spec.models.empty()) throw InputError("no model given");
-  std::vector<SkelInput> skel_inputs;
-  for (const auto& mf : spec.models) {
-    std::string path = resolve_model_path(mf.path);
-    if (model_format(path) == ModelFormat::kSkel) skel_inputs.push_back({path, mf.offset});
-  }
+mjModel* load_mujoco_model(const BackendWorld& world) {
+  if (world.models.size() != 1)
+    throw InputError("MuJoCo loads one MJCF/URDF file per world; use <include> to compose");
+  const BackendModel& model = world.models.front();
   mjModel* m = nullptr;
-  if (!skel_inputs.empty()) {
-    if (skel_inputs.size() != spec.models.size())
-      throw InputError(
-          "composing SKEL files with MJCF/URDF files is not supported on MuJoCo; "
-          "convert the SKEL files first with `stance convert`");
-    SkelTranslation t = skel_to_mjcf(skel_inputs);
-    m = load_from_text(t.mjcf, spec.models.front().path);
+  if (!model.text.empty()) {
+    m = load_from_text(model.text, model.name);
   } else {
-    if (spec.models.size() != 1)
-      throw InputError("MuJoCo loads one MJCF/URDF file per world; use <include> to compose");
-    std::string path = resolve_model_path(spec.models.front().path);
     char err[1024] = "";
-    m = mj_loadXML(path.c_str(), nullptr, err, sizeof(err));
-    if (!m) throw InputError(mujoco_load_message(path, err));
-    // a translation of the whole model: shift the top-level bodies and free-joint origins
-    const Eigen::Vector3d& off = spec.models.front().offset;
-    if (off.squaredNorm() > 0) {
-      for (int b = 1; b < m->nbody; ++b) {
-        if (m->body_parentid[b] != 0) continue;
-        for (int k = 0; k < 3; ++k) m->body_pos[3 * b + k] += off[k];
-      }
-      for (int j = 0; j < m->njnt; ++j)
-        if (m->jnt_type[j] == mjJNT_FREE && m->body_parentid[m->jnt_bodyid[j]] == 0)
-          for (int k = 0; k < 3; ++k) m->qpos0[m->jnt_qposadr[j] + k] += off[k];
-    }
+    m = mj_loadXML(model.file.c_str(), nullptr, err, sizeof(err));
+    if (!m) throw InputError(mujoco_load_message(model.name, err));
   }
-  if (spec.timestep) m->opt.timestep = *spec.timestep;
-  if (spec.gravity)
-    for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*spec.gravity)[k];
+  // a translation of the whole model: shift the top-level bodies and free-joint origins
+  const Eigen::Vector3d& off = model.offset;
+  if (off.squaredNorm() > 0) {
+    for (int b = 1; b < m->nbody; ++b) {
+      if (m->body_parentid[b] != 0) continue;
+      for (int k = 0; k < 3; ++k) m->body_pos[3 * b + k] += off[k];
+    }
+    for (int j = 0; j < m->njnt; ++j)
+      if (m->jnt_type[j] == mjJNT_FREE && m->body_parentid[m->jnt_bodyid[j]] == 0)
+        for (int k = 0; k < 3; ++k) m->qpos0[m->jnt_qposadr[j] + k] += off[k];
+  }
+  if (world.timestep) m->opt.timestep = *world.timestep;
+  if (world.gravity)
+    for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*world.gravity)[k];
   return m;
 }
 
-std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
-  mjModel* m = load_mujoco_model(spec);
-  auto engine = std::make_unique<MujocoEngine>(m, spec.models.front().path);
-  // a translated SKEL keeps DART's initial state (<init_pos>) in keyframe "init": start there,
-  // as DART does
-  if (model_format(resolve_model_path(spec.models.front().path)) == ModelFormat::kSkel) {
-    int key = mj_name2id(m, mjOBJ_KEY, "init");
-    if (key >= 0) {
-      mj_resetDataKeyframe(m, engine->data(), key);
-      mj_forward(m, engine->data());
-      engine->invalidate();
-    }
+std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world) {
+  mjModel* m = load_mujoco_model(world);
+  auto engine = std::make_unique<MujocoEngine>(m, world.models.front().name);
+  // the start keyframe, when the model has it
+  if (!world.start_keyframe.empty() &&
+      mj_name2id(m, mjOBJ_KEY, world.start_keyframe.c_str()) >= 0) {
+    engine->apply_keyframe(world.start_keyframe);
+    mj_forward(m, engine->data());  // as the runs measured so far started (the warm start too)
   }
   return engine;
 }

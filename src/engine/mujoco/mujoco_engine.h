@@ -7,9 +7,9 @@
 #include <string>
 #include <vector>
 
+#include "engine/backend_world.h"
 #include "engine/engine.h"
 #include "engine/mujoco/tree_ldl.h"
-#include "engine/world_spec.h"
 
 namespace stance {
 
@@ -143,8 +143,8 @@ class MujocoEngine final : public Engine {
   std::string last_warning_;
 };
 
-// load MJCF/URDF (natively) or SKEL (through the SKEL->MJCF translation) into a MuJoCo model.
-// Throws InputError with the file (and line, when MuJoCo reports one).
-mjModel* load_mujoco_model(const WorldSpec& spec);
+// load the backend's input (one MJCF/URDF file, or MJCF text) into a MuJoCo model. Throws
+// InputError with the file (and line, when MuJoCo reports one).
+mjModel* load_mujoco_model(const BackendWorld& world);
 
 }  // namespace stance

@@ -1,0 +1,22 @@
+#include "core/model_format.h"
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+
+#include "core/error.h"
+
+namespace stance {
+
+ModelFormat model_format(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::transform(ext.begin(), ext.end(), ext.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (ext == ".xml" || ext == ".mjcf") return ModelFormat::kMjcf;
+  if (ext == ".urdf") return ModelFormat::kUrdf;
+  if (ext == ".skel") return ModelFormat::kSkel;
+  throw InputError(path + ": unknown model format '" + ext +
+                   "' (expected .xml or .mjcf for MJCF, .urdf, or .skel)");
+}
+
+}  // namespace stance

@@ -1,0 +1,39 @@
+// What an engine backend loads, as the factory (engine/engine_factory.cc) hands it over: model
+// paths already resolved ("dart://", "mujoco://") and formats a backend cannot read already
+// translated (SKEL -> MJCF for MuJoCo). Backends open files or text and nothing else; model
+// loading and path resolution stay above them, in the factory and src/model.
+#pragma once
+
+#include <Eigen/Core>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "core/model_format.h"
+
+namespace stance {
+
+class Engine;
+
+struct BackendModel {
+  std::string name;  // as the scenario gave it, for messages
+  std::string file;  // the resolved path to open; empty when `text` holds the model
+  std::string text;  // the model itself (a translation), in `format`
+  ModelFormat format = ModelFormat::kMjcf;
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // translation of the whole model
+};
+
+struct BackendWorld {
+  std::vector<BackendModel> models;
+  std::optional<double> timestep;          // s; default: the model file's own
+  std::optional<Eigen::Vector3d> gravity;  // m/s^2; default: the model file's own
+  // a keyframe to start from when the model has one (a translated SKEL's initial state)
+  std::string start_keyframe;
+};
+
+// the backends; throw InputError for files they cannot load
+std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world);
+std::unique_ptr<Engine> open_dart_engine(const BackendWorld& world);
+
+}  // namespace stance
