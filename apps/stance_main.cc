@@ -24,6 +24,8 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   run_cmd->add_option("--out", run.out_dir, "output folder (summary.json, log.csv)");
   run_cmd->add_flag("--quiet", run.quiet, "no summary on stdout");
+  run_cmd->add_flag("--past-fall", run.past_fall,
+                    "go on to the end after a fall (default: stop 1 s after it)");
   run_cmd->add_option("--record", run.record, "render an MP4 offscreen (ffmpeg)");
   run_cmd->add_option("--screenshot", run.screenshot, "render one PNG frame at --at");
   run_cmd->add_option("--at", run.screenshot_at, "screenshot time, s");

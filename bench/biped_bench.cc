@@ -38,15 +38,18 @@ void biped_controllers(benchmark::State& state, const std::string& engine_name) 
   stance::RunOptions options;
   options.engine = engine_name;
   options.quiet = true;
-  stance::ScenarioRun run(loaded, options);
+  stance::Simulation run(loaded, options);
   ControlledLoop loop(run);
   for (int k = 0; k < 1000; ++k) loop.step(false);
   stance::Engine& e = run.engine();
   e.forward();
+  stance::ControlOutput out;
+  out.resize(e.nv(), e.nu());
   for (auto _ : state) {
-    loop.out.clear();
-    for (auto& c : run.controllers()) c->compute(e, loop.out);
-    benchmark::DoNotOptimize(loop.out.tau.data());
+    out.clear();
+    for (size_t i = 0; i < run.controllers().size(); ++i)
+      run.controllers()[i]->compute(run.controller_state(i), e, out);
+    benchmark::DoNotOptimize(out.tau.data());
   }
   state.SetLabel(engine_name + ", SPD + ankle strategy compute()");
 }

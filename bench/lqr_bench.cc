@@ -7,8 +7,8 @@
 
 #include "control/lqr.h"
 #include "engine/mujoco/mujoco_engine.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 
 namespace {
 

@@ -14,8 +14,8 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 
 namespace {
 
@@ -24,27 +24,18 @@ void simbicon_walk(benchmark::State& state, const std::string& engine_name) {
       stance::load_scenario(std::string(STANCE_SOURCE_DIR) + "/scenarios/simbicon_walk.yaml");
   stance::RunOptions options;
   options.engine = engine_name;
-  stance::ScenarioRun run(loaded, options);
+  stance::Simulation run(loaded, options);
   stance::Engine& e = run.engine();
-  stance::Controller& controller = *run.controllers().at(0);
-  stance::ControlOutput out;
-  out.resize(e.nv(), e.nu());
   const int steps_per_second = static_cast<int>(std::lround(1.0 / e.timestep()));
 
-  // the same loop as ScenarioRun::step, with the controller timed on its own
+  // the simulation's own step, with the controller timed on its own
+  std::vector<double> timed_s(1, 0.0);
+  run.time_controllers(&timed_s);
   double controller_s = 0;
   auto one_second = [&](bool timed) {
-    for (int k = 0; k < steps_per_second; ++k) {
-      e.forward();
-      out.clear();
-      auto t0 = std::chrono::steady_clock::now();
-      controller.compute(e, out);
-      if (timed)
-        controller_s +=
-            std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      e.set_generalized_forces(out.tau);
-      e.step();
-    }
+    for (int k = 0; k < steps_per_second; ++k) run.step();
+    if (timed) controller_s += timed_s[0];
+    timed_s[0] = 0;
   };
   for (int s = 0; s < 3; ++s) one_second(false);
 

@@ -1,4 +1,4 @@
-// Shared by the benchmarks: the controllers of ScenarioRun::step with each compute() timed, and
+// Shared by the benchmarks: Simulation::step with each controller's compute() timed, and
 // the bare-step / controlled-step measurement whose ratio is the controllers' share of a step.
 // Both are measured in one run, so the ratios do not depend on how busy the shared machine was
 // between benchmarks.
@@ -13,8 +13,8 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 
 namespace stance::bench {
 
@@ -26,28 +26,23 @@ inline double seconds_since(Clock::time_point t0) {
   return std::chrono::duration<double>(Clock::now() - t0).count();
 }
 
-// the controllers of ScenarioRun::step, each compute() timed on its own
+// Simulation::step with each controller's compute() timed on its own
 struct ControlledLoop {
-  ScenarioRun& run;
-  ControlOutput out;
+  Simulation& run;
   std::vector<double> controller_s;  // per controller
 
-  explicit ControlledLoop(ScenarioRun& r) : run(r) {
-    out.resize(r.engine().nv(), r.engine().nu());
-    controller_s.assign(r.controllers().size(), 0.0);
+  explicit ControlledLoop(Simulation& r) : run(r), controller_s(r.controllers().size(), 0.0) {
+    run.time_controllers(&controller_s);
   }
+  ~ControlledLoop() { run.time_controllers(nullptr); }
   void step(bool timed) {
-    Engine& e = run.engine();
-    e.forward();
-    out.clear();
-    for (size_t i = 0; i < run.controllers().size(); ++i) {
-      auto t0 = Clock::now();
-      run.controllers()[i]->compute(e, out);
-      if (timed) controller_s[i] += seconds_since(t0);
+    if (timed) {
+      run.step();
+      return;
     }
-    out.tau *= run.scenario().torque_scale;
-    e.set_generalized_forces(out.tau);
-    e.step();
+    std::vector<double> kept = controller_s;
+    run.step();
+    controller_s = kept;
   }
   double total_controller_s() const {
     double sum = 0;
@@ -73,12 +68,13 @@ inline double measure_step_share(benchmark::State& state, const std::string& sce
   RunOptions options;
   options.engine = engine_name;
   options.quiet = true;
-  ScenarioRun controlled(loaded, options);
-  ScenarioRun bare(loaded, options);
+  Simulation controlled(loaded, options);
+  Simulation bare(loaded, options);
   ControlledLoop loop(controlled);
   for (int k = 0; k < settle_steps; ++k) loop.step(false);
-  EngineState start;
-  controlled.engine().save_state(start);
+  SimulationState start_all;
+  controlled.save(start_all);
+  const EngineState& start = start_all.engine;
   Engine& b = bare.engine();
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(b.nv());
 
@@ -95,7 +91,7 @@ inline double measure_step_share(benchmark::State& state, const std::string& sce
       b.step();
     }
     bare_s += seconds_since(t0);
-    if (restore_controlled) controlled.engine().restore_state(start);
+    if (restore_controlled) controlled.restore(start_all);
     t0 = Clock::now();
     for (int k = 0; k < kBlock; ++k) loop.step(true);
     controlled_s += seconds_since(t0);

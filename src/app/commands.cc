@@ -23,8 +23,8 @@
 #include "motion/reference_motion.h"
 #include "control/retarget.h"
 #include "scenario/push_threshold.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "scenario/sweep.h"
 #include "scenario/tune.h"
 
@@ -40,8 +40,10 @@ int run_command(const RunCommand& cmd) {
     opt.duration = cmd.duration;
     opt.out_dir = cmd.out_dir;
     opt.quiet = cmd.quiet;
+    opt.progress = !cmd.quiet;
+    if (cmd.past_fall) opt.stop_after_fall_s = -1;
     for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
-    ScenarioRun run(loaded, opt);
+    Simulation run(loaded, opt);
     RunResult r = run.run();
     if (!cmd.quiet) {
       std::cout << fmt::format(

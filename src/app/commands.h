@@ -20,6 +20,7 @@ struct RunCommand {
   std::vector<std::string> pushes;
   std::string out_dir = "out";
   bool quiet = false;
+  bool past_fall = false;  // go on to the end after a fall (default: stop 1 s after it)
   // offscreen recording (src/viz/viz_commands.h): a video and/or one frame at screenshot_at
   std::string record;        // .mp4
   std::string screenshot;    // .png

@@ -16,6 +16,7 @@
 #pragma once
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -94,7 +95,7 @@ struct AnkleStrategyParams {
   }
 };
 
-class AnkleStrategy final : public Controller {
+class AnkleStrategy final : public LegacyController {
  public:
   struct Model {
     AnkleStrategyParams params;

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 
 namespace stance {
 
@@ -37,7 +38,7 @@ struct ControlNoiseParams {
   }
 };
 
-class ControlNoise final : public Controller {
+class ControlNoise final : public LegacyController {
  public:
   ControlNoise(const ControlNoiseParams& params, const Engine& engine, uint64_t seed);
   std::string_view type() const override { return "control_noise"; }

@@ -1,9 +1,9 @@
 // Controllers: the runtime face of the Model/Data split.
 //
-// A concrete controller keeps immutable Params and a Model (indices, gains, K) built once from
-// the engine, and a State (FSM state, previous offsets, work vectors) made by reset(). compute()
-// reads the engine and *adds* its outputs, so controllers compose by summing; it must not
-// allocate.
+// A controller is an immutable Model (Params and what is resolved from them once: indices, gains,
+// K, tables), shared by every run of a scenario, and a per-run State (FSM state, previous
+// offsets, work vectors, metrics) that it makes. compute() reads the engine and *adds* its
+// outputs, so controllers compose by summing; it must not allocate.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "control/marker.h"
+#include "core/state_archive.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
 
@@ -48,23 +49,42 @@ struct ControlOutput {
   }
 };
 
+// a controller's per-run data (FSM, previous offsets, accumulated metrics, work vectors): made by
+// Controller::make_state(), copied to branch a run, written to a state file
+class ControllerState {
+ public:
+  virtual ~ControllerState() = default;
+  virtual std::unique_ptr<ControllerState> clone() const = 0;
+  // become a copy of `other` (a state of the same controller type); no allocation when the
+  // sizes match
+  virtual void assign(const ControllerState& other) = 0;
+  // the persistent fields, for the state file
+  virtual void write(std::string& out) const = 0;
+  virtual void read(const std::string& in, size_t& offset) = 0;
+};
+
+// A controller is its immutable Model: parameters and what was resolved from them once (indices,
+// gains, LQR K, tables). It is const after construction and can be shared by many runs on many
+// threads; each run holds its own ControllerState.
 class Controller {
  public:
   virtual ~Controller() = default;
   virtual std::string_view type() const = 0;
 
-  // fresh per-run state; called before the first compute() and on replay
-  virtual void reset(const Engine& engine) = 0;
+  // a fresh per-run state at the engine's current state (called at the start and on replay)
+  virtual std::unique_ptr<ControllerState> make_state(const Engine& engine) const = 0;
+  // restart `state` from the engine's current state, reusing its storage
+  virtual void reset(ControllerState& state, const Engine& engine) const = 0;
   // add this step's outputs; engine.forward() has been called. No allocation.
-  virtual void compute(const Engine& engine, ControlOutput& out) = 0;
+  virtual void compute(ControllerState& state, const Engine& engine, ControlOutput& out) const = 0;
 
   // key signals for log.csv: names fixed after construction, values filled per log row
   virtual void signal_names(std::vector<std::string>& names) const {}
-  virtual void signals(std::vector<double>& values) const {}
+  virtual void signals(const ControllerState& state, std::vector<double>& values) const {}
   // end-of-run metrics, merged into summary.json "metrics"
-  virtual void add_metrics(nlohmann::json& metrics) const {}
+  virtual void add_metrics(const ControllerState& state, nlohmann::json& metrics) const {}
   // extra output files (e.g. steps.csv) into the run's output folder, at the end of a run
-  virtual void write_outputs(const std::string& out_dir) const {}
+  virtual void write_outputs(const ControllerState& state, const std::string& out_dir) const {}
   // the parameters as YAML (for saving a tuned scenario)
   virtual YAML::Node params_yaml() const = 0;
   // the numeric parameters for live tuning, in params_yaml()'s key paths (the viewer's panel).
@@ -75,15 +95,117 @@ class Controller {
     list_yaml_params(params_yaml(), "", out);
     return out;
   }
+  // whether a state made by `previous` (the same type, other parameters) can go on under this
+  // model, so that a live parameter edit keeps the walk in its FSM phase
+  virtual bool keeps_state_of(const Controller& previous) const {
+    return previous.type() == type();
+  }
   // what the viewer and the recorder draw for this controller (appended to `out`, world frame)
-  virtual void markers(const Engine& engine, std::vector<Marker>& out) const {}
+  virtual void markers(const ControllerState& state, const Engine& engine,
+                       std::vector<Marker>& out) const {}
   // the pose being tracked (dim nq, the engine's layout) at the engine's time, drawn as a ghost;
   // false when the controller tracks no pose
-  virtual bool reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const { return false; }
-  // the state a run should start from (dim nq and nv), applied by the runner once the
+  virtual bool reference_qpos(const ControllerState& state, const Engine& engine,
+                              Eigen::VectorXd& qpos) const {
+    return false;
+  }
+  // the state a run should start from (dim nq and nv), applied by the simulation once the
   // controllers are built (a tracked clip's first frame); false: the scenario's own start
   virtual bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
                              Eigen::VectorXd& qvel) const {
+    return false;
+  }
+};
+
+// the per-run data of a TypedController: a value of type S. S lists its persistent fields with
+// `template <class A> void serialize(A& a)` (see core/state_archive.h).
+template <class S>
+class StateOf final : public ControllerState {
+ public:
+  S value;
+
+  template <class... Args>
+  explicit StateOf(Args&&... args) : value(std::forward<Args>(args)...) {}
+
+  std::unique_ptr<ControllerState> clone() const override {
+    return std::make_unique<StateOf>(*this);
+  }
+  void assign(const ControllerState& other) override {
+    value = static_cast<const StateOf&>(other).value;
+  }
+  void write(std::string& out) const override {
+    StateWriter w(out);
+    if constexpr (requires(S & s) { s.serialize(w); })
+      const_cast<S&>(value).serialize(w);
+    else
+      throw StateFormatError("this controller's state cannot be saved to a file");
+  }
+  void read(const std::string& in, size_t& offset) override {
+    StateReader r(in, offset);
+    if constexpr (requires(S & s) { s.serialize(r); })
+      value.serialize(r);
+    else
+      throw StateFormatError("this controller's state cannot be read from a file");
+    offset = r.position();
+  }
+};
+
+// the base of every controller: the type-erased calls cast the state once and forward to the
+// typed ones, which a controller overrides with its own State type
+template <class S>
+class TypedController : public Controller {
+ public:
+  using State = S;
+
+  std::unique_ptr<ControllerState> make_state(const Engine& engine) const final {
+    auto s = allocate_state();
+    reset_state(s->value, engine);
+    return s;
+  }
+  void reset(ControllerState& state, const Engine& engine) const final {
+    reset_state(cast(state), engine);
+  }
+  void compute(ControllerState& state, const Engine& engine, ControlOutput& out) const final {
+    compute_step(cast(state), engine, out);
+  }
+  void signals(const ControllerState& state, std::vector<double>& values) const final {
+    state_signals(cast(state), values);
+  }
+  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const final {
+    state_metrics(cast(state), metrics);
+  }
+  void write_outputs(const ControllerState& state, const std::string& out_dir) const final {
+    state_outputs(cast(state), out_dir);
+  }
+  void markers(const ControllerState& state, const Engine& engine,
+               std::vector<Marker>& out) const final {
+    state_markers(cast(state), engine, out);
+  }
+  bool reference_qpos(const ControllerState& state, const Engine& engine,
+                      Eigen::VectorXd& qpos) const final {
+    return state_reference_qpos(cast(state), engine, qpos);
+  }
+
+  static S& cast(ControllerState& s) { return static_cast<StateOf<S>&>(s).value; }
+  static const S& cast(const ControllerState& s) { return static_cast<const StateOf<S>&>(s).value; }
+
+ protected:
+  virtual std::unique_ptr<StateOf<S>> allocate_state() const {
+    if constexpr (std::is_default_constructible_v<S>)
+      return std::make_unique<StateOf<S>>();
+    else
+      throw std::logic_error("a state type without a default constructor");
+  }
+  // (re)start a run: size the work vectors, capture targets, clear the FSM and the metrics
+  virtual void reset_state(S& state, const Engine& engine) const = 0;
+  virtual void compute_step(S& state, const Engine& engine, ControlOutput& out) const = 0;
+  virtual void state_signals(const S& state, std::vector<double>& values) const {}
+  virtual void state_metrics(const S& state, nlohmann::json& metrics) const {}
+  virtual void state_outputs(const S& state, const std::string& out_dir) const {}
+  virtual void state_markers(const S& state, const Engine& engine, std::vector<Marker>& out) const {
+  }
+  virtual bool state_reference_qpos(const S& state, const Engine& engine,
+                                    Eigen::VectorXd& qpos) const {
     return false;
   }
 };
@@ -99,13 +221,17 @@ struct ControllerContext {
   std::function<std::unique_ptr<Engine>()> scratch_engine;
 };
 
-using ControllerFactory = std::function<std::unique_ptr<Controller>(
+using ControllerFactory = std::function<std::shared_ptr<const Controller>(
     const YAML::Node& params, const ControllerContext& ctx, const Engine& engine)>;
 
 struct ControllerType {
   std::string name;
   std::string summary;
   ControllerFactory make;
+  // where the generic tests build it: a shipped scenario (its world and initial state) and the
+  // controller's YAML with only what has no default (a body name, a clip)
+  std::string example_scenario;
+  std::string example_params;
 };
 
 const std::vector<ControllerType>& controller_registry();

@@ -4,6 +4,7 @@
 #pragma once
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -27,7 +28,7 @@ struct HoldPosePdParams {
   }
 };
 
-class HoldPosePd final : public Controller {
+class HoldPosePd final : public LegacyController {
  public:
   // model: gains and dof indices, fixed after construction
   struct Model {

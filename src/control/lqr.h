@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -140,7 +141,7 @@ struct LqrState {
 void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engine& engine,
                  ControlOutput& out);
 
-class Lqr final : public Controller {
+class Lqr final : public LegacyController {
  public:
   Lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return "lqr"; }

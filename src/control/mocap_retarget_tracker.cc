@@ -16,15 +16,15 @@ namespace {
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 }
 
-std::unique_ptr<Controller> make_mocap_retarget_tracker(const YAML::Node& node,
-                                                        const ControllerContext& ctx,
-                                                        const Engine& engine) {
+std::shared_ptr<const Controller> make_mocap_retarget_tracker(const YAML::Node& node,
+                                                              const ControllerContext& ctx,
+                                                              const Engine& engine) {
   if (!ctx.scratch_engine)
     throw InputError("mocap_retarget: needs a scratch engine of the model to probe it");
   std::unique_ptr<Engine> probe = ctx.scratch_engine();
   std::string dir = std::filesystem::path(ctx.source.file).parent_path().string();
-  return std::make_unique<MocapRetargetTracker>(read_params<MocapRetargetParams>(node, ctx), engine,
-                                                *probe, ctx.duration_s, dir);
+  return std::make_shared<const LegacyModel<MocapRetargetTracker>>(MocapRetargetTracker(
+      read_params<MocapRetargetParams>(node, ctx), engine, *probe, ctx.duration_s, dir));
 }
 
 MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params, const Engine& engine,

@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "control/mocap_tracker.h"
 #include "control/pose_tracking.h"
 #include "control/retarget.h"
@@ -55,7 +56,7 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
   }
 };
 
-class MocapRetargetTracker final : public Controller {
+class MocapRetargetTracker final : public LegacyController {
  public:
   // `probe`: a scratch engine of the same model, overwritten while the table is built;
   // duration_s: how long the table must run (looping clips)
@@ -126,8 +127,8 @@ class MocapRetargetTracker final : public Controller {
   Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
 };
 
-std::unique_ptr<Controller> make_mocap_retarget_tracker(const YAML::Node& node,
-                                                        const ControllerContext& ctx,
-                                                        const Engine& engine);
+std::shared_ptr<const Controller> make_mocap_retarget_tracker(const YAML::Node& node,
+                                                              const ControllerContext& ctx,
+                                                              const Engine& engine);
 
 }  // namespace stance

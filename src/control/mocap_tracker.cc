@@ -52,10 +52,12 @@ MocapRootMode parse_mocap_root_mode(const std::string& mode) {
   throw InputError(fmt::format("mode: expected kinematic, assisted or free, found '{}'", mode));
 }
 
-std::unique_ptr<Controller> make_mocap_tracker(const YAML::Node& node, const ControllerContext& ctx,
-                                               const Engine& engine) {
+std::shared_ptr<const Controller> make_mocap_tracker(const YAML::Node& node,
+                                                     const ControllerContext& ctx,
+                                                     const Engine& engine) {
   std::string dir = std::filesystem::path(ctx.source.file).parent_path().string();
-  return std::make_unique<MocapTracker>(read_params<MocapTrackerParams>(node, ctx), engine, dir);
+  return std::make_shared<const LegacyModel<MocapTracker>>(
+      MocapTracker(read_params<MocapTrackerParams>(node, ctx), engine, dir));
 }
 
 MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base_dir) {

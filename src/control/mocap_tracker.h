@@ -32,6 +32,7 @@
 #include <vector>
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "control/pose_tracking.h"
 #include "engine/engine.h"
 #include "motion/bvh.h"
@@ -217,7 +218,7 @@ struct MocapTrackerModel {
   Eigen::Vector3d forward_in_root = Eigen::Vector3d::UnitX();  // walking direction, root frame
 };
 
-class MocapTracker final : public Controller {
+class MocapTracker final : public LegacyController {
  public:
   // base_dir resolves a relative params.bvh
   MocapTracker(const MocapTrackerParams& params, const Engine& engine,
@@ -270,8 +271,9 @@ class MocapTracker final : public Controller {
 };
 
 // the registry's factory: relative bvh paths start at the scenario file's folder
-std::unique_ptr<Controller> make_mocap_tracker(const YAML::Node& node, const ControllerContext& ctx,
-                                               const Engine& engine);
+std::shared_ptr<const Controller> make_mocap_tracker(const YAML::Node& node,
+                                                     const ControllerContext& ctx,
+                                                     const Engine& engine);
 
 // the joint torques that push the whole-body COM with a virtual force F (N, world) while the
 // support body pushes back with -F at the same point (Coros et al. 2010):

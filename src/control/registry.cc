@@ -17,10 +17,20 @@
 namespace stance {
 
 namespace {
+// every controller type is built the same way: C(params, context, engine)
 template <class C, class P>
 ControllerFactory factory_of() {
   return [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-    return std::unique_ptr<Controller>(new C(read_params<P>(node, ctx), engine));
+    return std::shared_ptr<const Controller>(
+        std::make_shared<const C>(read_params<P>(node, ctx), ctx, engine));
+  };
+}
+// transitional: a one-object controller behind LegacyModel
+template <class C, class P>
+ControllerFactory legacy_factory_of() {
+  return [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
+    return std::shared_ptr<const Controller>(
+        std::make_shared<const LegacyModel<C>>(C(read_params<P>(node, ctx), engine)));
   };
 }
 }  // namespace
@@ -28,29 +38,29 @@ ControllerFactory factory_of() {
 const std::vector<ControllerType>& controller_registry() {
   static const std::vector<ControllerType> registry = {
       {"hold_pose_pd", "joint-space PD holding the initial (or a given) pose",
-       factory_of<HoldPosePd, HoldPosePdParams>()},
+       legacy_factory_of<HoldPosePd, HoldPosePdParams>()},
       {"stable_pd", "stable PD (Tan et al. 2011) tracking a pose, root dofs free",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::unique_ptr<Controller>(
-             new StablePd(read_params<JointPdParams>(node, ctx), engine, true));
+         return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<StablePd>>(
+             StablePd(read_params<JointPdParams>(node, ctx), engine, true)));
        }},
       {"pd", "plain joint PD with the stable_pd parameters, for comparison",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::unique_ptr<Controller>(
-             new StablePd(read_params<JointPdParams>(node, ctx), engine, false));
+         return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<StablePd>>(
+             StablePd(read_params<JointPdParams>(node, ctx), engine, false)));
        }},
       {"ankle_strategy", "heel/toe torques keeping the COM over the feet (DART biped tutorial)",
-       factory_of<AnkleStrategy, AnkleStrategyParams>()},
+       legacy_factory_of<AnkleStrategy, AnkleStrategyParams>()},
       {"skateboard_drive", "velocity commands on skateboard wheels, with a speed ramp (seed 000)",
-       factory_of<SkateboardDrive, SkateboardDriveParams>()},
+       legacy_factory_of<SkateboardDrive, SkateboardDriveParams>()},
       {"simbicon", "SIMBICON walking: FSM targets with swing-hip balance feedback",
-       factory_of<Simbicon, SimbiconParams>()},
+       legacy_factory_of<Simbicon, SimbiconParams>()},
       {"slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)",
-       factory_of<SlopeWalker, SlopeWalkerParams>()},
+       legacy_factory_of<SlopeWalker, SlopeWalkerParams>()},
       {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::unique_ptr<Controller>(
-             new Lqr(read_params<LqrParams>(node, ctx), ctx, engine));
+         return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<Lqr>>(
+             Lqr(read_params<LqrParams>(node, ctx), ctx, engine)));
        }},
       {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root",
        make_mocap_tracker},
@@ -58,8 +68,8 @@ const std::vector<ControllerType>& controller_registry() {
        make_mocap_retarget_tracker},
       {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::unique_ptr<Controller>(
-             new ControlNoise(read_params<ControlNoiseParams>(node, ctx), engine, ctx.seed));
+         return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<ControlNoise>>(
+             ControlNoise(read_params<ControlNoiseParams>(node, ctx), engine, ctx.seed)));
        }},
   };
   return registry;

@@ -134,6 +134,7 @@ Simbicon::Simbicon(const SimbiconParams& params, const Engine& engine) {
 
 void Simbicon::reset(const Engine& engine) {
   State& s = state_;
+  s.steps.reserve(model_.params.max_recorded_steps);
   s.fsm = model_.params.initial_state;
   s.state_start_s = engine.time();
   s.swing_hip_target = 0;
@@ -181,7 +182,7 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
         // a strike: the swing foot becomes the stance foot
         const double ankle_x =
             (m.heading * Eigen::Vector3d::UnitX()).dot(engine.body_pose(m.foot[swing]).pos);
-        if (s.steps.size() < s.steps.capacity())
+        if (s.steps.size() < static_cast<size_t>(m.params.max_recorded_steps))
           s.steps.push_back(
               {t, swing, ankle_x, ankle_x - s.last_stance_ankle_x, t - s.last_strike_s});
         s.last_stance_ankle_x = ankle_x;

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -204,7 +205,7 @@ struct SimbiconStep {
   double duration_s = 0;  // since the previous strike (or the start)
 };
 
-class Simbicon final : public Controller {
+class Simbicon final : public LegacyController {
  public:
   enum Side { kRight = 0, kLeft = 1 };
 

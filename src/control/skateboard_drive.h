@@ -5,6 +5,7 @@
 #pragma once
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -33,7 +34,7 @@ struct SkateboardDriveParams {
   }
 };
 
-class SkateboardDrive final : public Controller {
+class SkateboardDrive final : public LegacyController {
  public:
   SkateboardDrive(const SkateboardDriveParams& params, const Engine& engine);
   std::string_view type() const override { return "skateboard_drive"; }

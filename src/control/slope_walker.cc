@@ -91,7 +91,7 @@ void SlopeWalker::compute(const Model& model, State& s, const Engine& engine, Co
     s.hip = kLeg2Swing;
     landed = 1;
   }
-  if (landed != 0 && !s.fell && s.steps.size() < s.steps.capacity()) {
+  if (landed != 0 && !s.fell && s.steps.size() < kMaxSteps) {
     WalkerStep step;
     step.time_s = t;
     step.stance_leg = landed;

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -96,7 +97,7 @@ struct WalkerStep {
   double duration_s = 0;  // since the previous step (or the start)
 };
 
-class SlopeWalker final : public Controller {
+class SlopeWalker final : public LegacyController {
  public:
   enum HipState { kLeg1Swing = 1, kLeg2Swing = 2 };
   enum KneeState { kKneeStance = 0, kKneeRetract = 1 };

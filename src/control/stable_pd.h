@@ -14,6 +14,7 @@
 #include <Eigen/Cholesky>
 
 #include "control/controller.h"
+#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -67,7 +68,7 @@ void compute_stable_pd(const JointPdModel& model, StablePdState& s, const Engine
 void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine& engine,
                       ControlOutput& out);
 
-class StablePd final : public Controller {
+class StablePd final : public LegacyController {
  public:
   StablePd(const JointPdParams& params, const Engine& engine, bool stable = true);
   std::string_view type() const override { return stable_ ? "stable_pd" : "pd"; }

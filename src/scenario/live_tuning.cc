@@ -14,7 +14,7 @@ namespace stance {
 namespace {
 
 // the tunable entry of controller `index` at `path`; throws InputError
-ParamEntry find_entry(ScenarioRun& run, int index, const std::string& path) {
+ParamEntry find_entry(Simulation& run, int index, const std::string& path) {
   auto& controllers = run.controllers();
   if (index < 0 || index >= static_cast<int>(controllers.size()))
     throw InputError(
@@ -25,27 +25,9 @@ ParamEntry find_entry(ScenarioRun& run, int index, const std::string& path) {
   throw InputError(fmt::format("{}: no tunable parameter '{}'", c.type(), path));
 }
 
-// the context the runner gives controller `index`: the same seed keeps noise streams
-// reproducible
-ControllerContext context_of(ScenarioRun& run, const LoadedScenario& loaded, int index) {
-  std::string engine_name(run.engine().engine_name());
-  const Scenario* scenario = &run.scenario();
-  return {{loaded.source.empty() ? "viewer" : loaded.source},
-          fmt::format("controllers[{}]", index),
-          static_cast<uint64_t>(run.scenario().seed) * 1000003ull + index,
-          run.scenario().duration,
-          [scenario, engine_name] { return make_scenario_engine(*scenario, engine_name); }};
-}
-
-// model loading is not guaranteed thread-safe (as in sweep.cc)
-std::mutex& build_mutex() {
-  static std::mutex m;
-  return m;
-}
-
 }  // namespace
 
-void retune_controller(ScenarioRun& run, const LoadedScenario& loaded, int index,
+void retune_controller(Simulation& run, const LoadedScenario& loaded, int index,
                        const std::string& path, double value) {
   ParamEntry entry = find_entry(run, index, path);
   // edit the YAML form and rebuild through the registry, as loading the scenario does
@@ -53,13 +35,13 @@ void retune_controller(ScenarioRun& run, const LoadedScenario& loaded, int index
   apply_yaml_override(node, param_assignment(entry, value));
   const ControllerType& type = find_controller_type(node["type"].Scalar());
   Engine& engine = run.engine();
-  std::unique_ptr<Controller> fresh = type.make(node, context_of(run, loaded, index), engine);
+  std::shared_ptr<const Controller> fresh =
+      type.make(node, controller_context(run.model(), index), engine);
   engine.forward();
-  fresh->reset(engine);
-  run.controllers()[index] = std::move(fresh);
+  run.replace_controller(index, std::move(fresh));
 }
 
-YAML::Node tuned_scenario_yaml(ScenarioRun& run, const LoadedScenario& loaded) {
+YAML::Node tuned_scenario_yaml(Simulation& run, const LoadedScenario& loaded) {
   YAML::Node doc = YAML::Clone(loaded.document);
   YAML::Node list(YAML::NodeType::Sequence);
   for (const auto& c : run.controllers()) list.push_back(c->params_yaml());
@@ -69,10 +51,10 @@ YAML::Node tuned_scenario_yaml(ScenarioRun& run, const LoadedScenario& loaded) {
 
 struct BackgroundRetune::Built {
   std::unique_ptr<Engine> engine;  // what the controller was built on
-  std::unique_ptr<Controller> controller;
+  std::shared_ptr<const Controller> controller;
 };
 
-BackgroundRetune::BackgroundRetune(ScenarioRun& run, const LoadedScenario& loaded, int index,
+BackgroundRetune::BackgroundRetune(Simulation& run, const LoadedScenario& loaded, int index,
                                    const std::string& path, double value, const YAML::Node* base)
     : index_(index), path_(path), value_(value) {
   ParamEntry entry = find_entry(run, index, path);
@@ -85,14 +67,14 @@ BackgroundRetune::BackgroundRetune(ScenarioRun& run, const LoadedScenario& loade
   node_ = YAML::Clone(base ? *base : run.controllers()[index]->params_yaml());
   apply_yaml_override(node_, param_assignment(entry, value));
   YAML::Node node = YAML::Clone(node_);
-  ControllerContext ctx = context_of(run, loaded, index);
+  ControllerContext ctx = controller_context(run.model(), index);
   Scenario scenario = run.scenario();
   std::string engine_name(run.engine().engine_name());
   future_ = std::async(std::launch::async, [node, ctx, scenario, engine_name] {
     auto built = std::make_shared<Built>();
     const ControllerType& type = find_controller_type(node["type"].Scalar());
     {
-      std::lock_guard<std::mutex> lock(build_mutex());
+      std::lock_guard<std::mutex> lock(model_load_mutex());
       built->engine = make_scenario_engine(scenario, engine_name);
     }
     built->controller = type.make(node, ctx, *built->engine);
@@ -112,13 +94,12 @@ void BackgroundRetune::wait() const {
   if (future_.valid()) future_.wait();
 }
 
-bool BackgroundRetune::swap_into(ScenarioRun& run) {
+bool BackgroundRetune::swap_into(Simulation& run) {
   if (!ready()) return false;
   std::shared_ptr<Built> built = future_.get();  // rethrows the worker's error
   Engine& engine = run.engine();
   engine.forward();
-  built->controller->reset(engine);
-  run.controllers().at(index_) = std::move(built->controller);
+  run.replace_controller(index_, std::move(built->controller));
   return true;
 }
 

@@ -1,9 +1,10 @@
 // Live tuning of a running scenario's controllers, as the viewer's parameter panel does it.
 //
-// Controllers are immutable Model + State (CONVENTIONS.md), so a changed parameter rebuilds the
-// controller: its params_yaml() gets the edit, the registry builds a new controller from it on
-// the same engine, and the new controller starts from a fresh State (reset()) at the current
-// physics state. The physics state itself is untouched.
+// Controllers are immutable models with a per-run State (CONVENTIONS.md), so a changed parameter
+// rebuilds the model: its params_yaml() gets the edit and the registry builds a new model from
+// it. The run's State goes on under the new model when the model keeps_state_of the old one (a
+// walk stays in its FSM phase); otherwise a fresh State starts at the current physics state. The
+// physics state itself is untouched.
 #pragma once
 
 #include <yaml-cpp/yaml.h>
@@ -14,15 +15,15 @@
 #include <vector>
 
 #include "params/param_list.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 
 namespace stance {
 
 // set controller `index`'s parameter `path` (a path from its tunable_params()) to `value` and
 // swap the rebuilt controller into `run`. Throws InputError when the value is rejected; the
 // running controller is then kept.
-void retune_controller(ScenarioRun& run, const LoadedScenario& loaded, int index,
+void retune_controller(Simulation& run, const LoadedScenario& loaded, int index,
                        const std::string& path, double value);
 
 // a controller rebuilt on a worker thread, for parameters whose rebuild is slow (the LQR costs
@@ -36,7 +37,7 @@ class BackgroundRetune {
   // checks index, path and the value's range at once (InputError); other rejections (from the
   // controller's own checks) come from swap_into(). `base`: the parameters to edit, when an earlier
   // edit of the same controller is still pending; otherwise the running controller's.
-  BackgroundRetune(ScenarioRun& run, const LoadedScenario& loaded, int index,
+  BackgroundRetune(Simulation& run, const LoadedScenario& loaded, int index,
                    const std::string& path, double value, const YAML::Node* base = nullptr);
   ~BackgroundRetune();  // waits for the worker
   BackgroundRetune(const BackgroundRetune&) = delete;
@@ -49,7 +50,7 @@ class BackgroundRetune {
   // when ready: swap the new controller into `run`, reset at the run's current state, and
   // return true; false when not ready yet. Rethrows the build's error (the old controller is
   // then kept). Call between steps.
-  bool swap_into(ScenarioRun& run);
+  bool swap_into(Simulation& run);
 
   int index() const { return index_; }
   const std::string& path() const { return path_; }
@@ -71,6 +72,6 @@ bool rebuild_is_slow(const Controller& controller);
 
 // the scenario document with each controller block replaced by the running controller's
 // params_yaml() (what "save scenario" writes)
-YAML::Node tuned_scenario_yaml(ScenarioRun& run, const LoadedScenario& loaded);
+YAML::Node tuned_scenario_yaml(Simulation& run, const LoadedScenario& loaded);
 
 }  // namespace stance

@@ -6,17 +6,11 @@
 #include <thread>
 
 #include "core/error.h"
-#include "scenario/runner.h"
+#include "scenario/simulation.h"
 
 namespace stance {
 
 namespace {
-// model loading is not guaranteed thread-safe (as in sweep.cc)
-std::mutex& build_mutex() {
-  static std::mutex m;
-  return m;
-}
-
 RunOptions trial_options(const PushThresholdOptions& o, double signed_force) {
   RunOptions r;
   r.engine = o.engine;
@@ -60,13 +54,10 @@ PushBracket bisect_push(const std::function<bool(double)>& survives, double max_
 }
 
 bool survives_push(const LoadedScenario& loaded, const PushThresholdOptions& options,
-                   double signed_force) {
-  std::unique_ptr<ScenarioRun> run;
-  {
-    std::lock_guard<std::mutex> lock(build_mutex());
-    run = std::make_unique<ScenarioRun>(loaded, trial_options(options, signed_force));
-  }
-  RunResult r = run->run();
+                   double signed_force, ControllerCache* cache) {
+  RunOptions ro = trial_options(options, signed_force);
+  ro.cache = cache;
+  RunResult r = Simulation(loaded, ro).run();
   return !r.fell && !r.diverged;
 }
 
@@ -84,17 +75,20 @@ PushThresholdResult find_push_threshold(
     throw InputError(fmt::format("push-threshold: the push ({} s + {} s) ends after the run ({} s)",
                                  o.at, o.push_duration, run_end));
   if (o.body.empty()) throw InputError("push-threshold: --body is required");
+  // every trial changes only the push: the controllers' models are built once
+  ControllerCache cache;
   {
     // a probe build: an unknown body or engine fails here, on this thread
-    std::lock_guard<std::mutex> lock(build_mutex());
-    ScenarioRun probe(loaded, trial_options(o, 0.0));
+    RunOptions ro = trial_options(o, 0.0);
+    ro.cache = &cache;
+    Simulation probe(loaded, ro);
   }
 
   std::mutex report_mutex;
   auto direction = [&](double sign) {
     PushBracket b = bisect_push(
         [&](double f) {
-          bool ok = survives_push(loaded, o, sign * f);
+          bool ok = survives_push(loaded, o, sign * f, &cache);
           if (on_trial) {
             std::lock_guard<std::mutex> lock(report_mutex);
             on_trial(sign * f, ok);

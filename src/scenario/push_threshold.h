@@ -1,4 +1,4 @@
-// The largest push a scenario survives, by bisection: each trial is a fresh ScenarioRun with one
+// The largest push a scenario survives, by bisection: each trial is a fresh Simulation with one
 // extra Perturbation (a force along +axis or -axis on one body) and asks whether the run fell.
 // The two directions are independent bisections and can run on two threads.
 // Survival need not be monotone in the force near the edge; the bracket is then one edge of
@@ -10,6 +10,7 @@
 #include <string>
 
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 
 namespace stance {
 
@@ -45,7 +46,7 @@ PushBracket bisect_push(const std::function<bool(double)>& survives, double max_
 
 // one trial: the scenario with the extra push of `signed_force` N along options.axis
 bool survives_push(const LoadedScenario& loaded, const PushThresholdOptions& options,
-                   double signed_force);
+                   double signed_force, ControllerCache* cache = nullptr);
 
 // both directions. Bad input (body, axis, bounds) throws InputError before any thread starts.
 // on_trial (optional) is called under a lock after each trial.

@@ -104,14 +104,8 @@ void parallel_for(int n, int threads, const std::function<void(int)>& job) {
   for (auto& th : pool) th.join();
 }
 
-RunResult run_scenario_locked(const LoadedScenario& loaded, const RunOptions& options) {
-  static std::mutex build_mutex;
-  std::unique_ptr<ScenarioRun> run;
-  {
-    std::lock_guard<std::mutex> lock(build_mutex);
-    run = std::make_unique<ScenarioRun>(loaded, options);
-  }
-  RunResult r = run->run();
+RunResult run_without_timing(const LoadedScenario& loaded, const RunOptions& options) {
+  RunResult r = Simulation(loaded, options).run();
   r.wall_time_s = 0;
   return r;
 }
@@ -132,9 +126,13 @@ std::vector<SweepPoint> run_sweep(
   run_options.engine = o.engine;
   run_options.duration = o.duration;
   run_options.quiet = true;
+  // points that change neither the world nor a controller's parameters (a push force, the
+  // fall criterion) share the controllers' models: an LQR is designed once
+  ControllerCache cache;
+  run_options.cache = &cache;
   {
     // the first run's engine and controllers build here too, so their errors are clean
-    ScenarioRun probe(scenarios[0], run_options);
+    Simulation probe(scenarios[0], run_options);
   }
 
   std::vector<SweepPoint> points(n);
@@ -144,7 +142,7 @@ std::vector<SweepPoint> run_sweep(
     SweepPoint& pt = points[i];
     pt.value = o.values[i];
     try {
-      pt.result = run_scenario_locked(scenarios[i], run_options);
+      pt.result = run_without_timing(scenarios[i], run_options);
     } catch (const std::exception& e) {
       pt.error = e.what();
     }

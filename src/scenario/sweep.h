@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "scenario/runner.h"
+#include "scenario/simulation.h"
 
 namespace stance {
 
@@ -56,7 +56,7 @@ std::vector<SweepPoint> run_sweep(
 void parallel_for(int n, int threads, const std::function<void(int)>& job);
 // builds the run under a process-wide lock (model loading is not guaranteed thread-safe), then
 // runs it with wall_time_s zeroed so that results are reproducible
-RunResult run_scenario_locked(const LoadedScenario& loaded, const RunOptions& options);
+RunResult run_without_timing(const LoadedScenario& loaded, const RunOptions& options);
 
 // writes sweep.csv and points.csv into dir (created if needed)
 void write_sweep_outputs(const std::string& dir, const std::string& param,

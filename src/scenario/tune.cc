@@ -90,7 +90,7 @@ void metric_paths(const nlohmann::json& j, const std::string& prefix,
 }
 
 // the numeric defaults of a loaded scenario: its own fields and its controllers' parameters
-std::optional<double> default_value(const LoadedScenario& loaded, ScenarioRun& probe,
+std::optional<double> default_value(const LoadedScenario& loaded, Simulation& probe,
                                     const std::string& key) {
   std::vector<std::string> parts = split_path(key);
   if (parts.size() >= 3 && parts[0] == "controllers") {
@@ -109,7 +109,7 @@ std::optional<double> default_value(const LoadedScenario& loaded, ScenarioRun& p
 }
 
 // the numeric key paths a scenario offers (for "did you mean")
-std::vector<std::string> known_keys(const YAML::Node& doc, ScenarioRun& probe,
+std::vector<std::string> known_keys(const YAML::Node& doc, Simulation& probe,
                                     const LoadedScenario& loaded) {
   std::vector<ParamEntry> entries;
   list_yaml_params(doc, "", entries);
@@ -387,11 +387,14 @@ TuneResult run_tune(const TuneOptions& o,
   run_options.engine = o.engine;
   run_options.duration = o.duration;
   run_options.quiet = true;
+  // candidates that repeat a controller's parameters on the same world share its model
+  ControllerCache cache;
+  run_options.cache = &cache;
 
   TuneResult result;
   {
     LoadedScenario loaded = parse_doc(o, base);
-    ScenarioRun probe(loaded, run_options);
+    Simulation probe(loaded, run_options);
     result.duration = o.duration ? *o.duration : loaded.scenario.duration;
     // searched and multiplied keys the YAML leaves at their defaults: write the defaults in,
     // so that the start point and "k*=f" see the value the run would use
@@ -427,7 +430,7 @@ TuneResult run_tune(const TuneOptions& o,
   const int runs_per = 1 + static_cast<int>(o.neighbours.size());
   for (int j = 0; j < static_cast<int>(o.neighbours.size()); ++j) {
     try {
-      ScenarioRun probe(parse_doc(o, run_doc(o, base, start, j)), run_options);
+      Simulation probe(parse_doc(o, run_doc(o, base, start, j)), run_options);
     } catch (const InputError& e) {
       std::string msg = e.what();
       if (msg.rfind("--neighbour", 0) == 0) throw;
@@ -439,7 +442,7 @@ TuneResult run_tune(const TuneOptions& o,
       std::vector<double> v = start;
       v[i] = bound;
       try {
-        ScenarioRun probe(parse_doc(o, run_doc(o, base, v, -1)), run_options);
+        Simulation probe(parse_doc(o, run_doc(o, base, v, -1)), run_options);
       } catch (const InputError& e) {
         throw InputError(fmt::format("--param '{}': {} = {} is rejected: {}",
                                      param_text(o.params[i]), o.params[i].key,
@@ -453,7 +456,7 @@ TuneResult run_tune(const TuneOptions& o,
     try {
       LoadedScenario loaded = parse_doc(o, run_doc(o, base, values, neighbour));
       duration = o.duration ? *o.duration : loaded.scenario.duration;
-      RunResult r = run_scenario_locked(loaded, run_options);
+      RunResult r = run_without_timing(loaded, run_options);
       return score_run(r, duration, o.metric, o.fall_penalty);
     } catch (const std::exception& e) {
       return failed_run(e.what(), duration, o.fall_penalty);
@@ -464,7 +467,7 @@ TuneResult run_tune(const TuneOptions& o,
     double duration = result.duration;
     try {
       LoadedScenario loaded = parse_doc(o, run_doc(o, base, start, -1));
-      RunResult r = run_scenario_locked(loaded, run_options);
+      RunResult r = run_without_timing(loaded, run_options);
       if (!o.metric.empty() && !r.diverged && !metric_at(r.metrics, o.metric)) {
         std::vector<std::string> paths;
         metric_paths(r.metrics, "", paths);

@@ -26,7 +26,7 @@
 #include <string>
 #include <vector>
 
-#include "scenario/runner.h"
+#include "scenario/simulation.h"
 
 namespace stance {
 

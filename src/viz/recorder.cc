@@ -78,7 +78,7 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
   RecordResult result;
   OffscreenGlContext gl;
   result.gl_backend = gl.backend();
-  ScenarioRun run(loaded, run_options);
+  Simulation run(loaded, run_options);
   SceneView view(run, o.width, o.height);
   view.options.camera = o.camera;
   Engine& engine = run.engine();
@@ -117,6 +117,17 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
       ++frame;
     }
     if ((frame >= frames && shot_taken) || engine.time() >= end + 0.5 * dt) break;
+    // as `stance run` does, a recording ends a while after a fall (RunOptions::stop_after_fall_s)
+    if (!result.diverged && run.done() && run.progress().fell) {
+      result.stopped_after_fall = true;
+      if (!shot_taken) {
+        view.update(run);
+        view.render_offscreen(o.width, o.height, rgb, fmt::format("t = {:.2f} s", engine.time()));
+        write_png(o.screenshot, o.width, o.height, rgb.data());
+        shot_taken = true;
+      }
+      break;
+    }
     if (result.diverged) {
       // keep the video at its full length: repeat the last frame after a divergence
       ffmpeg->write(rgb);
@@ -125,7 +136,7 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
     }
     if (!run.step()) {
       result.diverged = true;
-      result.divergence = run.result().divergence;
+      result.divergence = run.progress().divergence;
       if (rgb.empty()) {
         view.update(run);
         view.render_offscreen(o.width, o.height, rgb);
@@ -140,6 +151,7 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
   if (ffmpeg) ffmpeg->close();
   result.frames = frame;
   result.sim_time = engine.time();
+  if (run.progress().fell) result.fall_time = run.progress().fall_time;
   return result;
 }
 

@@ -4,10 +4,11 @@
 // frames.
 #pragma once
 
+#include <optional>
 #include <string>
 
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "viz/scene_view.h"
 
 namespace stance {
@@ -27,7 +28,9 @@ struct RecordResult {
   double sim_time = 0;
   bool diverged = false;
   std::string divergence;
-  std::string gl_backend;  // "egl" or "glfw"
+  std::optional<double> fall_time;  // s, when the character fell
+  bool stopped_after_fall = false;  // ended stop_after_fall_s past the fall, before the end
+  std::string gl_backend;           // "egl" or "glfw"
 };
 
 // step `loaded` as `stance run` does and write the video and/or screenshot.

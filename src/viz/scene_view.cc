@@ -20,7 +20,7 @@ constexpr int kMaxGeoms = 5000;
 constexpr int kCircleSegments = 32;
 }  // namespace
 
-SceneView::SceneView(ScenarioRun& run, int offscreen_width, int offscreen_height) {
+SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height) {
   Engine& engine = run.engine();
   mj_ = dynamic_cast<MujocoEngine*>(&engine);
   if (!mj_) {
@@ -49,8 +49,8 @@ SceneView::SceneView(ScenarioRun& run, int offscreen_width, int offscreen_height
 
   // a ghost when a controller tracks a pose: its own engine of the scenario (the same dof
   // layout as the run's) turns the reference q into body poses
-  for (auto& c : run.controllers()) {
-    if (!c->reference_qpos(engine, ghost_q_)) continue;
+  for (size_t i = 0; i < run.controllers().size(); ++i) {
+    if (!run.controllers()[i]->reference_qpos(run.controller_state(i), engine, ghost_q_)) continue;
     ghost_engine_ = make_scenario_engine(run.scenario(), std::string(engine.engine_name()));
     ghost_data_ = mj_makeData(model_);
     ghost_body_map_.assign(ghost_engine_->nbody(), -1);
@@ -195,9 +195,10 @@ void SceneView::add_marker(const Marker& m) {
     std::snprintf(scn_.geoms[first].label, sizeof(scn_.geoms[first].label), "%s", m.label.c_str());
 }
 
-void SceneView::add_ghost(ScenarioRun& run) {
-  for (auto& c : run.controllers()) {
-    if (!c->reference_qpos(run.engine(), ghost_q_)) continue;
+void SceneView::add_ghost(Simulation& run) {
+  for (size_t i = 0; i < run.controllers().size(); ++i) {
+    if (!run.controllers()[i]->reference_qpos(run.controller_state(i), run.engine(), ghost_q_))
+      continue;
     if (ghost_q_.size() != ghost_engine_->nq()) return;
     ghost_engine_->set_positions(ghost_q_);
     ghost_engine_->forward();
@@ -268,7 +269,7 @@ Eigen::Vector3d SceneView::mouse_motion_in_world(double dx, double dy, int heigh
   return view_rot_.transpose() * move_view;
 }
 
-void SceneView::update(ScenarioRun& run, const std::vector<ForceArrow>& extra_forces,
+void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_forces,
                        const std::vector<Marker>& extra_markers) {
   Engine& engine = run.engine();
   engine.forward();
@@ -328,7 +329,8 @@ void SceneView::update(ScenarioRun& run, const std::vector<ForceArrow>& extra_fo
   }
   if (options.markers) {
     markers_.clear();
-    for (auto& c : run.controllers()) c->markers(engine, markers_);
+    for (size_t i = 0; i < run.controllers().size(); ++i)
+      run.controllers()[i]->markers(run.controller_state(i), engine, markers_);
     for (const auto& m : markers_) add_marker(m);
   }
   for (const auto& m : extra_markers) add_marker(m);

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "control/marker.h"
-#include "scenario/runner.h"
+#include "scenario/simulation.h"
 
 namespace stance {
 
@@ -45,7 +45,7 @@ struct SceneOptions {
 class SceneView {
  public:
   // needs a current OpenGL context. offscreen_size: the largest frame render_offscreen() makes.
-  SceneView(ScenarioRun& run, int offscreen_width = 1280, int offscreen_height = 720);
+  SceneView(Simulation& run, int offscreen_width = 1280, int offscreen_height = 720);
   ~SceneView();
   SceneView(const SceneView&) = delete;
   SceneView& operator=(const SceneView&) = delete;
@@ -53,7 +53,7 @@ class SceneView {
   // copy the run's state into the scene; call while the physics is not stepping.
   // extra_forces: forces applied outside the scenario's pushes (the viewer's keys);
   // extra_markers: drawn as the controllers' markers are (the viewer's mouse drag)
-  void update(ScenarioRun& run, const std::vector<ForceArrow>& extra_forces = {},
+  void update(Simulation& run, const std::vector<ForceArrow>& extra_forces = {},
               const std::vector<Marker>& extra_markers = {});
   // draw into the current (window) framebuffer
   void render_window(int width, int height, const std::string& overlay = "");
@@ -88,7 +88,7 @@ class SceneView {
                    const float rgba[4]);
   void add_marker(const Marker& marker);
   // the reference pose of the first controller that gives one, as translucent geoms
-  void add_ghost(ScenarioRun& run);
+  void add_ghost(Simulation& run);
   // body, geom and site frames of `d` from the body poses of `engine`, by body name
   void pose_from(Engine& engine, const std::vector<int>& body_map, mjData* d);
   Eigen::Vector3d to_view(const Eigen::Vector3d& p) const { return view_rot_ * p; }

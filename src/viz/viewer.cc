@@ -22,7 +22,7 @@
 #include "core/error.h"
 #include "engine/mujoco/mujoco_engine.h"
 #include "scenario/live_tuning.h"
-#include "scenario/runner.h"
+#include "scenario/simulation.h"
 #include "viz/recorder.h"
 #include "viz/scene_view.h"
 
@@ -78,7 +78,7 @@ struct Viewer::Impl {
   ViewerOptions options;
   GLFWwindow* window = nullptr;
   ImGuiContext* imgui = nullptr;  // one per viewer: several may be open (tests)
-  std::unique_ptr<ScenarioRun> run;
+  std::unique_ptr<Simulation> run;
   std::unique_ptr<SceneView> view;
 
   // physics thread and what it shares (guarded by mutex)
@@ -86,6 +86,7 @@ struct Viewer::Impl {
   std::thread physics;
   std::atomic<bool> quit{false};
   bool paused = false;
+  bool fall_reported = false;  // the status line told of this run's fall
   int single_steps = 0;
   double speed = 1.0;         // requested sim/wall factor
   double achieved_speed = 0;  // measured
@@ -162,11 +163,12 @@ struct Viewer::Impl {
     if (scrubbed < 0) return;
     history.erase(history.begin() + scrubbed + 1, history.end());
     EngineState state = history.back();
-    run->reset();  // clears a divergence and the velocity servos
+    run->reset();  // clears a divergence, a fall and the velocity servos
+    fall_reported = false;
     Engine& e = run->engine();
     e.restore_state(state);
     e.forward();
-    for (auto& c : run->controllers()) c->reset(e);
+    run->reset_controllers();
     key_pushes.clear();
     next_snapshot = e.time() + 1.0 / kHistoryRateHz;
     frame_target = e.time();
@@ -176,6 +178,7 @@ struct Viewer::Impl {
 
   void replay() {
     run->reset();
+    fall_reported = false;
     key_pushes.clear();
     reset_plots();
     history.clear();
@@ -240,8 +243,14 @@ struct Viewer::Impl {
     }
     if (!run->step()) {
       paused = true;
-      status = "diverged: " + run->result().divergence;
+      status = "diverged: " + run->progress().divergence;
       return;
+    }
+    // a fall is reported once and the run goes on
+    if (run->progress().fell && !fall_reported) {
+      fall_reported = true;
+      status = fmt::format("fell at t={:.3f} s: {}", run->progress().fall_time,
+                           run->progress().fall_reason);
     }
     if (e.time() >= next_snapshot - 0.5 * e.timestep()) {
       record_snapshot();
@@ -269,7 +278,7 @@ struct Viewer::Impl {
       e.forward();
       plots[0].push(static_cast<float>(up.dot(e.com()) - ground));
       signal_values.clear();
-      for (auto& c : run->controllers()) c->signals(signal_values);
+      run->signals(signal_values);
       int first_signal = torque_plot >= 0 ? torque_plot + 2 : 1;
       for (size_t i = 0; first_signal + i < plots.size() && i < signal_values.size(); ++i)
         plots[first_signal + i].push(static_cast<float>(signal_values[i]));
@@ -349,7 +358,7 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
   ro.engine = options.engine;
   ro.quiet = true;
   // the viewer runs until closed: the scenario's duration does not stop it
-  s.run = std::make_unique<ScenarioRun>(loaded, ro);
+  s.run = std::make_unique<Simulation>(loaded, ro);
 
   if (!glfwInit()) throw std::runtime_error("cannot initialise GLFW (no display? try xvfb-run)");
   glfwWindowHint(GLFW_VISIBLE, options.visible ? GLFW_TRUE : GLFW_FALSE);

@@ -8,8 +8,8 @@
 
 #include "app/guarded.h"
 #include "core/error.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "viz/recorder.h"
 #include "viz/viewer.h"
 
@@ -37,6 +37,7 @@ int record_command(const RunCommand& cmd) {
     opt.engine = cmd.engine;
     opt.duration = cmd.duration;
     opt.quiet = true;
+    if (cmd.past_fall) opt.stop_after_fall_s = -1;
     for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
     RecordOptions ro;
     ro.video = cmd.record;
@@ -52,6 +53,11 @@ int record_command(const RunCommand& cmd) {
                                  ro.fps, ro.width, ro.height, r.gl_backend);
       if (!ro.screenshot.empty())
         std::cout << fmt::format("wrote {} at t={:.3f} s\n", ro.screenshot, ro.screenshot_time);
+      if (r.stopped_after_fall)
+        std::cout << fmt::format(
+            "fell at t={:.3f} s: the recording ends at {:.3f} s (--past-fall "
+            "records to the end)\n",
+            *r.fall_time, r.sim_time);
     }
     if (r.diverged) {
       std::cerr << "error: simulation diverged: " << r.divergence << "\n";

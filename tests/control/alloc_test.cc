@@ -15,8 +15,8 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace {
@@ -147,7 +147,8 @@ TEST(ControllerAllocations, NoneAfterTheFirstCompute) {
     // scenario that can host its defaults
     auto check = [&](const Host& host) {
       std::unique_ptr<Engine> engine;
-      std::unique_ptr<Controller> controller;
+      std::shared_ptr<const Controller> controller;
+      std::unique_ptr<ControllerState> state;
       try {
         LoadedScenario l = load_scenario(host.scenario);
         // DART's own queries allocate inside DART (on fullbody1 per call: mass matrix ~4450
@@ -167,11 +168,11 @@ TEST(ControllerAllocations, NoneAfterTheFirstCompute) {
       SCOPED_TRACE(type.name + " on " + host.scenario);
       ControlOutput out;
       out.resize(engine->nv(), engine->nu());
-      controller->reset(*engine);
+      state = controller->make_state(*engine);
       auto step = [&](bool counted) {
         engine->forward();
         out.clear();
-        Counts c = count_allocations([&] { controller->compute(*engine, out); });
+        Counts c = count_allocations([&] { controller->compute(*state, *engine, out); });
         if (counted) {
           EXPECT_EQ(c.news, 0) << "operator new calls in compute()";
           EXPECT_EQ(c.mallocs, 0) << "malloc calls in compute()";

@@ -15,8 +15,8 @@
 #include "core/error.h"
 #include "math/dare.h"
 #include "params/yaml_params.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -135,7 +135,7 @@ TEST(LqrDesign, RejectsBadNames) {
   REQUIRE_HUMANOID();
   auto build = [](const std::string& set) {
     LoadedScenario l = one_leg({set});
-    ScenarioRun run(l, {});
+    Simulation run(l, {});
   };
   EXPECT_THROW(build("controllers.0.stance_foot=left_fot"), InputError);
   EXPECT_THROW(build("controllers.0.root_body=pelvis"), InputError);  // no free joint
@@ -147,7 +147,7 @@ TEST(LqrBalance, StandsWithLqrAndFallsWithCtrl0Only) {
   REQUIRE_HUMANOID();
   {
     LoadedScenario l = one_leg();
-    ScenarioRun run(l, {});
+    Simulation run(l, {});
     RunResult r = run.run();
     ASSERT_FALSE(r.diverged) << r.divergence;
     EXPECT_FALSE(r.fell) << "fell at " << r.fall_time.value_or(-1) << ": " << r.fall_reason;
@@ -156,7 +156,7 @@ TEST(LqrBalance, StandsWithLqrAndFallsWithCtrl0Only) {
   }
   {
     LoadedScenario l = one_leg({"controllers.0.feedback=false"});
-    ScenarioRun run(l, {});
+    Simulation run(l, {});
     RunResult r = run.run();
     ASSERT_TRUE(r.fell);
     EXPECT_LT(*r.fall_time, 3.0);
@@ -171,7 +171,7 @@ TEST(LqrBalance, SurvivesSmallPushesBothWays) {
     RunOptions o;
     o.duration = 8.0;
     o.extra_pushes = {parse_push(push)};
-    ScenarioRun run(l, o);
+    Simulation run(l, o);
     RunResult r = run.run();
     EXPECT_FALSE(r.fell) << push << ": fell at " << r.fall_time.value_or(-1);
   }
@@ -224,7 +224,7 @@ TEST(LqrBalance, StandsUnderSmoothedNoiseDeterministically) {
     o.duration = 12.0;
     o.out_dir = (base / std::to_string(i)).string();
     o.quiet = true;
-    ScenarioRun run(l, o);
+    Simulation run(l, o);
     RunResult r = run.run();
     EXPECT_FALSE(r.fell) << "fell at " << r.fall_time.value_or(-1) << ": " << r.fall_reason;
     EXPECT_NEAR(r.sim_time, 12.0, 1e-6);
@@ -236,7 +236,7 @@ TEST(LqrBalance, StandsUnderSmoothedNoiseDeterministically) {
   // another seed draws another sequence
   LoadedScenario l = one_leg_with_noise(0.01, 0.08);
   l.scenario.seed = 2;
-  ScenarioRun run(l, {.duration = 2.0});
+  Simulation run(l, {.duration = 2.0});
   RunResult r = run.run();
   EXPECT_NE(r.metrics.at("max_com_foot_distance_m").get<double>(),
             summaries[0]["metrics"]["max_com_foot_distance_m"].get<double>());

@@ -13,8 +13,8 @@
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
 #include "control/retarget.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -172,7 +172,7 @@ nlohmann::json run_humanoid(const std::string& mode, double seconds) {
   LoadedScenario loaded =
       load_scenario(test::source_dir() + "/scenarios/mocap_retarget.yaml",
                     {"controllers.0.mode=" + mode, fmt::format("duration={}", seconds)});
-  ScenarioRun run(loaded, RunOptions{});
+  Simulation run(loaded, RunOptions{});
   RunResult r = run.run();
   nlohmann::json j = r.metrics["mocap"];
   j["fell"] = r.fell;
@@ -218,7 +218,7 @@ TEST(MocapRetarget, Fullbody1AssistedAgreesOnMujocoAndDart) {
     LoadedScenario loaded =
         load_scenario(test::source_dir() + "/scenarios/mocap_retarget_fullbody1.yaml",
                       {"duration=3", std::string("engine=") + engines[e]});
-    ScenarioRun run(loaded, RunOptions{});
+    Simulation run(loaded, RunOptions{});
     RunResult r = run.run();
     EXPECT_FALSE(r.fell) << engines[e];
     m[e] = r.metrics["mocap"];
@@ -297,7 +297,7 @@ TEST(MocapRetarget, HumanoidExportReadsBackOnTheClipsSkeleton) {
   RunOptions o;
   o.out_dir = (std::filesystem::temp_directory_path() / "stance_tests" / "retarget_run").string();
   o.quiet = true;
-  ScenarioRun(loaded, o).run();
+  Simulation(loaded, o).run();
   BvhClip back = read_bvh(o.out_dir + "/humanoid_walk.bvh");
   BvhClip src = read_bvh(test::source_dir() + "/models/synthetic_walk.bvh");
   EXPECT_EQ(back.joints.size(), src.joints.size());
@@ -332,7 +332,7 @@ TEST(MocapRetarget, HumanoidFreeModeBalanceLayer) {
       {"dt 1 ms", {"timestep=0.001"}}};
   for (const Variant& v : scored) {
     SCOPED_TRACE(v.name);
-    ScenarioRun run(load_scenario(file, v.sets), RunOptions{});
+    Simulation run(load_scenario(file, v.sets), RunOptions{});
     RunResult r = run.run();
     const nlohmann::json& m = r.metrics["mocap"];
     EXPECT_FALSE(r.fell);
@@ -340,7 +340,7 @@ TEST(MocapRetarget, HumanoidFreeModeBalanceLayer) {
     EXPECT_EQ(m["helper_impulse_Ns"].get<double>(), 0.0);
     EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 15.0);
   }
-  ScenarioRun loose(load_scenario(file, {"controllers.0.balance=false"}), RunOptions{});
+  Simulation loose(load_scenario(file, {"controllers.0.balance=false"}), RunOptions{});
   RunResult r = loose.run();
   ASSERT_TRUE(r.fell);
   EXPECT_LT(*r.fall_time, 1.5);

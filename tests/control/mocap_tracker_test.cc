@@ -12,8 +12,8 @@
 #include "engine/world_spec.h"
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -286,7 +286,7 @@ void expect_walks_free(YAML::Node doc, const FreeVariant& variant, const std::st
   RunOptions opt;
   opt.quiet = true;
   RunResult r =
-      ScenarioRun(parse_scenario(doc, source, test::source_dir() + "/scenarios"), opt).run();
+      Simulation(parse_scenario(doc, source, test::source_dir() + "/scenarios"), opt).run();
   const nlohmann::json& m = r.metrics["mocap"];
   std::cout << variant.name << ": fell " << r.fell << " at " << r.fall_time.value_or(-1)
             << ", mean error " << m["mean_joint_error_deg"] << " deg, root error "

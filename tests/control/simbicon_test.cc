@@ -7,8 +7,8 @@
 
 #include "core/error.h"
 #include "engine/world_spec.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -26,10 +26,10 @@ struct WalkOutcome {
 WalkOutcome run_scenario(const std::string& file, const std::vector<std::string>& sets = {},
                          const RunOptions& options = {}) {
   LoadedScenario loaded = load_scenario(scenario_path(file), sets);
-  ScenarioRun run(loaded, options);
+  Simulation run(loaded, options);
   WalkOutcome out;
   out.result = run.run();
-  auto* simbicon = dynamic_cast<Simbicon*>(run.controllers().at(0).get());
+  auto* simbicon = &run.state_as<Simbicon>(0);
   EXPECT_NE(simbicon, nullptr);
   if (simbicon) out.steps = simbicon->state().steps;
   return out;
@@ -64,7 +64,7 @@ TEST(SimbiconGaitStats, MeansStdAndAsymmetry) {
 TEST(SimbiconParams, RejectsBadGaits) {
   auto build = [](const std::string& set) {
     LoadedScenario l = load_scenario(scenario_path("simbicon_walk.yaml"), {set});
-    ScenarioRun run(l, {});
+    Simulation run(l, {});
   };
   // a half cycle has exactly two states
   EXPECT_THROW(build("controllers.0.gait.states=[{duration_s: 0.3}]"), InputError);

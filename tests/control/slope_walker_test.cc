@@ -9,8 +9,8 @@
 #include <string>
 
 #include "core/error.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -27,7 +27,7 @@ RunResult run_walker(const std::vector<std::string>& sets, double duration,
   opt.duration = duration;
   opt.out_dir = out_dir;
   opt.quiet = true;
-  ScenarioRun run(loaded, opt);
+  Simulation run(loaded, opt);
   return run.run();
 }
 
@@ -86,14 +86,14 @@ TEST(SlopeWalker, RejectsDofsOfTheWrongKind) {
   LoadedScenario loaded = load_scenario(scenario_path(), {"controllers.0.knee1_dof=hip"});
   RunOptions opt;
   try {
-    ScenarioRun run(loaded, opt);
+    Simulation run(loaded, opt);
     FAIL() << "expected an error";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("knee1_dof 'hip' must be a slide"), std::string::npos)
         << e.what();
   }
   LoadedScenario bad_leg = load_scenario(scenario_path(), {"controllers.0.first_swing_leg=3"});
-  EXPECT_THROW(ScenarioRun(bad_leg, opt), InputError);
+  EXPECT_THROW(Simulation(bad_leg, opt), InputError);
 }
 
 }  // namespace

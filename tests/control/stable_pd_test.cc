@@ -5,8 +5,8 @@
 #include <gtest/gtest.h>
 
 #include "engine/world_spec.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -68,7 +68,7 @@ TEST(StablePd, MatchesTheFormulaAndLeavesRootDofsAlone) {
 TEST(StablePd, PerDofErrorMatchesTheManifoldDifferenceOnHinges) {
   RunOptions opt;
   opt.quiet = true;
-  ScenarioRun run(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), opt);
+  Simulation run(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), opt);
   Engine& e = run.engine();
   JointPdParams params;
   JointPdModel fast = make_joint_pd_model(params, e);
@@ -117,10 +117,10 @@ TEST(StablePd, StandsWherePlainPdDiverges) {
   RunOptions opt;
   opt.engine = "mujoco";
   opt.duration = 3.0;
-  RunResult spd = ScenarioRun(load_scenario(path), opt).run();
+  RunResult spd = Simulation(load_scenario(path), opt).run();
   EXPECT_FALSE(spd.diverged) << spd.divergence;
   EXPECT_FALSE(spd.fell) << spd.fall_reason;
-  RunResult pd = ScenarioRun(load_scenario(path, {"controllers.0.type=pd"}), opt).run();
+  RunResult pd = Simulation(load_scenario(path, {"controllers.0.type=pd"}), opt).run();
   EXPECT_TRUE(pd.diverged || pd.fell);
   EXPECT_LT(pd.sim_time, 1.0);  // it goes within the first second
 }

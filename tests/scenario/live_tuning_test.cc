@@ -8,8 +8,8 @@
 #include "control/lqr.h"
 #include "core/error.h"
 #include "params/param_list.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -20,7 +20,7 @@ LoadedScenario biped_stand() {
 }
 
 // the lowest COM height over `seconds`
-double min_com_height(ScenarioRun& run, double seconds) {
+double min_com_height(Simulation& run, double seconds) {
   Engine& e = run.engine();
   double lowest = 1e9;
   while (e.time() < seconds) {
@@ -34,7 +34,7 @@ double min_com_height(ScenarioRun& run, double seconds) {
 TEST(ParamList, FlattensNestedStructsWithMeta) {
   RunOptions opt;
   opt.quiet = true;
-  ScenarioRun run(biped_stand(), opt);
+  Simulation run(biped_stand(), opt);
   std::vector<ParamEntry> pd = run.controllers()[0]->tunable_params();
   const ParamEntry* kp = nullptr;
   for (const auto& e : pd)
@@ -66,7 +66,7 @@ TEST(LiveTuning, GainChangeReachesTheRunningController) {
   RunOptions opt;
   opt.quiet = true;
   LoadedScenario loaded = biped_stand();
-  ScenarioRun stiff(loaded, opt), soft(loaded, opt);
+  Simulation stiff(loaded, opt), soft(loaded, opt);
   // soften the stance PD through the panel's path, 0.1 s into the run
   for (int i = 0; i < 100; ++i) ASSERT_TRUE(soft.step());
   retune_controller(soft, loaded, 0, "kp", 20);
@@ -81,8 +81,8 @@ TEST(LiveTuning, BadValueKeepsTheController) {
   RunOptions opt;
   opt.quiet = true;
   LoadedScenario loaded = biped_stand();
-  ScenarioRun run(loaded, opt);
-  Controller* before = run.controllers()[0].get();
+  Simulation run(loaded, opt);
+  const Controller* before = run.controllers()[0].get();
   EXPECT_THROW(retune_controller(run, loaded, 0, "kp", -5), InputError);  // kp >= 0
   EXPECT_THROW(retune_controller(run, loaded, 0, "no_such", 1), InputError);
   EXPECT_EQ(run.controllers()[0].get(), before);
@@ -92,12 +92,12 @@ TEST(LiveTuning, SavedScenarioLoadsWithTheTunedValue) {
   RunOptions opt;
   opt.quiet = true;
   LoadedScenario loaded = biped_stand();
-  ScenarioRun run(loaded, opt);
+  Simulation run(loaded, opt);
   retune_controller(run, loaded, 0, "kd", 33);
   YAML::Node doc = tuned_scenario_yaml(run, loaded);
   LoadedScenario again = parse_scenario(doc, "tuned", test::source_dir() + "/scenarios");
   EXPECT_EQ(again.controllers[0]["kd"].as<double>(), 33);
-  ScenarioRun rerun(again, opt);
+  Simulation rerun(again, opt);
   EXPECT_TRUE(rerun.step());
 }
 
@@ -108,10 +108,10 @@ TEST(BackgroundRetune, LqrCostIsSwappedInBetweenSteps) {
   LoadedScenario loaded = load_scenario(file);
   RunOptions opt;
   opt.quiet = true;
-  ScenarioRun run(loaded, opt);
+  Simulation run(loaded, opt);
   ASSERT_TRUE(rebuild_is_slow(*run.controllers()[0]));
   const Controller* old = run.controllers()[0].get();
-  Eigen::MatrixXd k0 = dynamic_cast<const Lqr&>(*old).design().K;
+  Eigen::MatrixXd k0 = dynamic_cast<const LegacyModel<Lqr>&>(*old).prototype().design().K;
   BackgroundRetune job(run, loaded, 0, "balance_cost", 4000);
   // the run goes on with the old controller meanwhile
   for (int i = 0; i < 20 && !job.ready(); ++i) ASSERT_TRUE(run.step());
@@ -119,11 +119,12 @@ TEST(BackgroundRetune, LqrCostIsSwappedInBetweenSteps) {
   job.wait();
   ASSERT_TRUE(job.swap_into(run));
   ASSERT_NE(run.controllers()[0].get(), old);
-  const auto& fresh = dynamic_cast<const Lqr&>(*run.controllers()[0]);
+  const auto& fresh = dynamic_cast<const LegacyModel<Lqr>&>(*run.controllers()[0]).prototype();
   EXPECT_GT((fresh.design().K - k0).norm(), 1e-3 * k0.norm());
   // the same gain as a scenario loaded with that cost (the design is at the initial pose)
-  ScenarioRun reference(load_scenario(file, {"controllers.0.balance_cost=4000"}), opt);
-  const auto& expected = dynamic_cast<const Lqr&>(*reference.controllers()[0]);
+  Simulation reference(load_scenario(file, {"controllers.0.balance_cost=4000"}), opt);
+  const auto& expected =
+      dynamic_cast<const LegacyModel<Lqr>&>(*reference.controllers()[0]).prototype();
   EXPECT_LT((fresh.design().K - expected.design().K).norm(), 1e-9 * k0.norm());
   for (int i = 0; i < 200; ++i) ASSERT_TRUE(run.step());
 }
@@ -132,7 +133,7 @@ TEST(BackgroundRetune, BadRequestsFailAtOnceAndKeepTheController) {
   LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/lqr_one_leg.yaml");
   RunOptions opt;
   opt.quiet = true;
-  ScenarioRun run(loaded, opt);
+  Simulation run(loaded, opt);
   const Controller* old = run.controllers()[0].get();
   EXPECT_THROW(BackgroundRetune(run, loaded, 0, "no_such_cost", 1), InputError);
   EXPECT_THROW(BackgroundRetune(run, loaded, 3, "balance_cost", 1), InputError);

@@ -4,8 +4,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -16,7 +16,7 @@ RunResult run_pd_hold(const std::string& engine, const std::string& out_dir = ""
   RunOptions opt;
   opt.engine = engine;
   opt.out_dir = out_dir;
-  ScenarioRun run(s, opt);
+  Simulation run(s, opt);
   RunResult r = run.run();
   // the arm ends near its horizontal target on either engine
   Eigen::VectorXd q(run.engine().nq());

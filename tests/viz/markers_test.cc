@@ -6,8 +6,8 @@
 #include "control/mocap_tracker.h"
 #include "control/simbicon.h"
 #include "motion/reference_motion.h"
-#include "scenario/runner.h"
 #include "scenario/scenario.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -26,9 +26,9 @@ const Marker* find_label(const std::vector<Marker>& markers, const std::string& 
 }
 
 TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
-  ScenarioRun run(load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml"), quiet());
+  Simulation run(load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml"), quiet());
   Engine& e = run.engine();
-  auto* simbicon = dynamic_cast<Simbicon*>(run.controllers().at(0).get());
+  auto* simbicon = &run.state_as<Simbicon>(0);
   ASSERT_NE(simbicon, nullptr);
   // over a few steps, so that both legs take the stance
   bool seen[2] = {false, false};
@@ -69,9 +69,9 @@ TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
 }
 
 TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
-  ScenarioRun run(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), quiet());
+  Simulation run(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), quiet());
   Engine& e = run.engine();
-  auto* tracker = dynamic_cast<MocapTracker*>(run.controllers().at(0).get());
+  auto* tracker = &run.state_as<MocapTracker>(0);
   ASSERT_NE(tracker, nullptr);
   while (e.time() < 0.7) ASSERT_TRUE(run.step());
   Eigen::VectorXd q;
@@ -93,8 +93,9 @@ TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
   tracker->reference_qpos(e, later);
   EXPECT_GT((later - q).norm(), 1e-3);
   // controllers that track no pose give none
-  ScenarioRun stand(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), quiet());
-  EXPECT_FALSE(stand.controllers().at(0)->reference_qpos(stand.engine(), q));
+  Simulation stand(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), quiet());
+  EXPECT_FALSE(
+      stand.controllers().at(0)->reference_qpos(stand.controller_state(0), stand.engine(), q));
 }
 
 }  // namespace

@@ -1,0 +1,107 @@
+#include "scenario/observers.h"
+
+#include <fmt/format.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <cstdio>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+
+namespace stance {
+
+CsvLog::CsvLog(const std::string& out_dir) {
+  std::error_code ec;
+  std::filesystem::create_directories(out_dir, ec);
+  if (ec) throw InputError(fmt::format("--out {}: {}", out_dir, ec.message()));
+  path_ = std::filesystem::path(out_dir) / "log.csv";
+  out_.open(temporary_path_for(path_), std::ios::trunc);
+  if (!out_) throw InputError(fmt::format("--out {}: cannot write log.csv", out_dir));
+}
+
+void CsvLog::on_start(const Simulation& sim) {
+  out_ << "time,com_x,com_y,com_z,root_x,root_y,root_z";
+  for (const auto& n : sim.model().signal_names) out_ << ',' << n;
+  out_ << ",push_fx,push_fy,push_fz,push_tail_x,push_tail_y,push_tail_z,push_head_x,"
+          "push_head_y,push_head_z\n";
+  values_.reserve(sim.model().signal_names.size());
+  write_row(sim);
+}
+
+void CsvLog::on_step(const Simulation& sim) {
+  if (sim.progress().steps % sim.model().log_every == 0) write_row(sim);
+}
+
+void CsvLog::on_finish(const Simulation& sim, const RunResult& result) {
+  out_.flush();
+  out_.close();
+  std::error_code ec;
+  std::filesystem::rename(temporary_path_for(path_), path_, ec);
+  if (ec) throw InputError(fmt::format("{}: {}", path_.string(), ec.message()));
+}
+
+void CsvLog::write_row(const Simulation& sim) {
+  const Engine& e = sim.engine();
+  Eigen::Vector3d c = e.com();
+  Eigen::Vector3d root = e.nbody() > 0 ? e.body_pose(0).pos : Eigen::Vector3d::Zero();
+  out_ << fmt::format("{:.6f},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}", e.time(), c.x(), c.y(),
+                      c.z(), root.x(), root.y(), root.z());
+  values_.clear();
+  sim.signals(values_);
+  for (double v : values_) out_ << fmt::format(",{:.9g}", v);
+  // pushes: the force and the seed's arrow (force/30, ending at the body)
+  Eigen::Vector3d f = Eigen::Vector3d::Zero(), head = Eigen::Vector3d::Zero();
+  bool any = false;
+  for (const auto& push : sim.model().pushes)
+    if (push.p.active_at(e.time())) {
+      f += push.p.force;
+      if (!any) head = e.body_pose(push.body).pos;
+      any = true;
+    }
+  Eigen::Vector3d tail = any ? Eigen::Vector3d(head - f / 30.0) : head;
+  out_ << fmt::format(",{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", f.x(),
+                      f.y(), f.z(), tail.x(), tail.y(), tail.z(), head.x(), head.y(), head.z());
+}
+
+ProgressBar::ProgressBar(double total_s) : total_s_(total_s) {}
+
+std::string ProgressBar::line(double fraction, double sim_s, double total_s, double elapsed_s) {
+  constexpr int kWidth = 30;
+  fraction = std::clamp(fraction, 0.0, 1.0);
+  int filled = static_cast<int>(std::lround(fraction * kWidth));
+  std::string eta = "--";
+  if (fraction > 0.001) {
+    double left = elapsed_s * (1 - fraction) / fraction;
+    eta = left >= 60 ? fmt::format("{}m{:02d}s", int(left) / 60, int(left) % 60)
+                     : fmt::format("{:.0f}s", left);
+  }
+  return fmt::format("[{}{}] {:3.0f}%  {:.1f}/{:.1f} s  ETA {}", std::string(filled, '#'),
+                     std::string(kWidth - filled, ' '), 100 * fraction, sim_s, total_s, eta);
+}
+
+void ProgressBar::on_start(const Simulation& sim) {
+  enabled_ = isatty(fileno(stderr));
+  if (total_s_ <= 0) total_s_ = sim.scenario().duration;
+  t0_sim_ = sim.time();
+  wall0_ = last_draw_ = std::chrono::steady_clock::now();
+}
+
+void ProgressBar::on_step(const Simulation& sim) {
+  if (!enabled_ || total_s_ <= 0) return;
+  auto now = std::chrono::steady_clock::now();
+  if (now - last_draw_ < std::chrono::milliseconds(200)) return;
+  last_draw_ = now;
+  double elapsed = std::chrono::duration<double>(now - wall0_).count();
+  double done = sim.time() - t0_sim_;
+  std::fprintf(stderr, "\r%s", line(done / total_s_, done, total_s_, elapsed).c_str());
+  std::fflush(stderr);
+}
+
+void ProgressBar::on_finish(const Simulation& sim, const RunResult& result) {
+  if (!enabled_) return;
+  std::fprintf(stderr, "\r%s\n",
+               line(1.0, result.sim_time - t0_sim_, total_s_, result.wall_time_s).c_str());
+}
+
+}  // namespace stance

@@ -1,0 +1,50 @@
+// Observers of the step loop that entry points attach: the log.csv writer and the progress bar.
+// (Fall and divergence detection and the metrics belong to the Simulation itself: they are part
+// of the run's state and are branched with it.)
+#pragma once
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "scenario/simulation.h"
+
+namespace stance {
+
+// log.csv at the scenario's log rate: time, COM, root, the controllers' signals, the active push
+// and its arrow. Written beside as a hidden file and renamed into place when the run finishes.
+class CsvLog final : public StepObserver {
+ public:
+  explicit CsvLog(const std::string& out_dir);
+  void on_start(const Simulation& sim) override;
+  void on_step(const Simulation& sim) override;
+  void on_finish(const Simulation& sim, const RunResult& result) override;
+
+ private:
+  void write_row(const Simulation& sim);
+
+  std::filesystem::path path_;
+  std::ofstream out_;
+  std::vector<double> values_;
+};
+
+// a one-line progress bar with an ETA on stderr, drawn only when stderr is a terminal
+class ProgressBar final : public StepObserver {
+ public:
+  // total: the run's length in simulated seconds (0: the scenario's)
+  explicit ProgressBar(double total_s = 0);
+  void on_start(const Simulation& sim) override;
+  void on_step(const Simulation& sim) override;
+  void on_finish(const Simulation& sim, const RunResult& result) override;
+  // the line drawn for a fraction done after `elapsed_s` of wall time (for tests)
+  static std::string line(double fraction, double sim_s, double total_s, double elapsed_s);
+
+ private:
+  bool enabled_ = false;
+  double total_s_ = 0, t0_sim_ = 0;
+  std::chrono::steady_clock::time_point wall0_, last_draw_;
+};
+
+}  // namespace stance

@@ -1,0 +1,617 @@
+#include "scenario/simulation.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <typeinfo>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "engine/world_spec.h"
+#include "scenario/observers.h"
+
+namespace stance {
+
+nlohmann::json RunResult::to_json() const {
+  nlohmann::json j;
+  j["scenario"] = scenario;
+  j["engine"] = engine;
+  j["seed"] = seed;
+  j["sim_time"] = sim_time;
+  j["fell"] = fell;
+  j["fall_time"] = fall_time ? nlohmann::json(*fall_time) : nlohmann::json(nullptr);
+  if (fell) j["fall_reason"] = fall_reason;
+  j["diverged"] = diverged;
+  if (diverged) j["divergence"] = divergence;
+  j["wall_time_s"] = wall_time_s;
+  j["steps"] = steps;
+  j["metrics"] = metrics;
+  return j;
+}
+
+Perturbation parse_push(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  for (std::string p; std::getline(ss, p, ',');) parts.push_back(p);
+  if (parts.size() != 6)
+    throw InputError(fmt::format("--push '{}': expected body,fx,fy,fz,start,duration", text));
+  Perturbation p;
+  p.body = parts[0];
+  double vals[5];
+  for (int i = 0; i < 5; ++i) {
+    try {
+      size_t used = 0;
+      vals[i] = std::stod(parts[i + 1], &used);
+      if (used != parts[i + 1].size() || !std::isfinite(vals[i])) throw std::invalid_argument("");
+    } catch (const std::exception&) {
+      throw InputError(fmt::format("--push '{}': '{}' is not a finite number", text, parts[i + 1]));
+    }
+  }
+  p.force = Eigen::Vector3d(vals[0], vals[1], vals[2]);
+  p.start = vals[3];
+  p.duration = vals[4];
+  if (p.start < 0 || p.duration < 0)
+    throw InputError(fmt::format("--push '{}': start and duration must be >= 0", text));
+  return p;
+}
+
+std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name) {
+  WorldSpec spec;
+  for (const auto& m : s.model) spec.models.push_back({m.file, m.offset});
+  if (s.timestep > 0) spec.timestep = s.timestep;
+  if (s.gravity.size() == 3)
+    spec.gravity = Eigen::Vector3d(s.gravity[0], s.gravity[1], s.gravity[2]);
+  if (s.slope_rad != 0) {
+    // a slope tilts gravity about the y axis instead of the floor: the walker goes down +x
+    Eigen::Vector3d g0 = spec.gravity ? *spec.gravity : Eigen::Vector3d(0, 0, -9.81);
+    double g = g0.norm();
+    spec.gravity = Eigen::Vector3d(g * std::sin(s.slope_rad), 0, -g * std::cos(s.slope_rad));
+  }
+  std::unique_ptr<Engine> engine = make_engine(engine_name, spec);
+  if (!s.keyframe.empty()) {
+    try {
+      engine->apply_keyframe(s.keyframe);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("keyframe: {}", e.what()));
+    }
+  }
+  for (const auto& [name, value] : s.initial_pose) {
+    int dof = engine->dof_index(name);
+    if (dof < 0)
+      throw InputError(fmt::format("initial_pose: unknown dof '{}'{}", name,
+                                   did_you_mean(name, engine->dof_names())));
+    engine->set_dof_position(dof, value);
+  }
+  engine->forward();
+  return engine;
+}
+
+std::mutex& model_load_mutex() {
+  static std::mutex m;
+  return m;
+}
+
+// ---- controller models shared across runs
+
+std::shared_ptr<const Controller> ControllerCache::get_or_build(
+    const std::string& key, const std::function<std::shared_ptr<const Controller>()>& build) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    auto it = models_.find(key);
+    if (it != models_.end()) return it->second;
+  }
+  std::shared_ptr<const Controller> built = build();
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++builds_;
+  auto [it, inserted] = models_.emplace(key, std::move(built));
+  if (inserted) {
+    order_.push_back(key);
+    while (models_.size() > capacity_) {
+      models_.erase(order_.front());
+      order_.pop_front();
+    }
+    it = models_.find(key);
+  }
+  return it->second;
+}
+
+long ControllerCache::builds() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return builds_;
+}
+
+namespace {
+
+// what a controller model depends on besides its own parameters: the world and the start
+std::string world_key(const Scenario& s, const std::string& engine_name,
+                      const std::string& source) {
+  std::string k = fmt::format("{}|{}|", engine_name, source);
+  for (const auto& m : s.model)
+    k += fmt::format("{}@{:.17g},{:.17g},{:.17g};", m.file, m.offset.x(), m.offset.y(),
+                     m.offset.z());
+  k += fmt::format("|dt={:.17g}|g=", s.timestep);
+  for (double g : s.gravity) k += fmt::format("{:.17g},", g);
+  k += fmt::format("|slope={:.17g}|key={}|pose=", s.slope_rad, s.keyframe);
+  for (const auto& [name, value] : s.initial_pose) k += fmt::format("{}={:.17g},", name, value);
+  k += fmt::format("|seed={}|T={:.17g}", s.seed, s.duration);
+  return k;
+}
+
+void build_controllers(const LoadedScenario& loaded, const RunOptions& options,
+                       const std::string& engine_name, SimulationModel& m, const Engine& e) {
+  const std::string world = world_key(m.scenario, engine_name, loaded.source);
+  for (size_t i = 0; i < loaded.controllers.size(); ++i) {
+    const YAML::Node& node = loaded.controllers[i];
+    const ControllerType& type = find_controller_type(node["type"].Scalar());
+    ControllerContext ctx = controller_context(m, i);
+    auto build = [&]() -> std::shared_ptr<const Controller> {
+      try {
+        return type.make(node, ctx, e);
+      } catch (const InputError& err) {
+        std::string msg = err.what();
+        // name errors from the engine get the controller's place in the file
+        if (msg.rfind(loaded.source, 0) != 0)
+          msg = located(loaded.source, node.Mark().line + 1, ctx.path + ": " + msg);
+        throw InputError(msg);
+      }
+    };
+    if (options.cache) {
+      YAML::Emitter out;
+      out << node;
+      m.controllers.push_back(
+          options.cache->get_or_build(fmt::format("{}|{}|{}", world, i, out.c_str()), build));
+    } else {
+      m.controllers.push_back(build());
+    }
+  }
+}
+
+std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
+                                             const RunOptions& options,
+                                             std::unique_ptr<Engine>& engine) {
+  auto m = std::make_shared<SimulationModel>();
+  m->scenario = loaded.scenario;
+  m->source = loaded.source;
+  Scenario& sc = m->scenario;
+  if (options.duration) sc.duration = *options.duration;
+  for (const auto& p : options.extra_pushes) sc.perturbations.push_back(p);
+  m->engine_name = options.engine.empty() ? sc.engine : options.engine;
+  if (m->engine_name != "mujoco" && m->engine_name != "dart")
+    throw InputError(fmt::format("--engine: expected mujoco or dart, found '{}'", m->engine_name));
+  m->stop_after_fall_s = options.stop_after_fall_s;
+  {
+    std::lock_guard<std::mutex> lock(model_load_mutex());
+    engine = make_scenario_engine(sc, m->engine_name);
+  }
+  Engine& e = *engine;
+  build_controllers(loaded, options, m->engine_name, *m, e);
+  // a controller that tracks a clip may start the run on the clip's first frame
+  for (const auto& c : m->controllers) {
+    Eigen::VectorXd q0, v0;
+    if (c->initial_state(e, q0, v0)) {
+      e.set_positions(q0);
+      e.set_velocities(v0);
+      e.forward();
+    }
+  }
+  for (const auto& p : sc.perturbations) {
+    int b = e.body_index(p.body);
+    if (b < 0)
+      throw InputError(fmt::format("perturbation: unknown body '{}'{}", p.body,
+                                   did_you_mean(p.body, e.body_names())));
+    m->pushes.push_back({p, b});
+  }
+  m->allowed_contact.assign(e.nbody(), 0);
+  for (const auto& name : sc.fall.allowed_contacts) {
+    int b = e.body_index(name);
+    if (b < 0)
+      throw InputError(fmt::format("fall.allowed_contacts: unknown body '{}'{}", name,
+                                   did_you_mean(name, e.body_names())));
+    m->allowed_contact[b] = 1;
+  }
+  // heights are measured along the floor's normal: -gravity, or z when a slope tilts gravity
+  Eigen::Vector3d g = e.gravity();
+  if (sc.slope_rad != 0)
+    m->up = Eigen::Vector3d::UnitZ();
+  else if (g.norm() > 0)
+    m->up = -g.normalized();
+  e.save_state(m->initial);
+  for (const auto& c : m->controllers) c->signal_names(m->signal_names);
+  const double dt = e.timestep();
+  m->total_steps = std::lround(sc.duration / dt);
+  m->log_every = std::max<long>(1, std::lround(1.0 / (sc.log.rate_hz * dt)));
+  return m;
+}
+
+}  // namespace
+
+ControllerContext controller_context(const SimulationModel& m, size_t index) {
+  Scenario scenario = m.scenario;
+  std::string engine_name = m.engine_name;
+  return {{m.source.empty() ? "viewer" : m.source},
+          fmt::format("controllers[{}]", index),
+          static_cast<uint64_t>(scenario.seed) * 1000003ull + index,
+          scenario.duration,
+          [scenario, engine_name] {
+            std::lock_guard<std::mutex> lock(model_load_mutex());
+            return make_scenario_engine(scenario, engine_name);
+          }};
+}
+
+std::unique_ptr<Engine> SimulationModel::make_engine() const {
+  std::unique_ptr<Engine> e;
+  {
+    std::lock_guard<std::mutex> lock(model_load_mutex());
+    e = make_scenario_engine(scenario, engine_name);
+  }
+  e->restore_state(initial);
+  e->forward();
+  return e;
+}
+
+std::shared_ptr<const SimulationModel> make_simulation_model(const LoadedScenario& loaded,
+                                                             const RunOptions& options) {
+  std::unique_ptr<Engine> engine;
+  return build_model(loaded, options, engine);
+}
+
+SimulationState& SimulationState::operator=(const SimulationState& other) {
+  if (this == &other) return *this;
+  engine = other.engine;
+  progress = other.progress;
+  controllers.resize(other.controllers.size());
+  for (size_t i = 0; i < other.controllers.size(); ++i) {
+    const ControllerState& src = *other.controllers[i];
+    if (controllers[i] && typeid(*controllers[i]) == typeid(src))
+      controllers[i]->assign(src);
+    else
+      controllers[i] = src.clone();
+  }
+  return *this;
+}
+
+// ---- the loop
+
+Simulation::Simulation(std::shared_ptr<const SimulationModel> model)
+    : model_(std::move(model)), engine_(model_->make_engine()) {
+  controllers_ = model_->controllers;
+  start_run();
+}
+
+Simulation::Simulation(const LoadedScenario& loaded, const RunOptions& options) {
+  std::unique_ptr<Engine> engine;
+  model_ = build_model(loaded, options, engine);
+  engine_ = std::move(engine);
+  controllers_ = model_->controllers;
+  run_files_ = options;
+  engine_->restore_state(model_->initial);
+  engine_->forward();
+  start_run();
+}
+
+Simulation::~Simulation() = default;
+
+void Simulation::start_run() {
+  Engine& e = *engine_;
+  out_.resize(e.nv(), e.nu());
+  progress_ = RunProgress{};
+  progress_.velocity_sent = out_.dof_velocity;
+  states_.clear();
+  for (const auto& c : controllers_) states_.push_back(c->make_state(e));
+  progress_.com0 = e.com();
+  progress_.com_height0 = model_->up.dot(progress_.com0) - model_->scenario.fall.ground_height;
+  progress_.min_com_height = progress_.com_height0;
+}
+
+void Simulation::reset() {
+  Engine& e = *engine_;
+  e.restore_state(model_->initial);
+  e.forward();
+  // release velocity servos from an earlier run
+  send_velocity_commands(Eigen::VectorXd::Constant(e.nv(), std::nan("")));
+  out_.resize(e.nv(), e.nu());
+  progress_ = RunProgress{};
+  progress_.velocity_sent = out_.dof_velocity;
+  for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->reset(*states_[i], e);
+  progress_.com0 = e.com();
+  progress_.com_height0 = model_->up.dot(progress_.com0) - model_->scenario.fall.ground_height;
+  progress_.min_com_height = progress_.com_height0;
+}
+
+void Simulation::reset_controllers() {
+  for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->reset(*states_[i], *engine_);
+}
+
+void Simulation::send_velocity_commands(const Eigen::VectorXd& commands) {
+  // pass on the commands that changed (NaN releases a dof)
+  Eigen::VectorXd& sent = progress_.velocity_sent;
+  for (int i = 0; i < commands.size(); ++i) {
+    double now = commands[i], before = sent[i];
+    if (now != before && !(std::isnan(now) && std::isnan(before))) {
+      engine_->set_dof_velocity_command(i, now);
+      sent[i] = now;
+    }
+  }
+}
+
+bool Simulation::step() {
+  Engine& e = *engine_;
+  RunProgress& s = progress_;
+  if (s.diverged) return false;
+  e.forward();
+  out_.clear();
+  if (controller_seconds_) {
+    for (size_t i = 0; i < controllers_.size(); ++i) {
+      auto t0 = std::chrono::steady_clock::now();
+      controllers_[i]->compute(*states_[i], e, out_);
+      (*controller_seconds_)[i] +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    }
+  } else {
+    for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->compute(*states_[i], e, out_);
+  }
+  out_.tau *= model_->scenario.torque_scale;
+  e.set_generalized_forces(out_.tau);
+  if (out_.ctrl_used) e.set_controls(out_.ctrl);
+  if (out_.dof_velocity_used) send_velocity_commands(out_.dof_velocity);
+  const double t = e.time();
+  for (const auto& push : model_->pushes)
+    if (push.p.active_at(t)) e.apply_external_force(push.body, push.p.force, e.body_com(push.body));
+  // torque statistics over the controlled (non-zero) entries
+  for (int i = 0; i < out_.tau.size(); ++i) {
+    double tau = out_.tau[i];
+    if (tau == 0) continue;
+    s.torque_sq_sum += tau * tau;
+    ++s.torque_samples;
+    s.max_abs_torque = std::max(s.max_abs_torque, std::abs(tau));
+  }
+  e.step();
+  ++s.steps;
+  if (!e.state_is_finite()) {
+    // the engine may have reset itself: report the time the step started
+    s.diverged = true;
+    s.diverged_at = t;
+    std::string w = e.last_warning();
+    s.divergence = w.empty() ? fmt::format("non-finite state at t={:.6f} s", t) : w;
+    return false;
+  }
+  e.forward();
+  detect_fall();
+  for (StepObserver* o : observers_) o->on_step(*this);
+  return true;
+}
+
+void Simulation::detect_fall() {
+  Engine& e = *engine_;
+  RunProgress& s = progress_;
+  const FallCriterion& fall = model_->scenario.fall;
+  double h = model_->up.dot(e.com()) - fall.ground_height;
+  s.min_com_height = std::min(s.min_com_height, h);
+  if (!fall.enabled || s.fell) return;
+  if (h < fall.com_height_fraction * s.com_height0) {
+    s.fell = true;
+    s.fall_time = e.time();
+    s.fall_reason = fmt::format("COM height {:.3f} m below {:.0f}% of its start {:.3f} m", h,
+                                100 * fall.com_height_fraction, s.com_height0);
+  } else if (!fall.allowed_contacts.empty()) {
+    for (int i = 0, n = e.num_contacts(); i < n && !s.fell; ++i) {
+      Contact c = e.contact(i);
+      int other = c.body1 < 0 ? c.body2 : (c.body2 < 0 ? c.body1 : -1);
+      if (other >= 0 && !model_->allowed_contact[other]) {
+        s.fell = true;
+        s.fall_time = e.time();
+        s.fall_reason = "'" + e.body_name(other) + "' touched the ground";
+      }
+    }
+  }
+}
+
+bool Simulation::done() const {
+  const RunProgress& s = progress_;
+  if (s.diverged || s.steps >= model_->total_steps) return true;
+  // a while past a fall is enough to see it; the rest is lying on the floor
+  return s.fell && model_->stop_after_fall_s >= 0 &&
+         engine_->time() > s.fall_time + model_->stop_after_fall_s;
+}
+
+void Simulation::signals(std::vector<double>& values) const {
+  for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->signals(*states_[i], values);
+}
+
+RunResult Simulation::result() const {
+  const Engine& e = *engine_;
+  const RunProgress& s = progress_;
+  RunResult r;
+  r.scenario = model_->scenario.name;
+  r.engine = std::string(e.engine_name());
+  r.seed = model_->scenario.seed;
+  r.steps = s.steps;
+  r.sim_time = s.diverged ? s.diverged_at : e.time();
+  r.fell = s.fell;
+  if (s.fell) {
+    r.fall_time = s.fall_time;
+    r.fall_reason = s.fall_reason;
+  }
+  r.diverged = s.diverged;
+  r.divergence = s.divergence;
+  nlohmann::json& m = r.metrics;
+  m["torque_rms"] = s.torque_samples ? std::sqrt(s.torque_sq_sum / s.torque_samples) : 0.0;
+  m["max_abs_torque"] = s.max_abs_torque;
+  m["min_com_height_m"] = s.min_com_height;
+  m["com_height_start_m"] = s.com_height0;
+  m["com_displacement_m"] = (e.com() - s.com0).norm();
+  m["realtime_factor"] = 0.0;
+  int survived = 0;
+  for (const auto& push : model_->pushes) {
+    double end = push.p.start + push.p.duration;
+    if (end <= r.sim_time && (!s.fell || s.fall_time > end + 2.0)) ++survived;
+  }
+  m["pushes_applied"] = static_cast<int>(model_->pushes.size());
+  m["pushes_survived"] = survived;
+  for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->add_metrics(*states_[i], m);
+  return r;
+}
+
+RunResult Simulation::run() {
+  auto wall0 = std::chrono::steady_clock::now();
+  std::unique_ptr<CsvLog> log;
+  std::unique_ptr<ProgressBar> bar;
+  if (!run_files_.out_dir.empty()) {
+    log = std::make_unique<CsvLog>(run_files_.out_dir);
+    add_observer(log.get());
+  }
+  if (run_files_.progress) {
+    bar = std::make_unique<ProgressBar>();
+    add_observer(bar.get());
+  }
+  for (StepObserver* o : observers_) o->on_start(*this);
+  while (!done())
+    if (!step()) break;
+  RunResult r = result();
+  r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  r.metrics["realtime_factor"] = r.wall_time_s > 0 ? r.sim_time / r.wall_time_s : 0.0;
+  for (StepObserver* o : observers_) o->on_finish(*this, r);
+  if (log) {
+    remove_observer(log.get());
+    for (size_t i = 0; i < controllers_.size(); ++i)
+      controllers_[i]->write_outputs(*states_[i], run_files_.out_dir);
+    write_file_atomically(std::filesystem::path(run_files_.out_dir) / "summary.json",
+                          r.to_json().dump(2) + "\n");
+  }
+  if (bar) remove_observer(bar.get());
+  return r;
+}
+
+void Simulation::remove_observer(StepObserver* observer) {
+  observers_.erase(std::remove(observers_.begin(), observers_.end(), observer), observers_.end());
+}
+
+void Simulation::replace_controller(size_t i, std::shared_ptr<const Controller> controller) {
+  const bool keep = controller->keeps_state_of(*controllers_.at(i));
+  if (!keep) states_[i] = controller->make_state(*engine_);
+  controllers_[i] = std::move(controller);
+}
+
+// ---- branching and the state file
+
+void Simulation::save(SimulationState& state) const {
+  engine_->save_state(state.engine);
+  state.progress = progress_;
+  state.controllers.resize(states_.size());
+  for (size_t i = 0; i < states_.size(); ++i) {
+    if (state.controllers[i] && typeid(*state.controllers[i]) == typeid(*states_[i]))
+      state.controllers[i]->assign(*states_[i]);
+    else
+      state.controllers[i] = states_[i]->clone();
+  }
+}
+
+void Simulation::restore(const SimulationState& state) {
+  if (state.controllers.size() != states_.size())
+    throw std::logic_error("restore: a state of another simulation");
+  engine_->restore_state(state.engine);
+  engine_->forward();
+  for (size_t i = 0; i < states_.size(); ++i) {
+    if (typeid(*states_[i]) == typeid(*state.controllers[i]))
+      states_[i]->assign(*state.controllers[i]);
+    else
+      states_[i] = state.controllers[i]->clone();
+  }
+  // the engine holds the servo commands of the saved moment
+  Eigen::VectorXd commands = state.progress.velocity_sent;
+  progress_ = state.progress;
+  progress_.velocity_sent.setConstant(std::nan(""));
+  for (int i = 0; i < commands.size(); ++i) engine_->set_dof_velocity_command(i, std::nan(""));
+  send_velocity_commands(commands);
+}
+
+std::unique_ptr<Simulation> Simulation::clone() const {
+  auto sim = std::make_unique<Simulation>(model_);
+  for (size_t i = 0; i < controllers_.size(); ++i)
+    if (sim->controllers_[i] != controllers_[i]) {
+      sim->controllers_[i] = controllers_[i];
+      sim->states_[i] = controllers_[i]->make_state(*sim->engine_);
+    }
+  SimulationState state;
+  save(state);
+  sim->restore(state);
+  return sim;
+}
+
+namespace {
+constexpr char kStateMagic[] = "stance-state 1\n";
+}
+
+void Simulation::write_state(const std::string& path) const {
+  std::string out = kStateMagic;
+  StateWriter w(out);
+  const Engine& e = *engine_;
+  w(std::string(e.engine_name())), w(e.nq()), w(e.nv()), w(e.nu());
+  EngineState es;
+  e.save_state(es);
+  w(es.time), w(es.q), w(es.v), w(es.act), w(es.ctrl), w(es.extra);
+  w(const_cast<RunProgress&>(progress_).steps);
+  const_cast<RunProgress&>(progress_).serialize(w);
+  w(controllers_.size());
+  for (size_t i = 0; i < controllers_.size(); ++i) {
+    w(std::string(controllers_[i]->type()));
+    states_[i]->write(out);
+  }
+  write_file_atomically(path, out);
+}
+
+void Simulation::read_state(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(fmt::format("{}: cannot read the state file", path));
+  std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string magic = kStateMagic;
+  if (data.compare(0, magic.size(), magic) != 0)
+    throw InputError(fmt::format("{}: not a stance state file", path));
+  const Engine& e = *engine_;
+  try {
+    StateReader r(data, magic.size());
+    std::string engine_name;
+    int nq = 0, nv = 0, nu = 0;
+    r(engine_name), r(nq), r(nv), r(nu);
+    if (engine_name != e.engine_name() || nq != e.nq() || nv != e.nv() || nu != e.nu())
+      throw InputError(fmt::format(
+          "{}: a state of another model ({} nq {} nv {} nu {}; this run: {} nq {} nv {} nu {})",
+          path, engine_name, nq, nv, nu, e.engine_name(), e.nq(), e.nv(), e.nu()));
+    SimulationState state;
+    r(state.engine.time), r(state.engine.q), r(state.engine.v), r(state.engine.act);
+    r(state.engine.ctrl), r(state.engine.extra);
+    long steps = 0;
+    r(steps);
+    state.progress.serialize(r);
+    size_t n = 0;
+    r(n);
+    if (n != controllers_.size())
+      throw InputError(
+          fmt::format("{}: {} controllers, this scenario has {}", path, n, controllers_.size()));
+    size_t offset = r.position();
+    for (size_t i = 0; i < n; ++i) {
+      StateReader tr(data, offset);
+      std::string type;
+      tr(type);
+      if (type != controllers_[i]->type())
+        throw InputError(fmt::format("{}: controller {} is '{}', this scenario's is '{}'", path, i,
+                                     type, controllers_[i]->type()));
+      offset = tr.position();
+      auto cs = states_[i]->clone();
+      cs->read(data, offset);
+      state.controllers.push_back(std::move(cs));
+    }
+    if (offset != data.size())
+      throw InputError(fmt::format("{}: {} bytes after the state", path, data.size() - offset));
+    restore(state);
+  } catch (const StateFormatError& err) {
+    throw InputError(fmt::format("{}: corrupt state file ({})", path, err.what()));
+  }
+}
+
+}  // namespace stance

@@ -1,0 +1,243 @@
+// The one step loop. A Simulation owns an engine, every controller's State, the pushes and the
+// clock, and steps them in one fixed order:
+//   forward -> controllers (summed, torque_scale) -> servos -> pushes -> engine step ->
+//   divergence check -> forward -> fall detection and metrics -> observers
+// Every entry point (run, view, record, sweep, tune, push-threshold, the benchmarks) steps it.
+// What a scenario resolves to once (the world, the controllers' immutable models, the pushes'
+// bodies) is a SimulationModel, shared by every run, clone and thread.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include <deque>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "control/controller.h"
+#include "engine/engine.h"
+#include "scenario/scenario.h"
+
+namespace stance {
+
+class ControllerCache;
+
+struct RunOptions {
+  std::string engine;                      // overrides the scenario's engine when set
+  std::optional<double> duration;          // s, overrides the scenario's
+  std::string out_dir;                     // where summary.json and log.csv go; empty: no files
+  std::vector<Perturbation> extra_pushes;  // from the CLI
+  bool quiet = false;
+  bool progress = false;           // a progress bar on stderr (shown only when it is a terminal)
+  double stop_after_fall_s = 1.0;  // s a run goes on after a fall; < 0: to the end
+  // controller models reused across runs whose world and parameters are the same; null: none
+  ControllerCache* cache = nullptr;
+};
+
+struct RunResult {
+  std::string scenario;
+  std::string engine;
+  int seed = 0;
+  double sim_time = 0;
+  bool fell = false;
+  std::optional<double> fall_time;
+  std::string fall_reason;
+  bool diverged = false;
+  std::string divergence;  // message with time and cause
+  double wall_time_s = 0;
+  long steps = 0;
+  nlohmann::json metrics = nlohmann::json::object();
+
+  nlohmann::json to_json() const;
+};
+
+// a push resolved to its body
+struct ResolvedPush {
+  Perturbation p;
+  int body = -1;
+};
+
+// what a loaded scenario resolves to once; immutable and shared by every run of it
+struct SimulationModel {
+  Scenario scenario;  // the options' duration and extra pushes applied
+  std::string engine_name;
+  std::string source;  // scenario file, for messages
+  std::vector<std::shared_ptr<const Controller>> controllers;
+  std::vector<ResolvedPush> pushes;
+  std::vector<char> allowed_contact;              // per body
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // heights are measured along it
+  EngineState initial;                            // the start: pose, keyframe, clip's first frame
+  std::vector<std::string> signal_names;          // the controllers' log columns
+  double stop_after_fall_s = 1.0;
+  long total_steps = 0;
+  long log_every = 1;
+
+  // a new engine of this world at the initial state (under the one load lock)
+  std::unique_ptr<Engine> make_engine() const;
+};
+
+// build the model of a scenario: the engine is loaded once to resolve names, the controllers are
+// built (or taken from options.cache)
+std::shared_ptr<const SimulationModel> make_simulation_model(const LoadedScenario& loaded,
+                                                             const RunOptions& options);
+
+// the context the simulation gives controller `index` of `model` when it builds it (the same
+// seed keeps noise streams reproducible; the scratch engine is a fresh engine of the world)
+ControllerContext controller_context(const SimulationModel& model, size_t index);
+
+// Controller models shared across runs of a sweep, tune or push search. A model is reused when
+// its parameters, the world (model files, timestep, gravity, slope), the initial state, the seed
+// and the run length are the same. Thread-safe; holds at most `capacity` models (the oldest go).
+class ControllerCache {
+ public:
+  explicit ControllerCache(size_t capacity = 64) : capacity_(capacity > 0 ? capacity : 1) {}
+  std::shared_ptr<const Controller> get_or_build(
+      const std::string& key, const std::function<std::shared_ptr<const Controller>()>& build);
+  long builds() const;  // how many models were built (not reused)
+
+ private:
+  mutable std::mutex mutex_;
+  size_t capacity_;
+  std::map<std::string, std::shared_ptr<const Controller>> models_;
+  std::deque<std::string> order_;  // oldest first
+  long builds_ = 0;
+};
+
+// the run's bookkeeping: fall and divergence detection, metric accumulators, servo commands
+struct RunProgress {
+  long steps = 0;
+  bool fell = false;
+  double fall_time = 0;
+  std::string fall_reason;
+  bool diverged = false;
+  std::string divergence;
+  double diverged_at = 0;
+  double com_height0 = 0, min_com_height = 0;
+  Eigen::Vector3d com0 = Eigen::Vector3d::Zero();
+  double torque_sq_sum = 0, max_abs_torque = 0;
+  long torque_samples = 0;
+  Eigen::VectorXd velocity_sent;  // the velocity commands the engine holds, dim nv; NaN: none
+
+  template <class A>
+  void serialize(A& a) {
+    a(steps), a(fell), a(fall_time), a(fall_reason), a(diverged), a(divergence), a(diverged_at);
+    a(com_height0), a(min_com_height), a(com0), a(torque_sq_sum), a(max_abs_torque);
+    a(torque_samples), a(velocity_sent);
+  }
+};
+
+// the whole state of a simulation: restoring it on any engine of the same world continues the
+// run exactly
+struct SimulationState {
+  EngineState engine;
+  std::vector<std::unique_ptr<ControllerState>> controllers;
+  RunProgress progress;
+
+  SimulationState() = default;
+  SimulationState(const SimulationState& other) { *this = other; }
+  SimulationState& operator=(const SimulationState& other);
+  SimulationState(SimulationState&&) = default;
+  SimulationState& operator=(SimulationState&&) = default;
+};
+
+class Simulation;
+
+// hooks on the loop: log rows, frames, a progress bar. Called on the stepping thread.
+class StepObserver {
+ public:
+  virtual ~StepObserver() = default;
+  virtual void on_start(const Simulation& sim) {}  // at the current state, before stepping
+  virtual void on_step(const Simulation& sim) {}   // after each step, the engine forwarded
+  virtual void on_finish(const Simulation& sim, const RunResult& result) {}
+};
+
+class Simulation {
+ public:
+  explicit Simulation(std::shared_ptr<const SimulationModel> model);
+  Simulation(const LoadedScenario& loaded, const RunOptions& options);
+  ~Simulation();
+
+  // one control + physics step, then fall detection and the observers; false once diverged
+  bool step();
+  // the run is over: its length reached, diverged, or stop_after_fall_s past a fall
+  bool done() const;
+  // step until done, with log.csv, summary.json and the controllers' files when out_dir is set
+  RunResult run();
+  // the result and metrics as of now
+  RunResult result() const;
+  // restart from the initial state (replay)
+  void reset();
+  // restart every controller's state at the engine's current state (after a history scrub)
+  void reset_controllers();
+
+  // branching: the whole state (engine, controller states, progress, time)
+  void save(SimulationState& state) const;
+  void restore(const SimulationState& state);
+  // a simulation of the same model on a new engine, at this one's state
+  std::unique_ptr<Simulation> clone() const;
+  // the state as a file (binary; checked against this model's sizes and types when read)
+  void write_state(const std::string& path) const;
+  void read_state(const std::string& path);
+
+  void add_observer(StepObserver* observer) { observers_.push_back(observer); }
+  void remove_observer(StepObserver* observer);
+
+  Engine& engine() { return *engine_; }
+  const Engine& engine() const { return *engine_; }
+  const SimulationModel& model() const { return *model_; }
+  std::shared_ptr<const SimulationModel> shared_model() const { return model_; }
+  const Scenario& scenario() const { return model_->scenario; }
+  const std::string& source() const { return model_->source; }
+  const std::vector<std::shared_ptr<const Controller>>& controllers() const { return controllers_; }
+  ControllerState& controller_state(size_t i) { return *states_.at(i); }
+  const ControllerState& controller_state(size_t i) const { return *states_.at(i); }
+  // a controller's state as its type (throws std::logic_error on a wrong type)
+  template <class S>
+  S& state_as(size_t i) {
+    auto* s = dynamic_cast<StateOf<S>*>(&controller_state(i));
+    if (!s) throw std::logic_error("controller state of another type");
+    return s->value;
+  }
+  // replace controller i (a live parameter edit); its state is kept when the new model
+  // keeps_state_of the old one, else made fresh at the engine's current state
+  void replace_controller(size_t i, std::shared_ptr<const Controller> controller);
+  const RunProgress& progress() const { return progress_; }
+  // what the controllers commanded in the last step (tau already scaled by torque_scale)
+  const ControlOutput& last_output() const { return out_; }
+  // the controllers' log values now, appended (signal_names order)
+  void signals(std::vector<double>& values) const;
+  double time() const { return engine_->time(); }
+  // benchmarks: add each controller's compute() wall time (s) into `seconds` (one entry per
+  // controller) on every step; null: off
+  void time_controllers(std::vector<double>* seconds) { controller_seconds_ = seconds; }
+
+ private:
+  void start_run();
+  void detect_fall();
+  void send_velocity_commands(const Eigen::VectorXd& commands);
+
+  std::shared_ptr<const SimulationModel> model_;
+  std::unique_ptr<Engine> engine_;
+  std::vector<std::shared_ptr<const Controller>> controllers_;
+  std::vector<std::unique_ptr<ControllerState>> states_;
+  RunProgress progress_;
+  ControlOutput out_;
+  std::vector<StepObserver*> observers_;
+  RunOptions run_files_;  // out_dir and progress for run()
+  std::vector<double>* controller_seconds_ = nullptr;
+};
+
+// build the engine of a scenario with its initial pose applied (no controllers)
+std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name);
+
+// the one lock around model loading (MuJoCo's XML compiler is not reentrant)
+std::mutex& model_load_mutex();
+
+// parse "body,fx,fy,fz,start,duration"
+Perturbation parse_push(const std::string& text);
+
+}  // namespace stance
