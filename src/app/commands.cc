@@ -189,7 +189,13 @@ int bvh_retarget_command(const BvhRetargetCommand& cmd) {
       f.close();
       if (!f) throw InputError(cmd.out + ": cannot write");
     }
-    std::filesystem::rename(tmp, cmd.out);
+    std::error_code ec;
+    std::filesystem::rename(tmp, cmd.out, ec);
+    if (ec) {
+      std::error_code ignored;
+      std::filesystem::remove(tmp, ignored);
+      throw InputError(cmd.out + ": cannot write (" + ec.message() + ")");
+    }
     std::cout << fmt::format(
         "wrote {}: {} frames at {:.6g} Hz, {} positions and {} velocities per row; yaw {:.1f} "
         "deg, scale {:.4g}, height offset {:.4g} m, fit error {:.2f} deg mean\n",

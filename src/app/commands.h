@@ -1,5 +1,6 @@
 // The CLI's commands, as library functions: apps/stance_main.cc only parses arguments.
-// Each returns the process exit code: 0 done, 2 bad input, 3 simulation diverged.
+// Each returns the process exit code: 0 done (a fall is a result), 2 bad input, 3 simulation
+// diverged, 70 internal error (a bug), 71 the machine lacks something (memory, display, ffmpeg).
 #pragma once
 
 #include <optional>
@@ -11,6 +12,8 @@ namespace stance {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitBadInput = 2;
 inline constexpr int kExitDiverged = 3;
+inline constexpr int kExitInternalError = 70;  // BSD's EX_SOFTWARE
+inline constexpr int kExitEnvironment = 71;    // BSD's EX_OSERR
 
 struct RunCommand {
   std::string scenario;

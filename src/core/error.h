@@ -1,5 +1,6 @@
 // Error tiers (see CONVENTIONS): load-time errors throw InputError with file:line or the
-// parameter path; the CLI turns them into one line and exit code 2.
+// parameter path; the CLI turns them into one line and exit code 2. EnvironmentError is the
+// machine lacking what a command needs (exit 71); any other exception is a bug (exit 70).
 #pragma once
 
 #include <stdexcept>
@@ -11,6 +12,13 @@ namespace stance {
 
 // bad user input: a file, a parameter, a name. what() is the whole one-line message.
 class InputError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// the machine, not the input: no display or OpenGL context, no ffmpeg, a helper process that
+// failed. what() is the whole one-line message.
+class EnvironmentError : public std::runtime_error {
  public:
   using std::runtime_error::runtime_error;
 };

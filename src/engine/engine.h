@@ -191,7 +191,7 @@ class Engine {
   virtual bool state_is_finite() const = 0;
   virtual std::string last_warning() const { return {}; }
 
-  // lookups that throw std::invalid_argument naming the missing item and suggesting the nearest
+  // lookups that throw InputError naming the missing item and suggesting the nearest
   int require_body(std::string_view name) const;
   int require_dof(std::string_view name) const;
   int require_joint(std::string_view name) const;

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <numbers>
@@ -614,6 +615,9 @@ BvhClip parse_bvh(std::string_view text, const std::string& name_for_errors) {
 }
 
 BvhClip read_bvh(const std::string& path) {
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(located(path, 0, "cannot open BVH file (a folder)"));
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) {
     throw InputError(

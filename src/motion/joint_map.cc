@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <cmath>
+#include <filesystem>
 
 #include "core/error.h"
 
@@ -86,6 +87,9 @@ JointMap parse_joint_map(const YAML::Node& node, const std::string& source) {
 
 JointMap read_joint_map(const std::string& path) {
   YAML::Node node;
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path + ": cannot read the joint map (a folder)");
   try {
     node = YAML::LoadFile(path);
   } catch (const YAML::BadFile&) {

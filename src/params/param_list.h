@@ -90,7 +90,8 @@ inline void list_yaml_params(const YAML::Node& node, const std::string& prefix,
   auto join = [&](const std::string& k) { return prefix.empty() ? k : prefix + "." + k; };
   if (node.IsMap()) {
     for (const auto& kv : node) {
-      std::string key = kv.first.as<std::string>();
+      if (!kv.first.IsScalar()) continue;  // the loader rejected such keys already
+      std::string key = kv.first.Scalar();
       if (prefix.empty() && key == "type") continue;
       list_yaml_params(kv.second, join(key), out);
     }

@@ -47,7 +47,9 @@ void YamlParamReader::check_unknown_keys() const {
   if (!node_ || !node_.IsMap()) return;
   std::vector<std::string> known(claimed_.begin(), claimed_.end());
   for (const auto& kv : node_) {
-    std::string key = kv.first.as<std::string>();
+    if (!kv.first.IsScalar())
+      fail(kv.first, fmt::format("a parameter name must be a word, found {}", describe(kv.first)));
+    std::string key = kv.first.Scalar();
     if (claimed_.count(key)) continue;
     std::string path = join(key);
     fail(kv.first, fmt::format("unknown parameter '{}'{}", path, did_you_mean(key, known)));
@@ -151,13 +153,17 @@ void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, N
                         describe(n)));
   v.clear();
   for (const auto& kv : n) {
-    std::string key = kv.first.as<std::string>();
+    if (!kv.first.IsScalar())
+      fail(kv.first, fmt::format("parameter '{}': a name must be a word, found {}", path,
+                                 describe(kv.first)));
+    std::string key = kv.first.Scalar();
     v[key] = read_number(kv.second, path + "." + key, m);
   }
 }
 
 YAML::Node load_yaml_file(const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path + ": no such file");
+  if (std::filesystem::is_directory(path)) throw InputError(path + ": a folder, not a YAML file");
   std::ifstream in(path);
   if (!in) throw InputError(path + ": cannot open");
   try {
@@ -198,12 +204,18 @@ void apply_yaml_override(YAML::Node& root, const std::string& assignment) {
                                      p, cur.size()));
       next = cur[idx];
     } else {
+      if (!cur.IsMap() && !cur.IsNull())
+        throw InputError(
+            fmt::format("--set {}: '{}' is inside a value, not a mapping", assignment, p));
       if (!cur[p]) cur[p] = YAML::Node(YAML::NodeType::Map);
       next = cur[p];
     }
     chain.push_back(next);
   }
   YAML::Node leaf = chain.back();
+  if (!leaf.IsSequence() && !leaf.IsMap() && !leaf.IsNull())
+    throw InputError(
+        fmt::format("--set {}: '{}' is inside a value, not a mapping", assignment, parts.back()));
   if (leaf.IsSequence()) {
     char* end = nullptr;
     long idx = std::strtol(parts.back().c_str(), &end, 10);

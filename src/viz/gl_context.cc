@@ -6,6 +6,8 @@
 
 #include <stdexcept>
 
+#include "core/error.h"
+
 namespace stance {
 
 struct OffscreenGlContext::Impl {
@@ -80,7 +82,7 @@ OffscreenGlContext::OffscreenGlContext() : impl_(std::make_unique<Impl>()) {
       return;
     }
   }
-  throw std::runtime_error(
+  throw EnvironmentError(
       "no OpenGL context for offscreen rendering: tried EGL (surfaceless, default display) and "
       "a hidden GLFW window (set DISPLAY or run under xvfb-run)");
 }

@@ -10,7 +10,7 @@ namespace stance {
 
 class OffscreenGlContext {
  public:
-  // throws std::runtime_error listing what was tried when no context can be made
+  // throws EnvironmentError listing what was tried when no context can be made
   OffscreenGlContext();
   ~OffscreenGlContext();
   OffscreenGlContext(const OffscreenGlContext&) = delete;

@@ -14,6 +14,17 @@
 
 namespace stance {
 
+namespace {
+// the folder an output file goes in, created if missing; a path that cannot be one is bad input
+void make_parent_folder(const std::string& path) {
+  std::filesystem::path p(path);
+  if (!p.has_parent_path()) return;
+  std::error_code ec;
+  std::filesystem::create_directories(p.parent_path(), ec);
+  if (ec) throw InputError(fmt::format("{}: cannot create its folder ({})", path, ec.message()));
+}
+}  // namespace
+
 void parse_frame_size(const std::string& text, int& width, int& height) {
   int w = 0, h = 0;
   char x = 0, extra = 0;
@@ -26,10 +37,9 @@ void parse_frame_size(const std::string& text, int& width, int& height) {
 }
 
 void write_png(const std::string& path, int width, int height, const unsigned char* rgb) {
-  std::filesystem::path p(path);
-  if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
+  make_parent_folder(path);
   if (!stbi_write_png(path.c_str(), width, height, 3, rgb, width * 3))
-    throw std::runtime_error("cannot write " + path);
+    throw InputError(path + ": cannot write");
 }
 
 namespace {
@@ -37,8 +47,7 @@ namespace {
 class FfmpegPipe {
  public:
   FfmpegPipe(const std::string& path, int width, int height, double fps) {
-    std::filesystem::path p(path);
-    if (p.has_parent_path()) std::filesystem::create_directories(p.parent_path());
+    make_parent_folder(path);
     // one encoder thread and bitexact flags: the same frames give the same file
     std::string cmd = fmt::format(
         "ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -s {}x{} -r {} -i - -c:v libx264 "
@@ -46,19 +55,19 @@ class FfmpegPipe {
         "-flags:v +bitexact -movflags +faststart '{}'",
         width, height, fps, path);
     pipe_ = popen(cmd.c_str(), "w");
-    if (!pipe_) throw std::runtime_error("cannot start ffmpeg (is it installed?)");
+    if (!pipe_) throw EnvironmentError("cannot start ffmpeg (is it installed?)");
   }
   ~FfmpegPipe() {
     if (pipe_) pclose(pipe_);
   }
   void write(const std::vector<unsigned char>& rgb) {
     if (std::fwrite(rgb.data(), 1, rgb.size(), pipe_) != rgb.size())
-      throw std::runtime_error("ffmpeg stopped reading frames");
+      throw EnvironmentError("ffmpeg stopped reading frames");
   }
   void close() {
     int status = pclose(pipe_);
     pipe_ = nullptr;
-    if (status != 0) throw std::runtime_error(fmt::format("ffmpeg failed (status {})", status));
+    if (status != 0) throw EnvironmentError(fmt::format("ffmpeg failed (status {})", status));
   }
 
  private:

@@ -34,14 +34,14 @@ struct RecordResult {
 };
 
 // step `loaded` as `stance run` does and write the video and/or screenshot.
-// Throws InputError on bad options, std::runtime_error when ffmpeg or OpenGL fail.
+// Throws InputError on bad options, EnvironmentError when ffmpeg or OpenGL fail.
 RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run_options,
                              const RecordOptions& options);
 
 // "1280x720" -> width, height; throws InputError
 void parse_frame_size(const std::string& text, int& width, int& height);
 
-// write rgb (dim width*height*3, top row first) as a PNG; throws std::runtime_error
+// write rgb (dim width*height*3, top row first) as a PNG; throws InputError
 void write_png(const std::string& path, int width, int height, const unsigned char* rgb);
 
 }  // namespace stance

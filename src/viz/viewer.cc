@@ -343,7 +343,7 @@ struct Viewer::Impl {
       out = (p.parent_path() / (p.stem().string() + "_tuned.yaml")).string();
     }
     std::ofstream f(out);
-    if (!f) throw std::runtime_error("cannot write " + out);
+    if (!f) throw InputError("save scenario: cannot write " + out);
     f << doc << "\n";
     return out;
   }
@@ -360,13 +360,13 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
   // the viewer runs until closed: the scenario's duration does not stop it
   s.run = std::make_unique<Simulation>(loaded, ro);
 
-  if (!glfwInit()) throw std::runtime_error("cannot initialise GLFW (no display? try xvfb-run)");
+  if (!glfwInit()) throw EnvironmentError("cannot initialise GLFW (no display? try xvfb-run)");
   glfwWindowHint(GLFW_VISIBLE, options.visible ? GLFW_TRUE : GLFW_FALSE);
   glfwWindowHint(GLFW_SAMPLES, 4);
   s.window =
       glfwCreateWindow(options.width, options.height,
                        fmt::format("stance: {}", loaded.scenario.name).c_str(), nullptr, nullptr);
-  if (!s.window) throw std::runtime_error("cannot open a window (no display? try xvfb-run)");
+  if (!s.window) throw EnvironmentError("cannot open a window (no display? try xvfb-run)");
   glfwMakeContextCurrent(s.window);
   glfwSwapInterval(options.threaded ? 1 : 0);
   s.view = std::make_unique<SceneView>(*s.run, 640, 480);

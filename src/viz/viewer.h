@@ -47,7 +47,7 @@ struct ViewerOptions {
 
 class Viewer {
  public:
-  // throws std::runtime_error when no window can be opened (no display)
+  // throws EnvironmentError when no window can be opened (no display)
   Viewer(const LoadedScenario& loaded, const ViewerOptions& options);
   ~Viewer();
   Viewer(const Viewer&) = delete;
