@@ -2,11 +2,13 @@
 #   make demo   install dependencies if missing, build (Release), run the main job
 #   make test   install dependencies if missing, build, run ctest (every test)
 #   make test-fast   the unit and cli tests only (labels: unit, physics, cli, viz)
+#   make install     headers, libraries, the stance binary and find_package(stance) into PREFIX
 BUILD ?= build
 JOBS ?= $(shell nproc)
 STANCE = $(BUILD)/stance
+PREFIX ?= /usr/local
 
-.PHONY: demo test test-fast build deps bench clean format
+.PHONY: demo test test-fast build install deps bench clean format
 
 deps:
 	@bash scripts/install-deps.sh
@@ -22,6 +24,9 @@ test: build
 
 test-fast: build
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -L '^(unit|cli)$$'
+
+install: build
+	cmake --install $(BUILD) --prefix $(PREFIX)
 
 demo: build
 	@bash scripts/demo.sh $(STANCE)
