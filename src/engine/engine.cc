@@ -87,7 +87,7 @@ void Engine::solve_mass_shifted(const Eigen::Ref<const Eigen::VectorXd>& d,
 
 void Engine::apply_keyframe(std::string_view name) {
   throw InputError(
-      fmt::format("keyframe '{}': the {} engine has no keyframes", name, engine_name()));
+      fmt::format("the {} engine has no keyframes (asked for '{}')", engine_name(), name));
 }
 
 bool Engine::dof_is_root(int dof) const {
