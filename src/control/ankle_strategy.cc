@@ -7,7 +7,8 @@
 
 namespace stance {
 
-AnkleStrategy::AnkleStrategy(const AnkleStrategyParams& params, const Engine& engine) {
+AnkleStrategy::AnkleStrategy(const AnkleStrategyParams& params, const ControllerContext&,
+                             const Engine& engine) {
   model_.params = params;
   model_.heel_body = engine.require_body(params.heel_body);
   for (const auto& n : params.heel_dofs) model_.heel_dofs.push_back(engine.require_dof(n));
@@ -104,17 +105,15 @@ void AnkleStrategy::compute(const Model& model, State& s, const Engine& engine,
   s.prev_offset = s.offset;
 }
 
-void AnkleStrategy::reset(const Engine& engine) {
-  state_ = State{};
-  max_abs_offset_ = abs_offset_sum_ = 0;
-  samples_ = 0;
+void AnkleStrategy::reset_state(State& s, const Engine&) const {
+  s = State{};
 }
 
-void AnkleStrategy::compute(const Engine& engine, ControlOutput& out) {
-  compute(model_, state_, engine, out);
-  max_abs_offset_ = std::max(max_abs_offset_, std::abs(state_.offset));
-  abs_offset_sum_ += std::abs(state_.offset);
-  ++samples_;
+void AnkleStrategy::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
+  compute(model_, s, engine, out);
+  s.max_abs_offset = std::max(s.max_abs_offset, std::abs(s.offset));
+  s.abs_offset_sum += std::abs(s.offset);
+  ++s.samples;
 }
 
 void AnkleStrategy::signal_names(std::vector<std::string>& names) const {
@@ -125,17 +124,17 @@ void AnkleStrategy::signal_names(std::vector<std::string>& names) const {
   names.push_back("ankle_capture_point_m");
   names.push_back("ankle_capture_torque_nm");
 }
-void AnkleStrategy::signals(std::vector<double>& values) const {
-  values.push_back(state_.offset);
-  values.push_back(state_.rate);
-  values.push_back(state_.band);
-  values.push_back(state_.heel_point);
-  values.push_back(state_.capture_point);
-  values.push_back(state_.capture_torque);
+void AnkleStrategy::state_signals(const State& s, std::vector<double>& values) const {
+  values.push_back(s.offset);
+  values.push_back(s.rate);
+  values.push_back(s.band);
+  values.push_back(s.heel_point);
+  values.push_back(s.capture_point);
+  values.push_back(s.capture_torque);
 }
-void AnkleStrategy::add_metrics(nlohmann::json& metrics) const {
-  metrics["max_com_offset_m"] = max_abs_offset_;
-  metrics["mean_abs_ankle_offset_m"] = samples_ ? abs_offset_sum_ / samples_ : 0.0;
+void AnkleStrategy::state_metrics(const State& s, nlohmann::json& metrics) const {
+  metrics["max_com_offset_m"] = s.max_abs_offset;
+  metrics["mean_abs_ankle_offset_m"] = s.samples ? s.abs_offset_sum / s.samples : 0.0;
 }
 
 }  // namespace stance

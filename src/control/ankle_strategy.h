@@ -16,7 +16,6 @@
 #pragma once
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -95,7 +94,25 @@ struct AnkleStrategyParams {
   }
 };
 
-class AnkleStrategy final : public LegacyController {
+// the per-run data: the last measurement, the band in use and the offset statistics
+struct AnkleStrategyState {
+  double offset = 0, prev_offset = 0, rate = 0;
+  double heel_point = 0;      // forward coordinate of the reference point, m
+  double capture_point = 0;   // m, relative to the heel point (when the capture term is on)
+  double capture_torque = 0;  // N m per heel dof from the capture term
+  bool first = true;
+  int band = 0;                                   // +1 forward, -1 backward, 0 none
+  double max_abs_offset = 0, abs_offset_sum = 0;  // m
+  long samples = 0;
+
+  template <class A>
+  void serialize(A& a) {
+    a(offset), a(prev_offset), a(rate), a(heel_point), a(capture_point), a(capture_torque);
+    a(first), a(band), a(max_abs_offset), a(abs_offset_sum), a(samples);
+  }
+};
+
+class AnkleStrategy final : public TypedController<AnkleStrategyState> {
  public:
   struct Model {
     AnkleStrategyParams params;
@@ -107,25 +124,19 @@ class AnkleStrategy final : public LegacyController {
     Eigen::Vector3d up = Eigen::Vector3d::UnitY();  // unit, against gravity
     double gravity = 9.81;                          // m/s^2
   };
-  struct State {
-    double offset = 0, prev_offset = 0, rate = 0;
-    double heel_point = 0;      // forward coordinate of the reference point, m
-    double capture_point = 0;   // m, relative to the heel point (when the capture term is on)
-    double capture_torque = 0;  // N m per heel dof from the capture term
-    bool first = true;
-    int band = 0;  // +1 forward, -1 backward, 0 none
-  };
 
-  AnkleStrategy(const AnkleStrategyParams& params, const Engine& engine);
+  AnkleStrategy(const AnkleStrategyParams& params, const ControllerContext& ctx,
+                const Engine& engine);
   std::string_view type() const override { return "ankle_strategy"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
   void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
   std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
 
+  const Model& model() const { return model_; }
+
+  // the Controller's compute(state, engine, out) beside the static one below
+  using TypedController<AnkleStrategyState>::compute;
+  // one step on a given model: the measurement and the band's torques (not the statistics)
   static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
   // the offset and its rate, dims scalar
   static void measure(const Model& model, const Engine& engine, double& offset, double& rate,
@@ -133,11 +144,14 @@ class AnkleStrategy final : public LegacyController {
   // the capture term's heel torque for a capture point xi (m, relative to the heel point)
   static double capture_torque(const AnkleCaptureTerm& c, double xi);
 
+ protected:
+  void reset_state(State& state, const Engine& engine) const override;
+  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& state, std::vector<double>& values) const override;
+  void state_metrics(const State& state, nlohmann::json& metrics) const override;
+
  private:
   Model model_;
-  State state_;
-  double max_abs_offset_ = 0, abs_offset_sum_ = 0;
-  long samples_ = 0;
 };
 
 }  // namespace stance

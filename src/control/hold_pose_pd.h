@@ -4,7 +4,6 @@
 #pragma once
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -28,33 +27,44 @@ struct HoldPosePdParams {
   }
 };
 
-class HoldPosePd final : public LegacyController {
+// the per-run data: the target pose captured at reset, work vectors, the last error
+struct HoldPosePdState {
+  Eigen::VectorXd q_target, q, v, dq, bias;  // nq or nv
+  double last_error_norm = 0;                // rad
+
+  template <class A>
+  void serialize(A& a) {
+    a(q_target), a(q), a(v), a(dq), a(bias), a(last_error_norm);
+  }
+};
+
+class HoldPosePd final : public TypedController<HoldPosePdState> {
  public:
   // model: gains and dof indices, fixed after construction
   struct Model {
     HoldPosePdParams params;
     std::vector<int> dofs;
-  };
-  // data: the target pose captured at reset, and work vectors
-  struct State {
-    Eigen::VectorXd q_target, q, v, dq, bias;
+    std::vector<std::pair<int, double>> targets;  // (qpos index, value) for named targets
   };
 
-  HoldPosePd(const HoldPosePdParams& params, const Engine& engine);
+  HoldPosePd(const HoldPosePdParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return "hold_pose_pd"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
   void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
   std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
+  // the named targets are captured into the State at reset: a State made for other targets
+  // would hold the old ones
+  bool keeps_state_of(const Controller& previous) const override;
 
-  static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
+  const Model& model() const { return model_; }
+
+ protected:
+  void reset_state(State& state, const Engine& engine) const override;
+  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& state, std::vector<double>& values) const override;
 
  private:
   Model model_;
-  State state_;
-  double last_error_norm_ = 0;
 };
 
 }  // namespace stance

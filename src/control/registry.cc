@@ -38,21 +38,15 @@ ControllerFactory legacy_factory_of() {
 const std::vector<ControllerType>& controller_registry() {
   static const std::vector<ControllerType> registry = {
       {"hold_pose_pd", "joint-space PD holding the initial (or a given) pose",
-       legacy_factory_of<HoldPosePd, HoldPosePdParams>()},
+       factory_of<HoldPosePd, HoldPosePdParams>()},
       {"stable_pd", "stable PD (Tan et al. 2011) tracking a pose, root dofs free",
-       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<StablePd>>(
-             StablePd(read_params<JointPdParams>(node, ctx), engine, true)));
-       }},
+       factory_of<StablePd, JointPdParams>()},
       {"pd", "plain joint PD with the stable_pd parameters, for comparison",
-       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<StablePd>>(
-             StablePd(read_params<JointPdParams>(node, ctx), engine, false)));
-       }},
+       factory_of<PlainPd, JointPdParams>()},
       {"ankle_strategy", "heel/toe torques keeping the COM over the feet (DART biped tutorial)",
-       legacy_factory_of<AnkleStrategy, AnkleStrategyParams>()},
+       factory_of<AnkleStrategy, AnkleStrategyParams>()},
       {"skateboard_drive", "velocity commands on skateboard wheels, with a speed ramp (seed 000)",
-       legacy_factory_of<SkateboardDrive, SkateboardDriveParams>()},
+       factory_of<SkateboardDrive, SkateboardDriveParams>()},
       {"simbicon", "SIMBICON walking: FSM targets with swing-hip balance feedback",
        legacy_factory_of<Simbicon, SimbiconParams>()},
       {"slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)",

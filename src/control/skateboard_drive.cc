@@ -6,7 +6,8 @@
 
 namespace stance {
 
-SkateboardDrive::SkateboardDrive(const SkateboardDriveParams& params, const Engine& engine)
+SkateboardDrive::SkateboardDrive(const SkateboardDriveParams& params, const ControllerContext&,
+                                 const Engine& engine)
     : params_(params) {
   if (params.wheel_dofs.empty()) throw InputError("skateboard_drive.wheel_dofs: empty");
   for (const auto& n : params.wheel_dofs) {
@@ -20,37 +21,35 @@ SkateboardDrive::SkateboardDrive(const SkateboardDriveParams& params, const Engi
   if (params.forward_axis.norm() < 1e-9)
     throw InputError("skateboard_drive.forward_axis: must be a non-zero vector");
   axis_ = params.forward_axis.normalized();
-  speed_ = params.speed;
 }
 
-void SkateboardDrive::reset(const Engine& engine) {
-  speed_ = params_.speed;
-  command_ = 0;
-  distance_ = 0;
-  start_ = axis_.dot(engine.body_pose(board_).pos);
+void SkateboardDrive::reset_state(State& s, const Engine& engine) const {
+  s.command = 0;
+  s.distance = 0;
+  s.start = axis_.dot(engine.body_pose(board_).pos);
 }
 
-void SkateboardDrive::compute(const Engine& engine, ControlOutput& out) {
+void SkateboardDrive::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
   // linear ramp from 0 to the current speed
   double t = engine.time() - params_.start_s;
   double fraction = t < 0 ? 0.0 : (params_.ramp_s > 0 ? std::min(1.0, t / params_.ramp_s) : 1.0);
-  command_ = fraction * speed_;
-  for (int dof : wheel_dofs_) out.dof_velocity[dof] = command_;
+  s.command = fraction * params_.speed;
+  for (int dof : wheel_dofs_) out.dof_velocity[dof] = s.command;
   out.dof_velocity_used = true;
-  distance_ = axis_.dot(engine.body_pose(board_).pos) - start_;
+  s.distance = axis_.dot(engine.body_pose(board_).pos) - s.start;
 }
 
 void SkateboardDrive::signal_names(std::vector<std::string>& names) const {
   names.push_back("wheel_speed_command");
   names.push_back("board_distance_m");
 }
-void SkateboardDrive::signals(std::vector<double>& values) const {
-  values.push_back(command_);
-  values.push_back(distance_);
+void SkateboardDrive::state_signals(const State& s, std::vector<double>& values) const {
+  values.push_back(s.command);
+  values.push_back(s.distance);
 }
-void SkateboardDrive::add_metrics(nlohmann::json& metrics) const {
-  metrics["board_distance_m"] = distance_;
-  metrics["wheel_speed"] = speed_;
+void SkateboardDrive::state_metrics(const State& s, nlohmann::json& metrics) const {
+  metrics["board_distance_m"] = s.distance;
+  metrics["wheel_speed"] = params_.speed;
 }
 
 }  // namespace stance

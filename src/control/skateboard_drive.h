@@ -1,11 +1,11 @@
 // The seed's optional lesson 5: velocity commands on the skateboard's wheel dofs. `speed` is the
-// wheel angular velocity; the viewer's a/s keys change it by `speed_step`. The command ramps
-// from 0 to `speed` over `ramp_s`, so the board does not jerk out from under the feet.
-// Reports the board's distance travelled along `forward_axis`.
+// wheel angular velocity; the viewer's a/s keys change it by `speed_step` (a parameter edit: the
+// run's State is kept and the command follows the new speed, read from the model every step). The
+// command ramps from 0 to `speed` over `ramp_s`, so the board does not jerk out from under the
+// feet. Reports the board's distance travelled along `forward_axis`.
 #pragma once
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -34,32 +34,40 @@ struct SkateboardDriveParams {
   }
 };
 
-class SkateboardDrive final : public LegacyController {
+// the per-run data: the last command and the board's travel
+struct SkateboardDriveState {
+  double command = 0;   // rad/s, the last wheel velocity command
+  double start = 0;     // m, the board's forward coordinate at reset
+  double distance = 0;  // m, forward travel of the board since reset
+
+  template <class A>
+  void serialize(A& a) {
+    a(command), a(start), a(distance);
+  }
+};
+
+class SkateboardDrive final : public TypedController<SkateboardDriveState> {
  public:
-  SkateboardDrive(const SkateboardDriveParams& params, const Engine& engine);
+  SkateboardDrive(const SkateboardDriveParams& params, const ControllerContext& ctx,
+                  const Engine& engine);
   std::string_view type() const override { return "skateboard_drive"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
   void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
   std::vector<ParamEntry> tunable_params() const override { return list_params(params_); }
 
-  // the viewer's a/s keys
-  void increase_speed() { speed_ += params_.speed_step; }
-  void decrease_speed() { speed_ -= params_.speed_step; }
-  double speed() const { return speed_; }
-  // forward travel of the board since reset, m
-  double board_distance() const { return distance_; }
+  double speed() const { return params_.speed; }  // rad/s, what the ramp reaches
+
+ protected:
+  void reset_state(State& state, const Engine& engine) const override;
+  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& state, std::vector<double>& values) const override;
+  void state_metrics(const State& state, nlohmann::json& metrics) const override;
 
  private:
   SkateboardDriveParams params_;
   std::vector<int> wheel_dofs_;
   int board_ = -1;
   Eigen::Vector3d axis_;
-  // state
-  double speed_ = 0, command_ = 0, start_ = 0, distance_ = 0;
 };
 
 }  // namespace stance

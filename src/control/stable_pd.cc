@@ -117,46 +117,62 @@ void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine&
   add_clamped(model, s.p, out);
 }
 
-StablePd::StablePd(const JointPdParams& params, const Engine& engine, bool stable)
-    : model_(make_joint_pd_model(params, engine)), stable_(stable) {
-  state_.resize(engine.nq(), engine.nv());
+template <bool kStable>
+JointPd<kStable>::JointPd(const JointPdParams& params, const ControllerContext&,
+                          const Engine& engine)
+    : model_(make_joint_pd_model(params, engine)) {}
+
+template <bool kStable>
+bool JointPd<kStable>::keeps_state_of(const Controller& previous) const {
+  const auto* p = dynamic_cast<const JointPd*>(&previous);
+  return p && p->model_.targets == model_.targets;
 }
 
-void StablePd::reset(const Engine& engine) {
-  engine.get_positions(state_.q_target);
-  for (const auto& [adr, value] : model_.targets) state_.q_target[adr] = value;
-  error_sq_sum_ = 0;
-  error_samples_ = 0;
+template <bool kStable>
+void JointPd<kStable>::reset_state(State& s, const Engine& engine) const {
+  s.resize(engine.nq(), engine.nv());
+  engine.get_positions(s.q_target);
+  for (const auto& [adr, value] : model_.targets) s.q_target[adr] = value;
+  s.last_error_norm = 0;
+  s.error_sq_sum = 0;
+  s.error_samples = 0;
 }
 
-void StablePd::compute(const Engine& engine, ControlOutput& out) {
-  if (stable_)
-    compute_stable_pd(model_, state_, engine, out);
+template <bool kStable>
+void JointPd<kStable>::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
+  if constexpr (kStable)
+    compute_stable_pd(model_, s, engine, out);
   else
-    compute_plain_pd(model_, state_, engine, out);
+    compute_plain_pd(model_, s, engine, out);
   // tracking error of the controlled dofs, now (not predicted)
   double e = 0;
   int n = 0;
-  predicted_error(model_, state_, engine, 0);
-  for (int i = 0; i < state_.err.size(); ++i)
+  predicted_error(model_, s, engine, 0);
+  for (int i = 0; i < s.err.size(); ++i)
     if (model_.kp[i] > 0) {
-      e += state_.err[i] * state_.err[i];
+      e += s.err[i] * s.err[i];
       ++n;
     }
-  state_.last_error_norm = n ? std::sqrt(e / n) : 0;
-  error_sq_sum_ += e / std::max(n, 1);
-  ++error_samples_;
+  s.last_error_norm = n ? std::sqrt(e / n) : 0;
+  s.error_sq_sum += e / std::max(n, 1);
+  ++s.error_samples;
 }
 
-void StablePd::signal_names(std::vector<std::string>& names) const {
+template <bool kStable>
+void JointPd<kStable>::signal_names(std::vector<std::string>& names) const {
   names.push_back(std::string(type()) + "_rms_error_rad");
 }
-void StablePd::signals(std::vector<double>& values) const {
-  values.push_back(state_.last_error_norm);
+template <bool kStable>
+void JointPd<kStable>::state_signals(const State& s, std::vector<double>& values) const {
+  values.push_back(s.last_error_norm);
 }
-void StablePd::add_metrics(nlohmann::json& metrics) const {
+template <bool kStable>
+void JointPd<kStable>::state_metrics(const State& s, nlohmann::json& metrics) const {
   metrics[std::string(type()) + "_rms_error_rad"] =
-      error_samples_ ? std::sqrt(error_sq_sum_ / error_samples_) : 0.0;
+      s.error_samples ? std::sqrt(s.error_sq_sum / s.error_samples) : 0.0;
 }
+
+template class JointPd<true>;
+template class JointPd<false>;
 
 }  // namespace stance

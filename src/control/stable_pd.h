@@ -14,7 +14,6 @@
 #include <Eigen/Cholesky>
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -55,11 +54,19 @@ struct JointPdModel {
 
 JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engine);
 
+// the per-run data: the target pose captured at reset, work vectors, the error statistics
 struct StablePdState {
   Eigen::VectorXd q_target, q, v, q_pred, err, p, d, c, f, rhs, kd_dt;  // nq or nv
-  double last_error_norm = 0;
+  double last_error_norm = 0;  // rad, RMS over the controlled dofs
+  double error_sq_sum = 0;     // rad^2, sum over steps of the mean squared error
+  long error_samples = 0;
 
   void resize(int nq, int nv);
+  template <class A>
+  void serialize(A& a) {
+    a(q_target), a(q), a(v), a(q_pred), a(err), a(p), a(d), a(c), a(f), a(rhs), a(kd_dt);
+    a(last_error_norm), a(error_sq_sum), a(error_samples);
+  }
 };
 
 // tau (dim nv) is added into out.tau
@@ -68,26 +75,34 @@ void compute_stable_pd(const JointPdModel& model, StablePdState& s, const Engine
 void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine& engine,
                       ControlOutput& out);
 
-class StablePd final : public LegacyController {
+// SPD (kStable) or plain PD on the same Model: the registry's stable_pd and pd
+template <bool kStable>
+class JointPd final : public TypedController<StablePdState> {
  public:
-  StablePd(const JointPdParams& params, const Engine& engine, bool stable = true);
-  std::string_view type() const override { return stable_ ? "stable_pd" : "pd"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
+  JointPd(const JointPdParams& params, const ControllerContext& ctx, const Engine& engine);
+  std::string_view type() const override { return kStable ? "stable_pd" : "pd"; }
   void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
   std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
+  // the named targets are captured into the State at reset: a State made for other targets
+  // would hold the old ones
+  bool keeps_state_of(const Controller& previous) const override;
 
   const JointPdModel& model() const { return model_; }
 
+ protected:
+  void reset_state(State& state, const Engine& engine) const override;
+  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& state, std::vector<double>& values) const override;
+  void state_metrics(const State& state, nlohmann::json& metrics) const override;
+
  private:
   JointPdModel model_;
-  StablePdState state_;
-  bool stable_;
-  double error_sq_sum_ = 0;
-  long error_samples_ = 0;
 };
+
+using StablePd = JointPd<true>;
+using PlainPd = JointPd<false>;
+extern template class JointPd<true>;
+extern template class JointPd<false>;
 
 }  // namespace stance

@@ -25,7 +25,7 @@ std::unique_ptr<Engine> standing_biped() {
 }
 
 ControlOutput run_once(const AnkleStrategyParams& p, const Engine& e, AnkleStrategy::State& s) {
-  AnkleStrategy a(p, e);
+  AnkleStrategy a(p, {}, e);
   AnkleStrategy::Model m;
   m.params = p;
   m.heel_body = e.require_body(p.heel_body);
@@ -154,7 +154,7 @@ TEST(AnkleStrategy, TipLeverClampsAndRampScalesTheBandTorques) {
   AnkleStrategyParams clamped = p;
   clamped.forward.tip_lever = 0.002;
   clamped.supported_mass = 40;
-  AnkleStrategy clamp_ctrl(clamped, *e);
+  AnkleStrategy clamp_ctrl(clamped, {}, *e);
   AnkleStrategy::Model m;
   m.params = clamped;
   m.heel_body = e->require_body(clamped.heel_body);
@@ -187,20 +187,20 @@ TEST(AnkleStrategy, PerStepDerivativeIsTheOffsetChange) {
   auto e = standing_biped();
   AnkleStrategyParams p;
   p.derivative = "per_step";
-  AnkleStrategy a(p, *e);
-  a.reset(*e);
+  AnkleStrategy a(p, {}, *e);
+  auto state = a.make_state(*e);
   ControlOutput out;
   out.resize(e->nv(), e->nu());
-  a.compute(*e, out);
+  a.compute(*state, *e, out);
   std::vector<double> first;
-  a.signals(first);
+  a.signals(*state, first);
   EXPECT_EQ(first[1], 0.0);  // no previous offset yet
   e->step();
   e->forward();
   out.clear();
-  a.compute(*e, out);
+  a.compute(*state, *e, out);
   std::vector<double> second;
-  a.signals(second);
+  a.signals(*state, second);
   EXPECT_NEAR(second[1], second[0] - first[0], 1e-15);
 }
 
@@ -208,20 +208,20 @@ TEST(AnkleStrategy, RejectsBadParameters) {
   auto e = standing_biped();
   AnkleStrategyParams p;
   p.forward_axis = Eigen::Vector3d::Zero();
-  EXPECT_THROW(AnkleStrategy(p, *e), InputError);
+  EXPECT_THROW(AnkleStrategy(p, {}, *e), InputError);
   p = {};
   p.backward.lower = 0;
   p.backward.upper = -0.1;
-  EXPECT_THROW(AnkleStrategy(p, *e), InputError);
+  EXPECT_THROW(AnkleStrategy(p, {}, *e), InputError);
   p = {};
   p.derivative = "sometimes";
-  EXPECT_THROW(AnkleStrategy(p, *e), InputError);
+  EXPECT_THROW(AnkleStrategy(p, {}, *e), InputError);
   p = {};
   p.capture.lower = 0.3;
-  EXPECT_THROW(AnkleStrategy(p, *e), InputError);
+  EXPECT_THROW(AnkleStrategy(p, {}, *e), InputError);
   p = {};
   p.heel_dofs = {"j_heel_middle"};
-  EXPECT_ANY_THROW(AnkleStrategy(p, *e));
+  EXPECT_ANY_THROW(AnkleStrategy(p, {}, *e));
 }
 
 }  // namespace

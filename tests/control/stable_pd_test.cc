@@ -28,11 +28,11 @@ TEST(StablePd, MatchesTheFormulaAndLeavesRootDofsAlone) {
   params.kp = 300;
   params.kd = 20;
   params.target["hinge2"] = -0.2;
-  StablePd spd(params, *e);
-  spd.reset(*e);
+  StablePd spd(params, {}, *e);
+  auto state = spd.make_state(*e);
   ControlOutput out;
   out.resize(e->nv(), e->nu());
-  spd.compute(*e, out);
+  spd.compute(*state, *e, out);
 
   // hand solve: dense, with the same ingredients
   const int nv = e->nv();
@@ -104,10 +104,10 @@ TEST(StablePd, RejectsUnknownDofsAndNegativeGains) {
   auto e = chain_engine();
   JointPdParams bad_name;
   bad_name.free_dofs = {"no_such_dof"};
-  EXPECT_ANY_THROW(StablePd(bad_name, *e));
+  EXPECT_ANY_THROW(StablePd(bad_name, {}, *e));
   JointPdParams bad_gain;
   bad_gain.kp_dofs["hinge2"] = -1;
-  EXPECT_THROW(StablePd(bad_gain, *e), InputError);
+  EXPECT_THROW(StablePd(bad_gain, {}, *e), InputError);
 }
 
 // the seed's point: at Kp 400, Kd 40 and dt 1 ms, plain PD on fullbody1's light feet is unstable

@@ -128,10 +128,16 @@ TEST_F(ViewerTest, SkateboardSpeedKeys) {
   ASSERT_GE(drive, 0);
   double speed0 = v.param_value(drive, "speed");
   double step = v.param_value(drive, "speed_step");
+  // no ramp, so that the command is the speed from the first step
+  v.set_param(drive, "start_s", 0);
+  v.set_param(drive, "ramp_s", 0);
   v.key(GLFW_KEY_S);
   v.key(GLFW_KEY_S);
   v.key(GLFW_KEY_A);
   EXPECT_NEAR(v.param_value(drive, "speed"), speed0 + step, 1e-12);
+  // the edit keeps the run's State, and the command it sends follows the new speed
+  v.frame();
+  EXPECT_NEAR(v.plot_value("wheel_speed_command"), speed0 + step, 1e-6);
 }
 
 TEST_F(ViewerTest, PushKeyChangesTheMotion) {
