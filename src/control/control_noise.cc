@@ -11,9 +11,11 @@
 
 namespace stance {
 
-ControlNoise::ControlNoise(const ControlNoiseParams& params, const Engine& engine, uint64_t seed)
-    : params_(params), seed_(seed + static_cast<uint64_t>(params.seed_offset)) {
+ControlNoise::ControlNoise(const ControlNoiseParams& params, const ControllerContext& ctx,
+                           const Engine& engine)
+    : params_(params), seed_(ctx.seed + static_cast<uint64_t>(params.seed_offset)) {
   const int nu = engine.nu();
+  nu_ = nu;
   if (nu == 0) throw InputError("control_noise: the model has no actuators");
   // the kernel: exp(-x^2/2) on [-3, 3] over smoothing_s / dt samples, unit L2 norm
   const int width =
@@ -41,54 +43,59 @@ ControlNoise::ControlNoise(const ControlNoiseParams& params, const Engine& engin
         std_[a] = params.balance_std;
         break;
       }
-  white_.resize(nu, width);
-  noise_ = Eigen::VectorXd::Zero(nu);
-  reset(engine);
 }
 
-void ControlNoise::draw_column(int column) {
-  for (int a = 0; a < white_.rows(); ++a) white_(a, column) = normal_(rng_);
+bool ControlNoise::keeps_state_of(const Controller& previous) const {
+  const auto* p = dynamic_cast<const ControlNoise*>(&previous);
+  return p && p->kernel_.size() == kernel_.size() && p->seed_ == seed_ && p->nu_ == nu_;
 }
 
-void ControlNoise::reset(const Engine&) {
-  rng_.seed(seed_);
-  normal_.reset();
+namespace {
+void draw_column(ControlNoiseState& s, int column) {
+  for (int a = 0; a < s.white.rows(); ++a) s.white(a, column) = s.normal(s.rng);
+}
+}  // namespace
+
+void ControlNoise::reset_state(State& s, const Engine&) const {
+  s.white.resize(nu_, kernel_.size());
+  s.noise.setZero(nu_);
+  s.rng.seed(seed_);
+  s.normal.reset();
   // pre-fill the window so that the noise is stationary from the first step
-  for (int c = 0; c < white_.cols(); ++c) draw_column(c);
-  head_ = static_cast<int>(white_.cols()) - 1;
-  noise_.setZero();
-  sq_sum_ = 0;
-  samples_ = 0;
+  for (int c = 0; c < s.white.cols(); ++c) draw_column(s, c);
+  s.head = static_cast<int>(s.white.cols()) - 1;
+  s.sq_sum = 0;
+  s.samples = 0;
 }
 
-void ControlNoise::compute(const Engine&, ControlOutput& out) {
-  const int w = static_cast<int>(white_.cols());
-  head_ = (head_ + 1) % w;
-  draw_column(head_);
+void ControlNoise::compute_step(State& s, const Engine&, ControlOutput& out) const {
+  const int w = static_cast<int>(s.white.cols());
+  s.head = (s.head + 1) % w;
+  draw_column(s, s.head);
   // causal convolution: kernel[0] weighs the newest sample
-  noise_.setZero();
+  s.noise.setZero();
   for (int k = 0; k < w; ++k) {
-    int col = head_ - k;
+    int col = s.head - k;
     if (col < 0) col += w;
-    noise_ += kernel_[k] * white_.col(col);
+    s.noise += kernel_[k] * s.white.col(col);
   }
-  noise_.array() *= std_.array();
-  out.ctrl += noise_;
+  s.noise.array() *= std_.array();
+  out.ctrl += s.noise;
   out.ctrl_used = true;
-  sq_sum_ += noise_.squaredNorm() / static_cast<double>(noise_.size());
-  ++samples_;
+  s.sq_sum += s.noise.squaredNorm() / static_cast<double>(s.noise.size());
+  ++s.samples;
 }
 
 void ControlNoise::signal_names(std::vector<std::string>& names) const {
   names.push_back("control_noise_rms");
 }
 
-void ControlNoise::signals(std::vector<double>& values) const {
-  values.push_back(std::sqrt(noise_.squaredNorm() / static_cast<double>(noise_.size())));
+void ControlNoise::state_signals(const State& s, std::vector<double>& values) const {
+  values.push_back(std::sqrt(s.noise.squaredNorm() / static_cast<double>(s.noise.size())));
 }
 
-void ControlNoise::add_metrics(nlohmann::json& metrics) const {
-  metrics["control_noise_rms"] = samples_ ? std::sqrt(sq_sum_ / samples_) : 0.0;
+void ControlNoise::state_metrics(const State& s, nlohmann::json& metrics) const {
+  metrics["control_noise_rms"] = s.samples ? std::sqrt(s.sq_sum / s.samples) : 0.0;
 }
 
 }  // namespace stance

@@ -5,8 +5,10 @@
 // any actuator-level controller listed before it.
 //
 // The sequence is deterministic: the stream is seeded from the scenario's seed and the
-// controller's place, and reset() restarts it. The filter is causal (a ring buffer of the last
-// kernel-width samples, pre-filled at reset), so a step allocates nothing.
+// controller's place, and lives in the run's State, so a reset restarts it and a branched run
+// continues it. The filter is causal (a ring buffer of the last kernel-width samples,
+// pre-filled at reset), so a step allocates nothing. A State is kept across a live edit only
+// when the window (smoothing_s) and the seed stay the same.
 #pragma once
 
 #include <Eigen/Core>
@@ -15,7 +17,6 @@
 #include <vector>
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 
 namespace stance {
 
@@ -38,36 +39,48 @@ struct ControlNoiseParams {
   }
 };
 
-class ControlNoise final : public LegacyController {
+// the per-run data: the random stream, the window of white samples and the last output
+struct ControlNoiseState {
+  std::mt19937_64 rng;
+  std::normal_distribution<double> normal;
+  Eigen::MatrixXd white;  // nu x w ring buffer of white samples; `head` is the newest column
+  int head = 0;
+  Eigen::VectorXd noise;  // dim nu, last output
+  double sq_sum = 0;
+  long samples = 0;
+
+  template <class A>
+  void serialize(A& a) {
+    a(rng), a(normal), a(white), a(head), a(noise), a(sq_sum), a(samples);
+  }
+};
+
+class ControlNoise final : public TypedController<ControlNoiseState> {
  public:
-  ControlNoise(const ControlNoiseParams& params, const Engine& engine, uint64_t seed);
+  ControlNoise(const ControlNoiseParams& params, const ControllerContext& ctx,
+               const Engine& engine);
   std::string_view type() const override { return "control_noise"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
   void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
+  // the State's window is kernel-width long and its stream drawn from the seed
+  bool keeps_state_of(const Controller& previous) const override;
 
   const Eigen::VectorXd& kernel() const { return kernel_; }
   const Eigen::VectorXd& std_per_actuator() const { return std_; }
-  const Eigen::VectorXd& last_noise() const { return noise_; }
+  uint64_t seed() const { return seed_; }
+
+ protected:
+  void reset_state(State& state, const Engine& engine) const override;
+  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& state, std::vector<double>& values) const override;
+  void state_metrics(const State& state, nlohmann::json& metrics) const override;
 
  private:
-  void draw_column(int column);
-
   ControlNoiseParams params_;
   uint64_t seed_;
+  int nu_ = 0;
   Eigen::VectorXd kernel_;  // dim w, unit L2 norm
   Eigen::VectorXd std_;     // dim nu
-  // state: white samples, nu x w ring buffer; `head_` is the newest column
-  std::mt19937_64 rng_;
-  std::normal_distribution<double> normal_;
-  Eigen::MatrixXd white_;
-  int head_ = 0;
-  Eigen::VectorXd noise_;  // dim nu, last output
-  double sq_sum_ = 0;
-  long samples_ = 0;
 };
 
 }  // namespace stance

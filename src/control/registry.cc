@@ -48,9 +48,9 @@ const std::vector<ControllerType>& controller_registry() {
       {"skateboard_drive", "velocity commands on skateboard wheels, with a speed ramp (seed 000)",
        factory_of<SkateboardDrive, SkateboardDriveParams>()},
       {"simbicon", "SIMBICON walking: FSM targets with swing-hip balance feedback",
-       legacy_factory_of<Simbicon, SimbiconParams>()},
+       factory_of<Simbicon, SimbiconParams>()},
       {"slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)",
-       legacy_factory_of<SlopeWalker, SlopeWalkerParams>()},
+       factory_of<SlopeWalker, SlopeWalkerParams>()},
       {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
        [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
          return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<Lqr>>(
@@ -61,10 +61,7 @@ const std::vector<ControllerType>& controller_registry() {
       {"mocap_retarget", "BVH tracking on any model through a YAML joint map (retargeting)",
        make_mocap_retarget_tracker},
       {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
-       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<ControlNoise>>(
-             ControlNoise(read_params<ControlNoiseParams>(node, ctx), engine, ctx.seed)));
-       }},
+       factory_of<ControlNoise, ControlNoiseParams>()},
   };
   return registry;
 }

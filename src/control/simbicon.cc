@@ -76,7 +76,7 @@ double clamp_torque(double tau, double limit) {
 
 }  // namespace
 
-Simbicon::Simbicon(const SimbiconParams& params, const Engine& engine) {
+Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext&, const Engine& engine) {
   Model& m = model_;
   m.params = params;
   const SimbiconGait& g = params.gait;
@@ -121,19 +121,17 @@ Simbicon::Simbicon(const SimbiconParams& params, const Engine& engine) {
     m.ankle_roll = {engine.require_dof(k.right_ankle_roll), engine.require_dof(k.left_ankle_roll)};
   }
   m.heading = Eigen::Quaterniond(Eigen::AngleAxisd(params.heading_rad, Eigen::Vector3d::UnitZ()));
-  state_.jac_rot.setZero(3, engine.nv());
-  state_.jac_none.resize(3, 0);
   for (int dof : {m.hip[0], m.hip[1], m.knee[0], m.knee[1], m.ankle[0], m.ankle[1]}) {
     const JointInfo& j = engine.joint(engine.dof_joint(dof));
     if (j.type != JointType::kHinge)
       throw InputError(
           fmt::format("simbicon skeleton: dof '{}' must be a hinge", engine.dof_name(dof)));
   }
-  state_.steps.reserve(params.max_recorded_steps);
 }
 
-void Simbicon::reset(const Engine& engine) {
-  State& s = state_;
+void Simbicon::reset_state(State& s, const Engine& engine) const {
+  s.jac_rot.setZero(3, engine.nv());
+  s.jac_none.resize(3, 0);
   s.steps.reserve(model_.params.max_recorded_steps);
   s.fsm = model_.params.initial_state;
   s.state_start_s = engine.time();
@@ -157,7 +155,8 @@ void Simbicon::reset(const Engine& engine) {
   s.state_count.fill(0);
 }
 
-void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOutput& out) {
+void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
+  const Model& m = model_;
   const double t = engine.time();
   // which feet touch the ground: one pass over the contacts
   std::array<bool, 2> on_ground{false, false};
@@ -301,22 +300,18 @@ void Simbicon::compute(const Model& m, State& s, const Engine& engine, ControlOu
   out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle, gn.stance_ankle);
 }
 
-void Simbicon::compute(const Engine& engine, ControlOutput& out) {
-  compute(model_, state_, engine, out);
-}
-
 void Simbicon::signal_names(std::vector<std::string>& names) const {
   names.insert(names.end(),
                {"simbicon_state", "simbicon_swing_hip_target", "simbicon_d", "simbicon_v"});
 }
 
-void Simbicon::signals(std::vector<double>& values) const {
-  values.insert(values.end(), {double(state_.fsm), state_.swing_hip_target, state_.d, state_.v});
+void Simbicon::state_signals(const State& s, std::vector<double>& values) const {
+  values.insert(values.end(), {double(s.fsm), s.swing_hip_target, s.d, s.v});
 }
 
-void Simbicon::markers(const Engine& engine, std::vector<Marker>& out) const {
+void Simbicon::state_markers(const State& s, const Engine& engine, std::vector<Marker>& out) const {
   const Model& m = model_;
-  const int stance = state_.fsm < 2 ? kRight : kLeft;
+  const int stance = s.fsm < 2 ? kRight : kLeft;
   const Eigen::Vector3d lateral = m.heading * Eigen::Vector3d::UnitY();
   // planar models: rings in the sagittal plane, beside the body on the side the viewer's
   // camera starts on (-y), where the torso does not hide them; 3D: flat, wide enough to
@@ -351,7 +346,7 @@ void Simbicon::markers(const Engine& engine, std::vector<Marker>& out) const {
   out.push_back(d);
   // the swing thigh's target after feedback: theta from vertical about -y, turned to the
   // heading; labelled at its head
-  const double th = state_.swing_hip_target;
+  const double th = s.swing_hip_target;
   Marker target;
   target.shape = Marker::Shape::kArrow;
   target.pos = hip + side;
@@ -367,8 +362,7 @@ void Simbicon::markers(const Engine& engine, std::vector<Marker>& out) const {
   out.push_back(head);
 }
 
-void Simbicon::add_metrics(nlohmann::json& metrics) const {
-  const State& s = state_;
+void Simbicon::state_metrics(const State& s, nlohmann::json& metrics) const {
   const double elapsed = s.last_time - s.start_time;
   const double distance = s.last_x - s.start_x;
   metrics["distance_m"] = distance;
@@ -399,11 +393,11 @@ void Simbicon::add_metrics(nlohmann::json& metrics) const {
   metrics["simbicon_states"] = per_state;
 }
 
-void Simbicon::write_outputs(const std::string& out_dir) const {
+void Simbicon::state_outputs(const State& s, const std::string& out_dir) const {
   std::ofstream f(std::filesystem::path(out_dir) / "steps.csv");
   if (!f) throw InputError(fmt::format("--out {}: cannot write steps.csv", out_dir));
   f << "time,foot,ankle_x,length_m,duration_s\n";
-  for (const SimbiconStep& st : state_.steps)
+  for (const SimbiconStep& st : s.steps)
     f << fmt::format("{:.6f},{},{:.6f},{:.6f},{:.6f}\n", st.time_s,
                      st.foot == kRight ? "right" : "left", st.ankle_x, st.length_m, st.duration_s);
 }

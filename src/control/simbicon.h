@@ -21,7 +21,6 @@
 #include <vector>
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -205,7 +204,32 @@ struct SimbiconStep {
   double duration_s = 0;  // since the previous strike (or the start)
 };
 
-class Simbicon final : public LegacyController {
+// the per-run data: the FSM and what it has recorded
+struct SimbiconState {
+  int fsm = 0;
+  double state_start_s = 0;
+  double swing_hip_target = 0;  // rad, after feedback
+  double d = 0, v = 0;          // m, m/s, the feedback inputs
+  double start_x = 0, last_x = 0, start_time = 0, last_time = 0;
+  double last_strike_s = 0;
+  double last_stance_ankle_x = 0;
+  double flight_time_s = 0;         // with neither foot on the ground (a run's flight phases)
+  std::vector<SimbiconStep> steps;  // reserved to max_recorded_steps at reset
+  std::array<double, 4> state_time_sum{};  // s, completed states
+  std::array<int, 4> state_count{};
+  double lateral_start = 0, lateral_last = 0;  // m, hip along the heading's left axis
+  Eigen::MatrixXd jac_rot, jac_none;           // 3 x nv, 3 x 0: work for the 3D hips
+
+  template <class A>
+  void serialize(A& a) {
+    a(fsm), a(state_start_s), a(swing_hip_target), a(d), a(v), a(start_x), a(last_x);
+    a(start_time), a(last_time), a(last_strike_s), a(last_stance_ankle_x), a(flight_time_s);
+    a(steps), a(state_time_sum), a(state_count), a(lateral_start), a(lateral_last);
+    a(jac_rot), a(jac_none);
+  }
+};
+
+class Simbicon final : public TypedController<SimbiconState> {
  public:
   enum Side { kRight = 0, kLeft = 1 };
 
@@ -221,45 +245,28 @@ class Simbicon final : public LegacyController {
     std::array<int, 2> hip_roll{{-1, -1}}, hip_yaw{{-1, -1}}, ankle_roll{{-1, -1}};
     Eigen::Quaterniond heading = Eigen::Quaterniond::Identity();
   };
-  // data: the FSM and what it has recorded
-  struct State {
-    int fsm = 0;
-    double state_start_s = 0;
-    double swing_hip_target = 0;  // rad, after feedback
-    double d = 0, v = 0;          // m, m/s, the feedback inputs
-    double start_x = 0, last_x = 0, start_time = 0, last_time = 0;
-    double last_strike_s = 0;
-    double last_stance_ankle_x = 0;
-    double flight_time_s = 0;         // with neither foot on the ground (a run's flight phases)
-    std::vector<SimbiconStep> steps;  // reserved to max_recorded_steps
-    std::array<double, 4> state_time_sum{};  // s, completed states
-    std::array<int, 4> state_count{};
-    double lateral_start = 0, lateral_last = 0;  // m, hip along the heading's left axis
-    Eigen::MatrixXd jac_rot, jac_none;           // 3 x nv, 3 x 0: work for the 3D hips
-  };
 
-  Simbicon(const SimbiconParams& params, const Engine& engine);
+  Simbicon(const SimbiconParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return "simbicon"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
   void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
-  void write_outputs(const std::string& out_dir) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
-  // the seed's circles: the stance ankle and the balance point (hip centre or COM) with the
-  // distance d between them, and the swing thigh's target direction after feedback
-  void markers(const Engine& engine, std::vector<Marker>& out) const override;
-
-  // one control step: advance the FSM, then add the torques to out.tau. No allocation.
-  static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
 
   const Model& model() const { return model_; }
-  const State& state() const { return state_; }
+
+ protected:
+  void reset_state(State& state, const Engine& engine) const override;
+  // one control step: advance the FSM, then add the torques to out.tau. No allocation.
+  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& state, std::vector<double>& values) const override;
+  void state_metrics(const State& state, nlohmann::json& metrics) const override;
+  void state_outputs(const State& state, const std::string& out_dir) const override;
+  // the seed's circles: the stance ankle and the balance point (hip centre or COM) with the
+  // distance d between them, and the swing thigh's target direction after feedback
+  void state_markers(const State& state, const Engine& engine,
+                     std::vector<Marker>& out) const override;
 
  private:
   Model model_;
-  State state_;
 };
 
 // planar pitch of a body about the world -y axis (rad, positive = top leaning back)

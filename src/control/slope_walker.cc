@@ -35,7 +35,8 @@ double twist_angle(const Eigen::Quaterniond& q, const Eigen::Vector3d& axis) {
   return a;
 }
 
-SlopeWalker::SlopeWalker(const SlopeWalkerParams& params, const Engine& engine) {
+SlopeWalker::SlopeWalker(const SlopeWalkerParams& params, const ControllerContext&,
+                         const Engine& engine) {
   model_.params = params;
   model_.leg1 = engine.require_body(params.leg1_body);
   model_.leg2 = engine.require_body(params.leg2_body);
@@ -47,21 +48,22 @@ SlopeWalker::SlopeWalker(const SlopeWalkerParams& params, const Engine& engine) 
   if (params.hinge_axis.norm() < 1e-9)
     throw InputError("slope_walker.hinge_axis: expected a non-zero vector");
   model_.axis = params.hinge_axis.normalized();
-  state_.steps.reserve(kMaxSteps);
 }
 
-void SlopeWalker::reset(const Engine& engine) {
-  std::vector<WalkerStep> steps = std::move(state_.steps);
+void SlopeWalker::reset_state(State& s, const Engine& engine) const {
+  // keep the step table's storage
+  std::vector<WalkerStep> steps = std::move(s.steps);
   steps.clear();
-  state_ = State{};
-  state_.steps = std::move(steps);
-  state_.steps.reserve(kMaxSteps);
-  state_.hip = model_.params.first_swing_leg == 1 ? kLeg1Swing : kLeg2Swing;
-  state_.start_x = engine.body_pose(model_.leg1).pos.x();
-  state_.last_step_time = engine.time();
+  s = State{};
+  s.steps = std::move(steps);
+  s.steps.reserve(kMaxSteps);
+  s.hip = model_.params.first_swing_leg == 1 ? kLeg1Swing : kLeg2Swing;
+  s.start_x = engine.body_pose(model_.leg1).pos.x();
+  s.last_step_time = engine.time();
 }
 
-void SlopeWalker::compute(const Model& model, State& s, const Engine& engine, ControlOutput& out) {
+void SlopeWalker::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
+  const Model& model = model_;
   const SlopeWalkerParams& p = model.params;
   const double t = engine.time();
 
@@ -148,18 +150,13 @@ void SlopeWalker::compute(const Model& model, State& s, const Engine& engine, Co
   }
 }
 
-void SlopeWalker::compute(const Engine& engine, ControlOutput& out) {
-  compute(model_, state_, engine, out);
-}
-
 void SlopeWalker::signal_names(std::vector<std::string>& names) const {
   for (const char* n : {"hip_vx", "hip_vz", "leg1_angle", "leg2_angle", "foot1_z", "foot2_z",
                         "hip_fsm", "knee1_fsm", "knee2_fsm", "step_count", "last_step_length_m"})
     names.emplace_back(n);
 }
 
-void SlopeWalker::signals(std::vector<double>& values) const {
-  const State& s = state_;
+void SlopeWalker::state_signals(const State& s, std::vector<double>& values) const {
   values.push_back(s.hip_vel.x());
   values.push_back(s.hip_vel.z());
   values.push_back(s.leg1_angle);
@@ -173,16 +170,15 @@ void SlopeWalker::signals(std::vector<double>& values) const {
   values.push_back(s.steps.empty() ? 0.0 : s.steps.back().length_m);
 }
 
-std::vector<double> SlopeWalker::steady_step_lengths() const {
+std::vector<double> SlopeWalker::steady_step_lengths(const State& s) const {
   std::vector<double> out;
-  for (size_t i = std::max(0, model_.params.transient_steps); i < state_.steps.size(); ++i)
-    out.push_back(state_.steps[i].length_m);
+  for (size_t i = std::max(0, model_.params.transient_steps); i < s.steps.size(); ++i)
+    out.push_back(s.steps[i].length_m);
   return out;
 }
 
-void SlopeWalker::add_metrics(nlohmann::json& m) const {
+void SlopeWalker::state_metrics(const State& s, nlohmann::json& m) const {
   const SlopeWalkerParams& p = model_.params;
-  const State& s = state_;
   std::vector<double> lengths;
   std::vector<int> legs;
   double duration_sum = 0;
@@ -213,7 +209,7 @@ void SlopeWalker::add_metrics(nlohmann::json& m) const {
   m["gait_cycle_step_lengths_m"] = period.cycle;
   m["step_length_asymmetry"] = step_length_asymmetry(lengths, legs, p.transient_steps);
   m["step_length_spread"] = step_length_spread(lengths, p.transient_steps);
-  m["steady_step_lengths_m"] = steady_step_lengths();
+  m["steady_step_lengths_m"] = steady_step_lengths(s);
 }
 
 void write_steps_csv(const std::string& path, const std::vector<WalkerStep>& steps) {
@@ -225,8 +221,8 @@ void write_steps_csv(const std::string& path, const std::vector<WalkerStep>& ste
                      steps[i].length_m, steps[i].duration_s);
 }
 
-void SlopeWalker::write_outputs(const std::string& out_dir) const {
-  write_steps_csv((std::filesystem::path(out_dir) / "steps.csv").string(), state_.steps);
+void SlopeWalker::state_outputs(const State& s, const std::string& out_dir) const {
+  write_steps_csv((std::filesystem::path(out_dir) / "steps.csv").string(), s.steps);
 }
 
 }  // namespace stance

@@ -17,7 +17,6 @@
 #include <vector>
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -97,10 +96,40 @@ struct WalkerStep {
   double duration_s = 0;  // since the previous step (or the start)
 };
 
-class SlopeWalker final : public LegacyController {
+enum SlopeWalkerHipState { kLeg1Swing = 1, kLeg2Swing = 2 };
+enum SlopeWalkerKneeState { kKneeStance = 0, kKneeRetract = 1 };
+
+// the per-run data: the state machines, the last readings, and the step table
+struct SlopeWalkerState {
+  SlopeWalkerHipState hip = kLeg2Swing;
+  SlopeWalkerKneeState knee1 = kKneeStance, knee2 = kKneeStance;
+  double leg1_angle = 0, leg2_angle = 0;  // rad, absolute
+  double foot1_z = 0, foot2_z = 0;        // m
+  double foot1_x = 0, foot2_x = 0;        // m
+  Eigen::Vector3d hip_pos = Eigen::Vector3d::Zero();
+  Eigen::Vector3d hip_vel = Eigen::Vector3d::Zero();
+  double start_x = 0;
+  double last_step_time = 0;
+  std::vector<WalkerStep> steps;  // reserved at reset; grows at most once per step
+  bool fell = false;
+  double fall_time = -1;
+  bool stalled = false;
+  double stall_time = -1;
+  double swing_time = 0;        // s in swing phase, summed over steps
+  double swing_scuff_time = 0;  // s of that with the swing foot touching the ground
+
+  template <class A>
+  void serialize(A& a) {
+    a(hip), a(knee1), a(knee2), a(leg1_angle), a(leg2_angle), a(foot1_z), a(foot2_z);
+    a(foot1_x), a(foot2_x), a(hip_pos), a(hip_vel), a(start_x), a(last_step_time), a(steps);
+    a(fell), a(fall_time), a(stalled), a(stall_time), a(swing_time), a(swing_scuff_time);
+  }
+};
+
+class SlopeWalker final : public TypedController<SlopeWalkerState> {
  public:
-  enum HipState { kLeg1Swing = 1, kLeg2Swing = 2 };
-  enum KneeState { kKneeStance = 0, kKneeRetract = 1 };
+  using HipState = SlopeWalkerHipState;
+  using KneeState = SlopeWalkerKneeState;
 
   // model: indices and parameters, fixed after construction
   struct Model {
@@ -109,45 +138,25 @@ class SlopeWalker final : public LegacyController {
     int hip = -1, knee1 = -1, knee2 = -1;              // dofs
     Eigen::Vector3d axis = Eigen::Vector3d::UnitY();   // normalised hinge_axis
   };
-  // data: the state machines, the last readings, and the step table
-  struct State {
-    HipState hip = kLeg2Swing;
-    KneeState knee1 = kKneeStance, knee2 = kKneeStance;
-    double leg1_angle = 0, leg2_angle = 0;  // rad, absolute
-    double foot1_z = 0, foot2_z = 0;        // m
-    double foot1_x = 0, foot2_x = 0;        // m
-    Eigen::Vector3d hip_pos = Eigen::Vector3d::Zero();
-    Eigen::Vector3d hip_vel = Eigen::Vector3d::Zero();
-    double start_x = 0;
-    double last_step_time = 0;
-    std::vector<WalkerStep> steps;  // reserved at reset; grows at most once per step
-    bool fell = false;
-    double fall_time = -1;
-    bool stalled = false;
-    double stall_time = -1;
-    double swing_time = 0;        // s in swing phase, summed over steps
-    double swing_scuff_time = 0;  // s of that with the swing foot touching the ground
-  };
 
-  SlopeWalker(const SlopeWalkerParams& params, const Engine& engine);
+  SlopeWalker(const SlopeWalkerParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return "slope_walker"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
   void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
-  void write_outputs(const std::string& out_dir) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
 
-  static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
-
-  const State& state() const { return state_; }
+  const Model& model() const { return model_; }
   // the step lengths after the transient, in order (m)
-  std::vector<double> steady_step_lengths() const;
+  std::vector<double> steady_step_lengths(const State& state) const;
+
+ protected:
+  void reset_state(State& state, const Engine& engine) const override;
+  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& state, std::vector<double>& values) const override;
+  void state_metrics(const State& state, nlohmann::json& metrics) const override;
+  void state_outputs(const State& state, const std::string& out_dir) const override;
 
  private:
   Model model_;
-  State state_;
 };
 
 // the rotation angle of q about the unit axis (twist of the swing-twist split), in (-pi, pi]

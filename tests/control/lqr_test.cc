@@ -247,7 +247,10 @@ TEST(ControlNoise, KernelUnitNormStdPerActuatorAndReplay) {
   LoadedScenario l = one_leg();
   auto engine = make_scenario_engine(l.scenario, "mujoco");
   ControlNoiseParams p;
-  ControlNoise noise(p, *engine, 7);
+  ControllerContext ctx;
+  ctx.seed = 7;
+  const ControlNoise noise(p, ctx, *engine);
+  auto state = noise.make_state(*engine);
   EXPECT_NEAR(noise.kernel().norm(), 1.0, 1e-12);
   EXPECT_EQ(noise.kernel().size(), 160);  // 0.8 s at 5 ms
   EXPECT_EQ(noise.std_per_actuator()[engine->require_actuator("left_knee")], 0.01);
@@ -260,15 +263,15 @@ TEST(ControlNoise, KernelUnitNormStdPerActuatorAndReplay) {
   double sq = 0;
   for (int i = 0; i < n; ++i) {
     out.clear();
-    noise.compute(*engine, out);
+    noise.compute(*state, *engine, out);
     first[i] = out.ctrl[knee];
     sq += first[i] * first[i];
   }
   EXPECT_NEAR(std::sqrt(sq / n), 0.08, 0.08 * 0.35);  // ~25 independent windows
-  noise.reset(*engine);
+  noise.reset(*state, *engine);
   for (int i = 0; i < n; ++i) {
     out.clear();
-    noise.compute(*engine, out);
+    noise.compute(*state, *engine, out);
     ASSERT_EQ(out.ctrl[knee], first[i]) << i;
   }
   // smooth: neighbouring samples are strongly correlated

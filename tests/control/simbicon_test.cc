@@ -29,9 +29,7 @@ WalkOutcome run_scenario(const std::string& file, const std::vector<std::string>
   Simulation run(loaded, options);
   WalkOutcome out;
   out.result = run.run();
-  auto* simbicon = &run.state_as<Simbicon>(0);
-  EXPECT_NE(simbicon, nullptr);
-  if (simbicon) out.steps = simbicon->state().steps;
+  out.steps = run.state_as<Simbicon::State>(0).steps;
   return out;
 }
 

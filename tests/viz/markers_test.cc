@@ -28,30 +28,30 @@ const Marker* find_label(const std::vector<Marker>& markers, const std::string& 
 TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
   Simulation run(load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml"), quiet());
   Engine& e = run.engine();
-  auto* simbicon = &run.state_as<Simbicon>(0);
-  ASSERT_NE(simbicon, nullptr);
+  const auto& simbicon = dynamic_cast<const Simbicon&>(*run.controllers()[0]);
+  const Simbicon::State& state = run.state_as<Simbicon::State>(0);
   // over a few steps, so that both legs take the stance
   bool seen[2] = {false, false};
   while (e.time() < 2.0) {
     ASSERT_TRUE(run.step());
     e.forward();
     std::vector<Marker> markers;
-    simbicon->markers(e, markers);
-    const int stance = simbicon->state().fsm < 2 ? Simbicon::kRight : Simbicon::kLeft;
+    simbicon.markers(run.controller_state(0), e, markers);
+    const int stance = state.fsm < 2 ? Simbicon::kRight : Simbicon::kLeft;
     seen[stance] = true;
     const Marker* ankle = find_label(markers, "stance ankle");
     ASSERT_NE(ankle, nullptr);
     EXPECT_EQ(ankle->shape, Marker::Shape::kCircle);
     // planar: in the sagittal plane (normal y), moved sideways only (along y)
-    Eigen::Vector3d foot = e.body_pose(simbicon->model().foot[stance]).pos;
+    Eigen::Vector3d foot = e.body_pose(simbicon.model().foot[stance]).pos;
     EXPECT_LT((ankle->pos - foot).head<1>().norm() + std::abs((ankle->pos - foot).z()), 1e-12);
     EXPECT_LT(std::abs(ankle->normal.dot(Eigen::Vector3d::UnitX())), 1e-12);
     EXPECT_GT(ankle->radius, 0);
     // the hip circle sits midway between the hip joints
     const Marker* hip = find_label(markers, "hip");
     ASSERT_NE(hip, nullptr);
-    Eigen::Vector3d centre = 0.5 * (e.body_pose(simbicon->model().thigh[0]).pos +
-                                    e.body_pose(simbicon->model().thigh[1]).pos);
+    Eigen::Vector3d centre = 0.5 * (e.body_pose(simbicon.model().thigh[0]).pos +
+                                    e.body_pose(simbicon.model().thigh[1]).pos);
     EXPECT_LT((hip->pos - centre - (ankle->pos - foot)).norm(), 1e-12);
     // the swing target arrow leaves the hip at the target angle from vertical
     const Marker* arrow = nullptr;
@@ -60,7 +60,7 @@ TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
     ASSERT_NE(arrow, nullptr);
     EXPECT_LT((arrow->pos - hip->pos).norm(), 1e-12);
     Eigen::Vector3d dir = (arrow->end - arrow->pos).normalized();
-    double th = simbicon->state().swing_hip_target;
+    double th = state.swing_hip_target;
     EXPECT_NEAR(dir.x(), std::sin(th), 1e-9);
     EXPECT_NEAR(dir.z(), -std::cos(th), 1e-9);
     EXPECT_NE(find_label(markers, "swing target"), nullptr);
