@@ -9,9 +9,9 @@
 #include <cmath>
 #include <memory>
 
+#include "analysis/finite_difference.h"
 #include "control/lqr.h"
 #include "core/error.h"
-#include "analysis/finite_difference.h"
 
 namespace stance {
 
