@@ -33,14 +33,14 @@ void BM_LqrCompute(benchmark::State& state) {
   auto engine = one_leg_engine();
   ControllerContext ctx;
   ctx.scratch_engine = one_leg_engine;  // the design's own engine
-  Lqr lqr(LqrParams{}, ctx, *engine);
-  lqr.reset(*engine);
+  const Lqr lqr(LqrParams{}, ctx, *engine);
+  std::unique_ptr<ControllerState> lqr_state = lqr.make_state(*engine);
   ControlOutput out;
   out.resize(engine->nv(), engine->nu());
   engine->forward();
   for (auto _ : state) {
     out.clear();
-    lqr.compute(*engine, out);
+    lqr.compute(*lqr_state, *engine, out);
     benchmark::DoNotOptimize(out.ctrl.data());
   }
 }

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -16,6 +17,8 @@
 namespace stance {
 
 namespace {
+std::atomic<long> g_designs_made{0};
+
 double ms_since(std::chrono::steady_clock::time_point t0) {
   return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
 }
@@ -119,6 +122,10 @@ Eigen::MatrixXd lqr_state_cost(const LqrParams& params, const Eigen::MatrixXd& j
   return q;
 }
 
+long lqr_designs_made() {
+  return g_designs_made.load();
+}
+
 LqrDesign design_lqr(const LqrParams& params, Engine& engine) {
   const auto t0 = std::chrono::steady_clock::now();
   LqrDesign design;
@@ -133,7 +140,8 @@ LqrDesign design_lqr(const LqrParams& params, Engine& engine) {
   if (design.balance_dofs.empty())
     throw InputError("lqr: balance_dofs: no dof matches the patterns");
 
-  // 1. set-point
+  // 1. set-point (from here on, the design is counted)
+  ++g_designs_made;
   auto t = std::chrono::steady_clock::now();
   design.setpoint = find_lqr_setpoint(params, engine);
   design.setpoint_ms = ms_since(t);
@@ -191,23 +199,22 @@ void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engi
 }
 
 Lqr::Lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine)
-    : params_(params), design_(design_lqr(params, ctx, engine)) {
-  state_.resize(engine.nq(), engine.nv(), engine.nu());
+    : params_(params), design_(design_lqr(params, ctx, engine)) {}
+
+void Lqr::reset_state(LqrState& s, const Engine& engine) const {
+  s.resize(engine.nq(), engine.nv(), engine.nu());
+  s.com_foot_distance_m = 0;
+  s.max_com_foot_distance_m = 0;
+  s.compute_ns_sum = 0;
+  s.computes = 0;
 }
 
-void Lqr::reset(const Engine& engine) {
-  state_.resize(engine.nq(), engine.nv(), engine.nu());
-  state_.max_com_foot_distance_m = 0;
-  state_.compute_ns_sum = 0;
-  state_.computes = 0;
-}
-
-void Lqr::compute(const Engine& engine, ControlOutput& out) {
+void Lqr::compute_step(LqrState& s, const Engine& engine, ControlOutput& out) const {
   const auto t0 = std::chrono::steady_clock::now();
-  compute_lqr(design_, params_.feedback, state_, engine, out);
-  state_.compute_ns_sum +=
+  compute_lqr(design_, params_.feedback, s, engine, out);
+  s.compute_ns_sum +=
       std::chrono::duration<double, std::nano>(std::chrono::steady_clock::now() - t0).count();
-  ++state_.computes;
+  ++s.computes;
 }
 
 void Lqr::signal_names(std::vector<std::string>& names) const {
@@ -215,12 +222,12 @@ void Lqr::signal_names(std::vector<std::string>& names) const {
   names.push_back("lqr_state_error_norm");
 }
 
-void Lqr::signals(std::vector<double>& values) const {
-  values.push_back(state_.com_foot_distance_m);
-  values.push_back(state_.x.norm());
+void Lqr::state_signals(const LqrState& s, std::vector<double>& values) const {
+  values.push_back(s.com_foot_distance_m);
+  values.push_back(s.x.norm());
 }
 
-void Lqr::add_metrics(nlohmann::json& metrics) const {
+void Lqr::state_metrics(const LqrState& s, nlohmann::json& metrics) const {
   const LqrSetPoint& sp = design_.setpoint;
   metrics["height_offset_mm"] = sp.height_offset_m * 1e3;
   metrics["residual_vertical_force_N"] = sp.residual_vertical_force_N;
@@ -229,9 +236,8 @@ void Lqr::add_metrics(nlohmann::json& metrics) const {
   metrics["design_time_ms"] = design_.design_ms;
   metrics["dare_relative_residual"] = design_.dare_residual;
   metrics["spectral_radius"] = design_.spectral_radius;
-  metrics["max_com_foot_distance_m"] = state_.max_com_foot_distance_m;
-  metrics["controller_ns_per_step"] =
-      state_.computes ? state_.compute_ns_sum / state_.computes : 0.0;
+  metrics["max_com_foot_distance_m"] = s.max_com_foot_distance_m;
+  metrics["controller_ns_per_step"] = s.computes ? s.compute_ns_sum / s.computes : 0.0;
 }
 
 void write_force_offset_csv(const LqrSetPoint& sp, const std::string& csv_path) {
@@ -293,7 +299,7 @@ void plot_force_offset(const LqrSetPoint& sp, const std::string& csv_path,
   fs::remove(err, ec);
 }
 
-void Lqr::write_outputs(const std::string& out_dir) const {
+void Lqr::state_outputs(const LqrState&, const std::string& out_dir) const {
   namespace fs = std::filesystem;
   const fs::path dir(out_dir);
   {

@@ -16,12 +16,12 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <atomic>
 #include <functional>
 #include <string>
 #include <vector>
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -112,6 +112,9 @@ std::vector<int> match_dofs(const Engine& engine, const std::vector<std::string>
 
 // the whole pipeline; throws InputError when the DARE fails
 LqrDesign design_lqr(const LqrParams& params, Engine& engine);
+// how many designs this process has made (design_lqr calls that got as far as the set-point):
+// a sweep that reuses one model designs once
+long lqr_designs_made();
 // the same on the context's scratch engine put at `engine`'s pose: the run's engine is not moved
 LqrDesign design_lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine);
 
@@ -125,7 +128,7 @@ struct RootResult {
 RootResult find_root_brent(const std::function<double(double)>& f, double a, double b, double fa,
                            double fb, double tol, int max_evaluations = 200);
 
-// the runtime: writes ctrl0 - K [q (-) q0; v] into out.ctrl
+// the runtime's per-run state: work vectors and the metrics of one run
 struct LqrState {
   Eigen::VectorXd q;  // nq
   Eigen::VectorXd x;  // 2nv: [dq; v]
@@ -136,30 +139,40 @@ struct LqrState {
   long computes = 0;
 
   void resize(int nq, int nv, int nu);
+  template <class A>
+  void serialize(A& a) {
+    a(q), a(x), a(u), a(com_foot_distance_m), a(max_com_foot_distance_m), a(compute_ns_sum),
+        a(computes);
+  }
 };
 
+// writes ctrl0 - K [q (-) q0; v] into out.ctrl
 void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engine& engine,
                  ControlOutput& out);
 
-class Lqr final : public LegacyController {
+// the model is the design, made once in the constructor (on ctx.scratch_engine, at `engine`'s
+// pose) and shared by every run; a run's State is LqrState
+class Lqr final : public TypedController<LqrState> {
  public:
   Lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return "lqr"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
   void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
-  // K.csv, force_offset.csv and (force_plot) force_offset.png
-  void write_outputs(const std::string& out_dir) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
 
+  const LqrParams& params() const { return params_; }
   const LqrDesign& design() const { return design_; }
 
+ protected:
+  void reset_state(LqrState& state, const Engine& engine) const override;
+  void compute_step(LqrState& state, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const LqrState& state, std::vector<double>& values) const override;
+  void state_metrics(const LqrState& state, nlohmann::json& metrics) const override;
+  // K.csv, force_offset.csv and (force_plot) force_offset.png
+  void state_outputs(const LqrState& state, const std::string& out_dir) const override;
+
  private:
-  LqrParams params_;
-  LqrDesign design_;
-  LqrState state_;
+  const LqrParams params_;
+  const LqrDesign design_;
 };
 
 // the force-versus-offset plot: a CSV and a gnuplot PNG with the weight line and the chosen

@@ -52,10 +52,7 @@ const std::vector<ControllerType>& controller_registry() {
       {"slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)",
        factory_of<SlopeWalker, SlopeWalkerParams>()},
       {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
-       [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-         return std::shared_ptr<const Controller>(std::make_shared<const LegacyModel<Lqr>>(
-             Lqr(read_params<LqrParams>(node, ctx), ctx, engine)));
-       }},
+       factory_of<Lqr, LqrParams>()},
       {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root",
        make_mocap_tracker},
       {"mocap_retarget", "BVH tracking on any model through a YAML joint map (retargeting)",

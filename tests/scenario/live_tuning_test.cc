@@ -111,7 +111,7 @@ TEST(BackgroundRetune, LqrCostIsSwappedInBetweenSteps) {
   Simulation run(loaded, opt);
   ASSERT_TRUE(rebuild_is_slow(*run.controllers()[0]));
   const Controller* old = run.controllers()[0].get();
-  Eigen::MatrixXd k0 = dynamic_cast<const LegacyModel<Lqr>&>(*old).prototype().design().K;
+  Eigen::MatrixXd k0 = dynamic_cast<const Lqr&>(*old).design().K;
   BackgroundRetune job(run, loaded, 0, "balance_cost", 4000);
   // the run goes on with the old controller meanwhile
   for (int i = 0; i < 20 && !job.ready(); ++i) ASSERT_TRUE(run.step());
@@ -119,12 +119,11 @@ TEST(BackgroundRetune, LqrCostIsSwappedInBetweenSteps) {
   job.wait();
   ASSERT_TRUE(job.swap_into(run));
   ASSERT_NE(run.controllers()[0].get(), old);
-  const auto& fresh = dynamic_cast<const LegacyModel<Lqr>&>(*run.controllers()[0]).prototype();
+  const auto& fresh = dynamic_cast<const Lqr&>(*run.controllers()[0]);
   EXPECT_GT((fresh.design().K - k0).norm(), 1e-3 * k0.norm());
   // the same gain as a scenario loaded with that cost (the design is at the initial pose)
   Simulation reference(load_scenario(file, {"controllers.0.balance_cost=4000"}), opt);
-  const auto& expected =
-      dynamic_cast<const LegacyModel<Lqr>&>(*reference.controllers()[0]).prototype();
+  const auto& expected = dynamic_cast<const Lqr&>(*reference.controllers()[0]);
   EXPECT_LT((fresh.design().K - expected.design().K).norm(), 1e-9 * k0.norm());
   for (int i = 0; i < 200; ++i) ASSERT_TRUE(run.step());
 }

@@ -7,6 +7,7 @@
 #include <fstream>
 #include <sstream>
 
+#include "control/lqr.h"
 #include "core/error.h"
 #include "test_support.h"
 
@@ -71,6 +72,35 @@ TEST(Sweep, BadKeyPathFailsBeforeRunning) {
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("hip_kpp"), std::string::npos) << e.what();
   }
+}
+
+// the LQR design is the costly part of its model: a sweep over a push force designs it once, a
+// sweep over the timestep (another world) once per value
+TEST(Sweep, DesignsTheLqrOncePerWorld) {
+  if (!std::filesystem::exists("/usr/share/mujoco/model/humanoid/humanoid.xml"))
+    GTEST_SKIP() << "humanoid.xml missing (Debian package libmujoco-samples)";
+  SweepOptions o;
+  o.scenario = test::source_dir() + "/scenarios/lqr_one_leg.yaml";
+  o.sets = {"controllers.0.force_plot=false",
+            "perturbations=[{body: torso, force: [0, 0, 0], start: 0.1, duration: 0.1}]"};
+  o.param = "perturbations.0.force.0";
+  o.values = linspace(0, 40, 8);
+  o.duration = 0.3;
+  o.threads = 2;
+  long before = lqr_designs_made();
+  std::vector<SweepPoint> points = run_sweep(o);
+  ASSERT_EQ(points.size(), 8u);
+  for (const auto& p : points) EXPECT_TRUE(p.error.empty()) << p.error;
+  EXPECT_EQ(lqr_designs_made() - before, 1);
+  // the pushes really differed
+  EXPECT_NE(points[0].result.metrics["max_com_foot_distance_m"],
+            points[7].result.metrics["max_com_foot_distance_m"]);
+  o.param = "timestep";
+  o.values = {0.004, 0.005, 0.006};
+  before = lqr_designs_made();
+  points = run_sweep(o);
+  for (const auto& p : points) EXPECT_TRUE(p.error.empty()) << p.error;
+  EXPECT_EQ(lqr_designs_made() - before, 3);
 }
 
 }  // namespace

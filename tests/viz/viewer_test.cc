@@ -12,7 +12,6 @@
 #include <filesystem>
 #include <thread>
 
-#include "control/legacy_controller.h"
 #include "control/lqr.h"
 #include "core/error.h"
 #include "test_support.h"
@@ -371,9 +370,9 @@ TEST_F(ViewerTest, LqrCostChangeSwapsTheGainInLater) {
   LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/lqr_one_leg.yaml");
   Viewer v(loaded, test_options());
   v.frame();
-  const auto* lqr = dynamic_cast<const LegacyModel<Lqr>*>(&v.controller(0));
+  const auto* lqr = dynamic_cast<const Lqr*>(&v.controller(0));
   ASSERT_NE(lqr, nullptr);
-  Eigen::MatrixXd k0 = lqr->prototype().design().K;
+  Eigen::MatrixXd k0 = lqr->design().K;
   double cost0 = v.param_value(0, "balance_cost");
   v.set_param(0, "balance_cost", 4 * cost0);
   // pending: the old controller and its value are still in place
@@ -387,10 +386,10 @@ TEST_F(ViewerTest, LqrCostChangeSwapsTheGainInLater) {
   }
   ASSERT_FALSE(v.param_pending());
   EXPECT_EQ(v.param_value(0, "balance_cost"), 4 * cost0);
-  const auto* swapped = dynamic_cast<const LegacyModel<Lqr>*>(&v.controller(0));
+  const auto* swapped = dynamic_cast<const Lqr*>(&v.controller(0));
   ASSERT_NE(swapped, nullptr);
-  ASSERT_EQ(swapped->prototype().design().K.rows(), k0.rows());
-  EXPECT_GT((swapped->prototype().design().K - k0).norm(), 1e-3 * k0.norm());
+  ASSERT_EQ(swapped->design().K.rows(), k0.rows());
+  EXPECT_GT((swapped->design().K - k0).norm(), 1e-3 * k0.norm());
   // and it still balances
   for (int i = 0; i < 30; ++i) v.frame();
   EXPECT_GT(v.com_height(), 0.8);
