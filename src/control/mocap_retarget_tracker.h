@@ -19,12 +19,13 @@
 // mapped keep the clip's rotations) and written at the clip's frame rate.
 #pragma once
 
+#include <array>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "control/mocap_tracker.h"
 #include "control/pose_tracking.h"
 #include "control/retarget.h"
@@ -56,79 +57,104 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
   }
 };
 
-class MocapRetargetTracker final : public LegacyController {
- public:
-  // `probe`: a scratch engine of the same model, overwritten while the table is built;
-  // duration_s: how long the table must run (looping clips)
-  MocapRetargetTracker(const MocapRetargetParams& params, const Engine& engine, Engine& probe,
-                       double duration_s, const std::string& base_dir = "");
-  std::string_view type() const override { return "mocap_retarget"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
-  void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
-  void write_outputs(const std::string& out_dir) const override;
-  YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
-  bool reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const override;
-  bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
-                     Eigen::VectorXd& qvel) const override;
+// one run's tracking state: work vectors, the reference sample, the accumulated errors and
+// helper impulses, the recorded frames (with export_bvh) and the balance layer's stance
+struct MocapRetargetState {
+  Eigen::VectorXd q, v, q_ref, v_ref, tau, scratch;
+  PoseTrackingWork work;
+  std::vector<Eigen::Quaterniond> ref_local;
+  std::vector<Eigen::Vector3d> ref_position;
+  double error_sum_deg = 0, max_error_deg = 0, last_error_deg = 0;
+  long error_samples = 0;
+  double root_error_sum = 0, root_error_max = 0, last_root_error = 0;
+  double end_error_sum = 0, end_error_max = 0;
+  long steps = 0;
+  double helper_impulse = 0, helper_angular_impulse = 0;
+  double fall_time = -1;
+  // export: per recorded frame (the clip's rate), the mapped bodies' world rotations and the
+  // root-mapped body's position
+  std::vector<Eigen::Quaterniond> recorded_rotations;
+  std::vector<Eigen::Vector3d> recorded_roots;
+  double next_record_t = 0;
+  // free mode balance
+  std::vector<Eigen::Quaterniond> bal_world, bal_local;
+  std::vector<Eigen::Vector3d> bal_pos, bal_pos_ahead;
+  Eigen::MatrixXd jac_a, jac_b;
+  int stance = 0;
+  std::array<double, 2> stance_share = {1, 0};
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
 
-  const RetargetedMotion& motion() const { return *motion_; }
-  // the simulated motion so far, mapped back onto the clip's skeleton (file units, as read)
-  BvhClip recorded_clip() const;
-  double mean_joint_error_deg() const;
-  double helper_impulse_ns() const { return helper_impulse_; }
-  std::optional<double> fall_time() const {
-    return fall_time_ >= 0 ? std::optional<double>(fall_time_) : std::nullopt;
+  double mean_joint_error_deg() const {
+    return error_samples ? error_sum_deg / error_samples : 0.0;
+  }
+  double helper_impulse_ns() const { return helper_impulse; }
+  std::optional<double> fall_time_s() const {
+    return fall_time >= 0 ? std::optional<double>(fall_time) : std::nullopt;
   }
 
- private:
-  void accumulate_metrics(const Engine& engine);
-  void balance(const Engine& engine, double t);
+  template <class A>
+  void serialize(A& a) {
+    a(q), a(v), a(q_ref), a(v_ref), a(tau), a(scratch), a(ref_local), a(ref_position);
+    a(error_sum_deg), a(max_error_deg), a(last_error_deg), a(error_samples);
+    a(root_error_sum), a(root_error_max), a(last_root_error), a(end_error_sum), a(end_error_max),
+        a(steps), a(helper_impulse), a(helper_angular_impulse), a(fall_time);
+    a(recorded_rotations), a(recorded_roots), a(next_record_t);
+    a(bal_world), a(bal_local), a(bal_pos), a(bal_pos_ahead), a(jac_a), a(jac_b), a(stance),
+        a(stance_share), a(up);
+  }
+};
 
-  // the immutable part
+class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
+ public:
+  // the table is built once here on ctx.scratch_engine (overwritten while it is probed), long
+  // enough for ctx.duration_s (looping clips); relative bvh and joint_map paths start at the
+  // folder of ctx.source.file
+  MocapRetargetTracker(const MocapRetargetParams& params, const ControllerContext& ctx,
+                       const Engine& engine);
+  std::string_view type() const override { return "mocap_retarget"; }
+  void signal_names(std::vector<std::string>& names) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
+  bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
+                     Eigen::VectorXd& qvel) const override;
+  // a State goes on under other gains, not under another clip, map (its sizes) or mode
+  bool keeps_state_of(const Controller& previous) const override;
+
+  const MocapRetargetParams& params() const { return params_; }
+  const RetargetedMotion& motion() const { return *motion_; }
+  // the simulated motion of a run so far, mapped back onto the clip's skeleton (file units, as
+  // read)
+  BvhClip recorded_clip(const State& state) const;
+
+ protected:
+  void reset_state(State& s, const Engine& engine) const override;
+  void compute_step(State& s, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& s, std::vector<double>& values) const override;
+  void state_metrics(const State& s, nlohmann::json& metrics) const override;
+  // export_bvh: the recorded motion
+  void state_outputs(const State& s, const std::string& out_dir) const override;
+  bool state_reference_qpos(const State& s, const Engine& engine,
+                            Eigen::VectorXd& qpos) const override;
+
+ private:
+  void accumulate_metrics(State& s, const Engine& engine) const;
+  void balance(State& s, const Engine& engine, double t) const;
+
+  // the model: fixed after construction
   MocapRetargetParams params_;
   MocapRootMode mode_ = MocapRootMode::kAssisted;
+  double duration_s_ = 0;  // the run's length (the recording's reserve); 0: unknown
   MocapClip clip_;
   std::shared_ptr<const RetargetedMotion> motion_;
   int root_body_ = -1, root_dof_ = -1;
   // per root dof: a translation (MuJoCo's free joint lists them first, DART's last)
   bool root_translation_[6] = {false, false, false, false, false, false};
   Eigen::VectorXd kp_, kd_;
-  // per-run state
-  Eigen::VectorXd q_, v_, q_ref_, v_ref_, tau_, scratch_;
-  PoseTrackingWork work_;
-  std::vector<Eigen::Quaterniond> ref_local_;
-  std::vector<Eigen::Vector3d> ref_position_;
-  double error_sum_deg_ = 0, max_error_deg_ = 0, last_error_deg_ = 0;
-  long error_samples_ = 0;
-  double root_error_sum_ = 0, root_error_max_ = 0, last_root_error_ = 0;
-  double end_error_sum_ = 0, end_error_max_ = 0;
-  long steps_ = 0;
-  double helper_impulse_ = 0, helper_angular_impulse_ = 0;
-  double fall_time_ = -1;
-  // export: per recorded frame (the clip's rate), the mapped bodies' world rotations and the
-  // root-mapped body's position
-  std::vector<Eigen::Quaterniond> recorded_rotations_;
-  std::vector<Eigen::Vector3d> recorded_roots_;
-  double next_record_t_ = 0;
   int root_mapped_ = -1;  // index into motion().bodies() of the clip root's body
   // free mode balance: mapped indices of the thighs and feet, engine bodies of each foot's
   // subtree, and the walking direction in the root body's frame
   int hip_[2] = {-1, -1}, foot_[2] = {-1, -1};
   std::vector<int> foot_bodies_[2];
   Eigen::Vector3d forward_in_root_ = Eigen::Vector3d::UnitX();
-  std::vector<Eigen::Quaterniond> bal_world_, bal_local_;
-  std::vector<Eigen::Vector3d> bal_pos_, bal_pos_ahead_;
-  Eigen::MatrixXd jac_a_, jac_b_;
-  int stance_ = 0;
-  double stance_share_[2] = {1, 0};
-  Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
 };
-
-std::shared_ptr<const Controller> make_mocap_retarget_tracker(const YAML::Node& node,
-                                                              const ControllerContext& ctx,
-                                                              const Engine& engine);
 
 }  // namespace stance

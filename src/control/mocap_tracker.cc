@@ -52,12 +52,19 @@ MocapRootMode parse_mocap_root_mode(const std::string& mode) {
   throw InputError(fmt::format("mode: expected kinematic, assisted or free, found '{}'", mode));
 }
 
-std::shared_ptr<const Controller> make_mocap_tracker(const YAML::Node& node,
-                                                     const ControllerContext& ctx,
-                                                     const Engine& engine) {
-  std::string dir = std::filesystem::path(ctx.source.file).parent_path().string();
-  return std::make_shared<const LegacyModel<MocapTracker>>(
-      MocapTracker(read_params<MocapTrackerParams>(node, ctx), engine, dir));
+std::string mocap_base_dir(const ControllerContext& ctx) {
+  return std::filesystem::path(ctx.source.file).parent_path().string();
+}
+
+size_t mocap_record_frames(double duration_s, double frame_time_s) {
+  return static_cast<size_t>(std::max(120.0, duration_s) / frame_time_s) + 1;
+}
+
+bool same_mocap_clip(const MocapClipParams& a, const MocapClipParams& b) {
+  return a.bvh == b.bvh && a.scale_to_meters == b.scale_to_meters && a.up_axis == b.up_axis &&
+         a.first_frame == b.first_frame && a.last_frame == b.last_frame && a.start_s == b.start_s &&
+         a.end_s == b.end_s && a.loop == b.loop && a.align_ground == b.align_ground &&
+         a.ground == b.ground && a.export_bvh == b.export_bvh;
 }
 
 MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base_dir) {
@@ -120,9 +127,12 @@ void find_mocap_legs(const MotionSkeleton& sk, const std::array<std::string, 4>&
   if (!names[1].empty()) hip[1] = find(names[1], "right_hip");
 }
 
-MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engine,
-                           const std::string& base_dir) {
-  MocapTrackerModel& m = model_;
+namespace {
+
+// the clip, its reference and the engine indices, gains, end effectors and legs
+MocapTrackerModel make_tracker_model(const MocapTrackerParams& params, const Engine& engine,
+                                     const std::string& base_dir) {
+  MocapTrackerModel m;
   m.params = params;
   m.mode = parse_mocap_root_mode(params.mode);
   MocapClip loaded = load_mocap_clip(params, base_dir);
@@ -222,77 +232,91 @@ MocapTracker::MocapTracker(const MocapTrackerParams& params, const Engine& engin
   }
   fwd.z() = 0;
   if (fwd.norm() > 1e-9) m.forward_in_root = fwd.normalized();
+  return m;
 }
 
-void MocapTracker::reset(const Engine& engine) {
+}  // namespace
+
+MocapTracker::MocapTracker(const MocapTrackerParams& params, const ControllerContext& ctx,
+                           const Engine& engine)
+    : model_(make_tracker_model(params, engine, mocap_base_dir(ctx))),
+      duration_s_(ctx.duration_s) {}
+
+bool MocapTracker::keeps_state_of(const Controller& previous) const {
+  const auto* p = dynamic_cast<const MocapTracker*>(&previous);
+  return p && p->model_.params.mode == model_.params.mode &&
+         same_mocap_clip(p->model_.params, model_.params);
+}
+
+void MocapTracker::reset_state(State& s, const Engine& engine) const {
   const ReferenceMotion& ref = *model_.reference;
-  pose_ = ref.make_pose();
-  pose_now_ = ref.make_pose();
+  s.pose = ref.make_pose();
+  s.pose_now = ref.make_pose();
   const int n = ref.skeleton().segment_count();
-  fk_pos_.assign(n, Eigen::Vector3d::Zero());
-  fk_rot_.assign(n, Eigen::Quaterniond::Identity());
+  s.fk_pos.assign(n, Eigen::Vector3d::Zero());
+  s.fk_rot.assign(n, Eigen::Quaterniond::Identity());
   const int nq = engine.nq(), nv = engine.nv();
-  for (Eigen::VectorXd* x : {&q_, &q_ref_}) x->setZero(nq);
-  for (Eigen::VectorXd* x : {&v_, &v_ref_, &tau_}) x->setZero(nv);
-  work_.resize(nq, nv);
-  jac_a_.setZero(3, nv);
-  jac_b_.setZero(3, nv);
-  stance_share_[0] = 1;
-  stance_share_[1] = 0;
-  recorded_.clear();
-  recorded_frames_ = 0;
-  next_record_t_ = 0;
+  for (Eigen::VectorXd* x : {&s.q, &s.q_ref}) x->setZero(nq);
+  for (Eigen::VectorXd* x : {&s.v, &s.v_ref, &s.tau}) x->setZero(nv);
+  s.work.resize(nq, nv);
+  s.jac_a.setZero(3, nv);
+  s.jac_b.setZero(3, nv);
+  s.stance_share = {1, 0};
+  s.recorded.clear();
+  s.recorded_frames = 0;
+  s.next_record_t = 0;
   if (!model_.params.export_bvh.empty())
-    recorded_.reserve(static_cast<size_t>(nq) * static_cast<size_t>(120.0 / ref.frame_time_s()));
-  stance_ = 0;
-  error_sum_deg_ = max_error_deg_ = 0;
-  joint_error_sum_deg_.assign(n, 0.0);
-  error_samples_ = 0;
-  root_error_sum_ = root_error_max_ = ee_error_sum_ = ee_error_max_ = 0;
-  steps_ = 0;
-  helper_impulse_ = helper_angular_impulse_ = 0;
-  fall_time_ = -1;
-  last_error_deg_ = last_root_error_ = 0;
-  last_helper_force_.setZero();
+    s.recorded.reserve(static_cast<size_t>(nq) *
+                       mocap_record_frames(duration_s_, ref.frame_time_s()));
+  s.stance = 0;
+  s.error_sum_deg = s.max_error_deg = 0;
+  s.joint_error_sum_deg.assign(n, 0.0);
+  s.error_samples = 0;
+  s.root_error_sum = s.root_error_max = s.ee_error_sum = s.ee_error_max = 0;
+  s.steps = 0;
+  s.helper_impulse = s.helper_angular_impulse = 0;
+  s.fall_time = -1;
+  s.last_error_deg = s.last_root_error = 0;
+  s.last_helper_force.setZero();
 }
 
-// q_ref_, v_ref_ <- the reference pose at time t (pose_ holds it)
-void MocapTracker::track_state(const Engine& engine, double t) {
+// s.q_ref, s.v_ref <- the reference pose at time t (s.pose holds it)
+void MocapTracker::track_state(State& s, double t) const {
   const MocapTrackerModel& m = model_;
-  m.reference->sample(t, pose_);
+  m.reference->sample(t, s.pose);
   const int n = static_cast<int>(m.body.size());
-  q_ref_.segment<3>(m.qpos_adr[0]) = pose_.root_position;
-  write_quat(q_ref_, m.qpos_adr[0] + 3, pose_.rotations[0]);
-  v_ref_.segment<3>(m.dof_adr[0]) = pose_.root_velocity;
-  v_ref_.segment<3>(m.dof_adr[0] + 3) = pose_.angular_velocities[0];
+  s.q_ref.segment<3>(m.qpos_adr[0]) = s.pose.root_position;
+  write_quat(s.q_ref, m.qpos_adr[0] + 3, s.pose.rotations[0]);
+  s.v_ref.segment<3>(m.dof_adr[0]) = s.pose.root_velocity;
+  s.v_ref.segment<3>(m.dof_adr[0] + 3) = s.pose.angular_velocities[0];
   for (int k = 1; k < n; ++k) {
-    write_quat(q_ref_, m.qpos_adr[k], pose_.rotations[k]);
-    v_ref_.segment<3>(m.dof_adr[k]) = pose_.angular_velocities[k];
+    write_quat(s.q_ref, m.qpos_adr[k], s.pose.rotations[k]);
+    s.v_ref.segment<3>(m.dof_adr[k]) = s.pose.angular_velocities[k];
   }
 }
 
 // SIMBICON-style feedback on the swing thigh (world frame), the stance hip's pelvis servo, and
 // Coros-style virtual forces carried by J^T through the stance leg(s)
-void MocapTracker::balance(const Engine& engine, double t_target) {
+void MocapTracker::balance(State& s, const Engine& engine, double t_target) const {
   const MocapTrackerModel& m = model_;
   const MocapTrackerParams& p = m.params;
   const ReferenceMotion& ref = *m.reference;
-  ref.forward_kinematics(pose_, fk_pos_, fk_rot_);
+  ref.forward_kinematics(s.pose, s.fk_pos, s.fk_rot);
   // stance: the foot lower in the reference, unless only the other one touches the ground
-  const int ref_stance = fk_pos_[m.foot[0]].z() <= fk_pos_[m.foot[1]].z() ? 0 : 1;
-  stance_ = ref_stance;
-  stance_share_[stance_] = 1;
-  stance_share_[1 - stance_] = 0;
+  const int ref_stance = s.fk_pos[m.foot[0]].z() <= s.fk_pos[m.foot[1]].z() ? 0 : 1;
+  s.stance = ref_stance;
+  s.stance_share[s.stance] = 1;
+  s.stance_share[1 - s.stance] = 0;
   if (p.contact_stance) {
     bool touch[2] = {false, false};
     for (int side = 0; side < 2; ++side)
       for (int b : m.foot_bodies[side]) touch[side] = touch[side] || engine.body_touches_ground(b);
-    if (touch[0] != touch[1]) stance_ = touch[0] ? 0 : 1;
+    if (touch[0] != touch[1]) s.stance = touch[0] ? 0 : 1;
     // double support shares the weight; in flight nothing is carried
     for (int side = 0; side < 2; ++side)
-      stance_share_[side] = touch[side] ? (touch[1 - side] ? 0.5 : 1.0) : 0.0;
+      s.stance_share[side] = touch[side] ? (touch[1 - side] ? 0.5 : 1.0) : 0.0;
   }
-  const int swing = 1 - stance_;
+  const int swing = 1 - s.stance;
   // heading frames of the simulation and the reference
   const int root_body = m.body[0];
   BodyPose root = engine.body_pose(root_body);
@@ -301,26 +325,26 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
     f.z() = 0;
     return f.norm() > 1e-9 ? Eigen::Vector3d(f.normalized()) : Eigen::Vector3d::UnitX();
   };
-  Eigen::Vector3d fwd = heading(root.quat), fwd_ref = heading(pose_.rotations[0]);
+  Eigen::Vector3d fwd = heading(root.quat), fwd_ref = heading(s.pose.rotations[0]);
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   Eigen::Vector3d lat = up.cross(fwd), lat_ref = up.cross(fwd_ref);
   // the reference turned onto the simulated heading, less the share heading_gain corrects
   const double yaw_error = std::atan2(fwd_ref.cross(fwd).z(), fwd_ref.dot(fwd));
   // the heading to correct towards: the reference's, turned towards the clip's path when the
   // character has drifted sideways off it
-  const double path_offset = (pose_.root_position - root.pos).dot(lat_ref);
+  const double path_offset = (s.pose.root_position - root.pos).dot(lat_ref);
   const double turn = std::clamp(p.path_gain * path_offset, -0.5, 0.5);
   const double heading_error = yaw_error - turn;
   Eigen::Quaterniond yaw_fix(Eigen::AngleAxisd(yaw_error - p.heading_gain * heading_error, up));
   Eigen::Quaterniond swing_yaw_fix(
       Eigen::AngleAxisd(yaw_error - p.swing_heading_gain * heading_error, up));
   // d: root (or COM) offset from the stance ankle; v: its velocity; both against the reference's
-  const Eigen::Vector3d ankle = engine.body_pose(m.body[m.foot[stance_]]).pos;
-  const Eigen::Vector3d ankle_ref = fk_pos_[m.foot[stance_]];
+  const Eigen::Vector3d ankle = engine.body_pose(m.body[m.foot[s.stance]]).pos;
+  const Eigen::Vector3d ankle_ref = s.fk_pos[m.foot[s.stance]];
   Eigen::Vector3d d = root.pos - ankle;
-  Eigen::Vector3d d_ref = pose_.root_position - ankle_ref;
+  Eigen::Vector3d d_ref = s.pose.root_position - ankle_ref;
   Eigen::Vector3d vel = engine.body_velocity(root_body).tail<3>();
-  Eigen::Vector3d vel_ref = pose_.root_velocity;
+  Eigen::Vector3d vel_ref = s.pose.root_velocity;
   if (p.com_feedback) {
     // the reference COM is taken at the simulated COM's offset from the root
     d = engine.com() - ankle;
@@ -337,18 +361,18 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
                              Eigen::Quaterniond(Eigen::AngleAxisd(th_cor, fwd));
   const MotionSkeleton& sk = ref.skeleton();
   const int hip = m.hip[swing];
-  Eigen::Quaterniond thigh_des = delta * swing_yaw_fix * fk_rot_[hip];
+  Eigen::Quaterniond thigh_des = delta * swing_yaw_fix * s.fk_rot[hip];
   Eigen::Quaterniond parent = engine.body_pose(m.body[sk.segments[hip].parent]).quat;
   Eigen::Quaterniond local = (parent.conjugate() * thigh_des).normalized();
-  if (local.coeffs().dot(pose_.rotations[hip].coeffs()) < 0) local.coeffs() *= -1;
-  write_quat(q_ref_, m.qpos_adr[hip], local);
+  if (local.coeffs().dot(s.pose.rotations[hip].coeffs()) < 0) local.coeffs() *= -1;
+  write_quat(s.q_ref, m.qpos_adr[hip], local);
   // swing foot: its reference world orientation on the simulated heading (lands flat)
   if (p.swing_foot_world) {
     const int foot = m.foot[swing];
     Eigen::Quaterniond shank = engine.body_pose(m.body[sk.segments[foot].parent]).quat;
-    Eigen::Quaterniond target = (shank.conjugate() * swing_yaw_fix * fk_rot_[foot]).normalized();
-    if (target.coeffs().dot(pose_.rotations[foot].coeffs()) < 0) target.coeffs() *= -1;
-    write_quat(q_ref_, m.qpos_adr[foot], target);
+    Eigen::Quaterniond target = (shank.conjugate() * swing_yaw_fix * s.fk_rot[foot]).normalized();
+    if (target.coeffs().dot(s.pose.rotations[foot].coeffs()) < 0) target.coeffs() *= -1;
+    write_quat(s.q_ref, m.qpos_adr[foot], target);
   }
   // stance ankle: the reference ankle angle tilted in the world against the same offset error,
   // so the foot presses the centre of pressure towards the side the body leans to
@@ -362,43 +386,43 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
     ph_cor = std::clamp(ph_cor, -0.3, 0.3);
     Eigen::Quaterniond tilt = Eigen::Quaterniond(Eigen::AngleAxisd(ph_sag, -lat)) *
                               Eigen::Quaterniond(Eigen::AngleAxisd(ph_cor, fwd));
-    const int foot = m.foot[stance_];
+    const int foot = m.foot[s.stance];
     Eigen::Quaterniond shank = engine.body_pose(m.body[sk.segments[foot].parent]).quat;
-    Eigen::Quaterniond local = read_quat(q_ref_, m.qpos_adr[foot]);
+    Eigen::Quaterniond local = read_quat(s.q_ref, m.qpos_adr[foot]);
     Eigen::Quaterniond target = (shank.conjugate() * tilt * shank * local).normalized();
     if (target.coeffs().dot(local.coeffs()) < 0) target.coeffs() *= -1;
-    write_quat(q_ref_, m.qpos_adr[foot], target);
+    write_quat(s.q_ref, m.qpos_adr[foot], target);
   }
   // pelvis servo through the stance hip's SPD: its target is the rotation that would put the
   // pelvis at the reference orientation over the thigh as it is (implicit, hence stable)
-  Eigen::Quaterniond root_des = yaw_fix * pose_.rotations[0];
-  const int stance_hip = m.hip[stance_];
+  Eigen::Quaterniond root_des = yaw_fix * s.pose.rotations[0];
+  const int stance_hip = m.hip[s.stance];
   Eigen::Quaterniond thigh = engine.body_pose(m.body[stance_hip]).quat;
   if (p.stance_hip_world) {
     Eigen::Quaterniond between = Eigen::Quaterniond::Identity();
     for (int a = sk.segments[stance_hip].parent; a > 0; a = sk.segments[a].parent)
-      between = pose_.rotations[a] * between;  // merged-away segments between root and hip
+      between = s.pose.rotations[a] * between;  // merged-away segments between root and hip
     Eigen::Quaterniond target = ((root_des * between).conjugate() * thigh).normalized();
-    if (target.coeffs().dot(pose_.rotations[stance_hip].coeffs()) < 0) target.coeffs() *= -1;
+    if (target.coeffs().dot(s.pose.rotations[stance_hip].coeffs()) < 0) target.coeffs() *= -1;
     // partly towards the reference hip angle, which keeps the stance thigh's own twist in check
-    target = pose_.rotations[stance_hip].slerp(p.stance_hip_world_weight, target);
-    write_quat(q_ref_, m.qpos_adr[stance_hip], target);
+    target = s.pose.rotations[stance_hip].slerp(p.stance_hip_world_weight, target);
+    write_quat(s.q_ref, m.qpos_adr[stance_hip], target);
   }
   // optional explicit torque T on the pelvis; the stance hip applies -T to its thigh
   Eigen::Vector3d rot_err = quaternion_log((root_des * root.quat.conjugate()).normalized());
   Eigen::Vector3d w = engine.body_velocity(root_body).head<3>();
-  Eigen::Vector3d w_ref = root_des * pose_.angular_velocities[0];
+  Eigen::Vector3d w_ref = root_des * s.pose.angular_velocities[0];
   Eigen::Vector3d torque = p.torso_kp * rot_err + p.torso_kd * (w_ref - w);
-  tau_.segment<3>(m.dof_adr[stance_hip]) -= thigh.conjugate() * torque;
+  s.tau.segment<3>(m.dof_adr[stance_hip]) -= thigh.conjugate() * torque;
 
   // virtual force F at the COM, reacted at each supporting foot (Coros et al. 2010): the
   // torques (J_com - J_foot(com))^T F act on the joints between the foot and every body, and
   // cancel on the root. F carries the weight and holds the root at its reference offset.
   const double weight = engine.total_mass() * engine.gravity().norm();
   Eigen::Vector3d root_d = root.pos - ankle,
-                  root_d_ref = yaw_fix * (pose_.root_position - ankle_ref);
+                  root_d_ref = yaw_fix * (s.pose.root_position - ankle_ref);
   Eigen::Vector3d root_v = engine.body_velocity(root_body).tail<3>();
-  Eigen::Vector3d root_v_ref = yaw_fix * pose_.root_velocity;
+  Eigen::Vector3d root_v_ref = yaw_fix * s.pose.root_velocity;
   Eigen::Vector3d e = root_d_ref - root_d, ev = root_v_ref - root_v;
   Eigen::Vector3d force = -p.gravity_compensation * engine.total_mass() * engine.gravity();
   force.x() += p.root_force_kp * e.x() + p.root_force_kd * ev.x();
@@ -406,85 +430,81 @@ void MocapTracker::balance(const Engine& engine, double t_target) {
   force.z() += p.root_force_kp_z * e.z() + p.root_force_kd_z * ev.z();
   force.z() = std::clamp(force.z(), 0.0, 2 * weight);  // the feet can only push
   if (force.squaredNorm() == 0) return;
-  engine.com_jacobian(jac_a_);
+  engine.com_jacobian(s.jac_a);
   for (int side = 0; side < 2; ++side)
-    if (stance_share_[side] > 0)
-      add_com_support_torque(engine, m.body[m.foot[side]], stance_share_[side] * force, jac_a_,
-                             jac_b_, tau_);
+    if (s.stance_share[side] > 0)
+      add_com_support_torque(engine, m.body[m.foot[side]], s.stance_share[side] * force, s.jac_a,
+                             s.jac_b, s.tau);
 }
 
-void MocapTracker::compute(const Engine& engine, ControlOutput& out) {
+void MocapTracker::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
   const MocapTrackerModel& m = model_;
   const double dt = engine.timestep();
   const double t = engine.time();
-  engine.get_positions(q_);
-  engine.get_velocities(v_);
-  accumulate_metrics(engine);
+  engine.get_positions(s.q);
+  engine.get_velocities(s.v);
+  accumulate_metrics(s, engine);
   // record the simulated pose at the clip's frame rate
-  if (!m.params.export_bvh.empty() && t + 1e-9 >= next_record_t_) {
-    recorded_.insert(recorded_.end(), q_.data(), q_.data() + q_.size());
-    ++recorded_frames_;
-    next_record_t_ = recorded_frames_ * m.reference->frame_time_s();
+  if (!m.params.export_bvh.empty() && t + 1e-9 >= s.next_record_t) {
+    s.recorded.insert(s.recorded.end(), s.q.data(), s.q.data() + s.q.size());
+    ++s.recorded_frames;
+    s.next_record_t = s.recorded_frames * m.reference->frame_time_s();
   }
   // targets for the end of this step
-  track_state(engine, t + dt);
-  tau_.setZero();
+  track_state(s, t + dt);
+  s.tau.setZero();
   if (m.mode == MocapRootMode::kKinematic) {
-    add_deadbeat_torques(engine, q_, v_, q_ref_, work_, tau_);
+    add_deadbeat_torques(engine, s.q, s.v, s.q_ref, s.work, s.tau);
   } else {
-    if (m.mode == MocapRootMode::kFree && m.params.balance) balance(engine, t + dt);
-    add_stable_pd_torques(engine, q_, v_, q_ref_, v_ref_, m.kp, m.kd, m.params.max_torque,
-                          m.dof_adr[0], m.dof_adr[0] + 6, work_, tau_);
-    if (m.mode == MocapRootMode::kFree) tau_.segment<6>(m.dof_adr[0]).setZero();
+    if (m.mode == MocapRootMode::kFree && m.params.balance) balance(s, engine, t + dt);
+    add_stable_pd_torques(engine, s.q, s.v, s.q_ref, s.v_ref, m.kp, m.kd, m.params.max_torque,
+                          m.dof_adr[0], m.dof_adr[0] + 6, s.work, s.tau);
+    if (m.mode == MocapRootMode::kFree) s.tau.segment<6>(m.dof_adr[0]).setZero();
   }
   // helper: whatever lands on the root dofs
   if (m.mode != MocapRootMode::kFree) {
-    last_helper_force_ = tau_.segment<3>(m.dof_adr[0]);
-    helper_impulse_ += last_helper_force_.norm() * dt;
-    helper_angular_impulse_ += tau_.segment<3>(m.dof_adr[0] + 3).norm() * dt;
+    s.last_helper_force = s.tau.segment<3>(m.dof_adr[0]);
+    s.helper_impulse += s.last_helper_force.norm() * dt;
+    s.helper_angular_impulse += s.tau.segment<3>(m.dof_adr[0] + 3).norm() * dt;
   }
-  out.tau += tau_;
-  ++steps_;
+  out.tau += s.tau;
+  ++s.steps;
 }
 
-void MocapTracker::accumulate_metrics(const Engine& engine) {
+void MocapTracker::accumulate_metrics(State& s, const Engine& engine) const {
   const MocapTrackerModel& m = model_;
   const double t = engine.time();
-  m.reference->sample(t, pose_now_);
+  m.reference->sample(t, s.pose_now);
   const int n = static_cast<int>(m.body.size());
   double sum = 0;
   for (int k = 1; k < n; ++k) {
-    double e = geodesic_angle(read_quat(q_, m.qpos_adr[k]), pose_now_.rotations[k]) * kRadToDeg;
+    double e = geodesic_angle(read_quat(s.q, m.qpos_adr[k]), s.pose_now.rotations[k]) * kRadToDeg;
     sum += e;
-    joint_error_sum_deg_[k] += e;
-    max_error_deg_ = std::max(max_error_deg_, e);
+    s.joint_error_sum_deg[k] += e;
+    s.max_error_deg = std::max(s.max_error_deg, e);
   }
   if (n > 1) {
-    error_sum_deg_ += sum;
-    error_samples_ += n - 1;
-    last_error_deg_ = sum / (n - 1);
+    s.error_sum_deg += sum;
+    s.error_samples += n - 1;
+    s.last_error_deg = sum / (n - 1);
   }
-  Eigen::Vector3d root = q_.segment<3>(m.qpos_adr[0]);
-  last_root_error_ = (root - pose_now_.root_position).norm();
-  root_error_sum_ += last_root_error_;
-  root_error_max_ = std::max(root_error_max_, last_root_error_);
-  m.reference->forward_kinematics(pose_now_, fk_pos_, fk_rot_);
+  Eigen::Vector3d root = s.q.segment<3>(m.qpos_adr[0]);
+  s.last_root_error = (root - s.pose_now.root_position).norm();
+  s.root_error_sum += s.last_root_error;
+  s.root_error_max = std::max(s.root_error_max, s.last_root_error);
+  m.reference->forward_kinematics(s.pose_now, s.fk_pos, s.fk_rot);
   double ee = 0;
   for (size_t i = 0; i < m.end_effectors.size(); ++i) {
     int k = m.end_effectors[i];
     BodyPose b = engine.body_pose(m.body[k]);
     Eigen::Vector3d sim = b.pos + b.quat * m.end_points[i];
-    Eigen::Vector3d want = fk_pos_[k] + fk_rot_[k] * m.end_points[i];
+    Eigen::Vector3d want = s.fk_pos[k] + s.fk_rot[k] * m.end_points[i];
     double e = (sim - want).norm();
     ee += e;
-    ee_error_max_ = std::max(ee_error_max_, e);
+    s.ee_error_max = std::max(s.ee_error_max, e);
   }
-  if (!m.end_effectors.empty()) ee_error_sum_ += ee / m.end_effectors.size();
-  if (fall_time_ < 0 && root.z() < 0.5 * pose_now_.root_position.z()) fall_time_ = t;
-}
-
-double MocapTracker::mean_joint_error_deg() const {
-  return error_samples_ ? error_sum_deg_ / error_samples_ : 0.0;
+  if (!m.end_effectors.empty()) s.ee_error_sum += ee / m.end_effectors.size();
+  if (s.fall_time < 0 && root.z() < 0.5 * s.pose_now.root_position.z()) s.fall_time = t;
 }
 
 void MocapTracker::signal_names(std::vector<std::string>& names) const {
@@ -494,24 +514,24 @@ void MocapTracker::signal_names(std::vector<std::string>& names) const {
     names.emplace_back(s);
 }
 
-void MocapTracker::signals(std::vector<double>& values) const {
-  values.push_back(last_error_deg_);
-  values.push_back(last_root_error_);
-  for (int i = 0; i < 3; ++i) values.push_back(last_helper_force_[i]);
-  values.push_back(stance_);
-  for (int i = 0; i < 3; ++i) values.push_back(pose_now_.root_position[i]);
+void MocapTracker::state_signals(const State& s, std::vector<double>& values) const {
+  values.push_back(s.last_error_deg);
+  values.push_back(s.last_root_error);
+  for (int i = 0; i < 3; ++i) values.push_back(s.last_helper_force[i]);
+  values.push_back(s.stance);
+  for (int i = 0; i < 3; ++i) values.push_back(s.pose_now.root_position[i]);
 }
 
-void MocapTracker::add_metrics(nlohmann::json& metrics) const {
-  const double steps = std::max<long>(steps_, 1);
+void MocapTracker::state_metrics(const State& s, nlohmann::json& metrics) const {
+  const double steps = std::max<long>(s.steps, 1);
   nlohmann::json j;
   j["mode"] = model_.params.mode;
-  j["mean_joint_error_deg"] = mean_joint_error_deg();
-  j["max_joint_error_deg"] = max_error_deg_;
-  j["mean_root_error_m"] = root_error_sum_ / steps;
-  j["max_root_error_m"] = root_error_max_;
-  j["mean_end_effector_error_m"] = ee_error_sum_ / steps;
-  j["max_end_effector_error_m"] = ee_error_max_;
+  j["mean_joint_error_deg"] = s.mean_joint_error_deg();
+  j["max_joint_error_deg"] = s.max_error_deg;
+  j["mean_root_error_m"] = s.root_error_sum / steps;
+  j["max_root_error_m"] = s.root_error_max;
+  j["mean_end_effector_error_m"] = s.ee_error_sum / steps;
+  j["max_end_effector_error_m"] = s.ee_error_max;
   nlohmann::json names = nlohmann::json::array();
   for (int k : model_.end_effectors) names.push_back(model_.reference->skeleton().segments[k].name);
   j["end_effectors"] = names;
@@ -519,11 +539,11 @@ void MocapTracker::add_metrics(nlohmann::json& metrics) const {
   nlohmann::json per_joint = nlohmann::json::object();
   const MotionSkeleton& sk = model_.reference->skeleton();
   for (int k = 1; k < sk.segment_count(); ++k)
-    per_joint[sk.segments[k].name] = joint_error_sum_deg_[k] / steps;
+    per_joint[sk.segments[k].name] = s.joint_error_sum_deg[k] / steps;
   j["joint_error_deg"] = per_joint;
-  j["helper_impulse_Ns"] = helper_impulse_;
-  j["helper_angular_impulse_Nms"] = helper_angular_impulse_;
-  j["root_fall_time_s"] = fall_time_ >= 0 ? nlohmann::json(fall_time_) : nlohmann::json(nullptr);
+  j["helper_impulse_Ns"] = s.helper_impulse;
+  j["helper_angular_impulse_Nms"] = s.helper_angular_impulse;
+  j["root_fall_time_s"] = s.fall_time >= 0 ? nlohmann::json(s.fall_time) : nlohmann::json(nullptr);
   j["clip_frames"] = model_.reference->frame_count();
   j["clip_duration_s"] = model_.reference->duration_s();
   metrics["mocap"] = j;
@@ -579,14 +599,14 @@ void write_exported_bvh(const BvhClip& clip, const std::string& export_path,
   write_bvh(clip, path.string());
 }
 
-BvhClip MocapTracker::recorded_clip() const {
+BvhClip MocapTracker::recorded_clip(const State& s) const {
   const MocapTrackerModel& m = model_;
   const int n = m.reference->skeleton().segment_count();
-  const int nq = q_.size();
-  std::vector<Eigen::Quaterniond> locals(static_cast<size_t>(recorded_frames_) * n);
-  std::vector<Eigen::Vector3d> roots(recorded_frames_);
-  for (int f = 0; f < recorded_frames_; ++f) {
-    Eigen::Map<const Eigen::VectorXd> qf(recorded_.data() + static_cast<size_t>(f) * nq, nq);
+  const int nq = s.q.size();
+  std::vector<Eigen::Quaterniond> locals(static_cast<size_t>(s.recorded_frames) * n);
+  std::vector<Eigen::Vector3d> roots(s.recorded_frames);
+  for (int f = 0; f < s.recorded_frames; ++f) {
+    Eigen::Map<const Eigen::VectorXd> qf(s.recorded.data() + static_cast<size_t>(f) * nq, nq);
     for (int k = 0; k < n; ++k)
       locals[static_cast<size_t>(f) * n + k] = read_quat(qf, m.qpos_adr[k]);
     roots[f] = qf.segment<3>(m.qpos_adr[0]);
@@ -594,12 +614,13 @@ BvhClip MocapTracker::recorded_clip() const {
   return clip_from_segment_poses({m.clip, m.reference, m.first_frame}, locals, roots);
 }
 
-void MocapTracker::write_outputs(const std::string& out_dir) const {
-  if (model_.params.export_bvh.empty() || recorded_frames_ == 0) return;
-  write_exported_bvh(recorded_clip(), model_.params.export_bvh, out_dir);
+void MocapTracker::state_outputs(const State& s, const std::string& out_dir) const {
+  if (model_.params.export_bvh.empty() || s.recorded_frames == 0) return;
+  write_exported_bvh(recorded_clip(s), model_.params.export_bvh, out_dir);
 }
 
-bool MocapTracker::reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const {
+bool MocapTracker::state_reference_qpos(const State&, const Engine& engine,
+                                        Eigen::VectorXd& qpos) const {
   const MocapTrackerModel& m = model_;
   ReferencePose pose = m.reference->make_pose();
   m.reference->sample(engine.time(), pose);

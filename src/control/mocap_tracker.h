@@ -32,7 +32,6 @@
 #include <vector>
 
 #include "control/controller.h"
-#include "control/legacy_controller.h"
 #include "control/pose_tracking.h"
 #include "engine/engine.h"
 #include "motion/bvh.h"
@@ -144,6 +143,14 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
 // writes clip to export_path (relative: to out_dir)
 void write_exported_bvh(const BvhClip& clip, const std::string& export_path,
                         const std::string& out_dir);
+// whether two clip settings read the same clip the same way and export alike (a run's State
+// made under one can go on under the other)
+bool same_mocap_clip(const MocapClipParams& a, const MocapClipParams& b);
+// the folder relative clip and map paths start at: the scenario file's
+std::string mocap_base_dir(const ControllerContext& ctx);
+// the recorded frames a run reserves, at the clip's frame rate: the run's length (at least
+// two minutes, as a viewer runs on), plus a frame
+size_t mocap_record_frames(double duration_s, double frame_time_s);
 
 struct MocapTrackerParams : MocapClipParams, MocapHelperParams, MocapBalanceParams {
   std::string mode = "assisted";  // kinematic, assisted or free
@@ -218,62 +225,85 @@ struct MocapTrackerModel {
   Eigen::Vector3d forward_in_root = Eigen::Vector3d::UnitX();  // walking direction, root frame
 };
 
-class MocapTracker final : public LegacyController {
- public:
-  // base_dir resolves a relative params.bvh
-  MocapTracker(const MocapTrackerParams& params, const Engine& engine,
-               const std::string& base_dir = "");
-  std::string_view type() const override { return "mocap_tracker"; }
-  void reset(const Engine& engine) override;
-  void compute(const Engine& engine, ControlOutput& out) override;
-  void signal_names(std::vector<std::string>& names) const override;
-  void signals(std::vector<double>& values) const override;
-  void add_metrics(nlohmann::json& metrics) const override;
-  void write_outputs(const std::string& out_dir) const override;
-  YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+// one run's tracking state: the reference samples, work vectors, the recorded frames (with
+// export_bvh), the stance side and the accumulated errors and helper impulses
+struct MocapTrackerState {
+  ReferencePose pose, pose_now;  // the targets' sample (t + dt) and the metrics' (t)
+  std::vector<Eigen::Vector3d> fk_pos;
+  std::vector<Eigen::Quaterniond> fk_rot;
+  Eigen::VectorXd q, v, q_ref, v_ref, tau;
+  Eigen::MatrixXd jac_a, jac_b;  // jacobians: 3 x nv
+  PoseTrackingWork work;
+  std::vector<double> recorded;  // recorded frames of q, nq each
+  int recorded_frames = 0;
+  double next_record_t = 0;
+  int stance = 0;                               // 0 left, 1 right
+  std::array<double, 2> stance_share = {1, 0};  // weight share per foot (contacts)
+  std::vector<double> joint_error_sum_deg;      // per segment
+  double error_sum_deg = 0, max_error_deg = 0;
+  long error_samples = 0;
+  double root_error_sum = 0, root_error_max = 0, ee_error_sum = 0, ee_error_max = 0;
+  long steps = 0;
+  double helper_impulse = 0, helper_angular_impulse = 0;
+  double fall_time = -1;
+  double last_error_deg = 0, last_root_error = 0;
+  Eigen::Vector3d last_helper_force = Eigen::Vector3d::Zero();
 
-  const MocapTrackerModel& model() const { return model_; }
-  // the simulated motion so far as a clip on the reference's skeleton (file units, Y-up as read)
-  BvhClip recorded_clip() const;
-  double mean_joint_error_deg() const;
-  double max_joint_error_deg() const { return max_error_deg_; }
-  double helper_impulse_ns() const { return helper_impulse_; }
-  // the reference sample at the engine's time: root and segment rotations (the viewer's ghost)
-  bool reference_qpos(const Engine& engine, Eigen::VectorXd& qpos) const override;
+  double mean_joint_error_deg() const {
+    return error_samples ? error_sum_deg / error_samples : 0.0;
+  }
+  double max_joint_error_deg() const { return max_error_deg; }
+  double helper_impulse_ns() const { return helper_impulse; }
 
- private:
-  void track_state(const Engine& engine, double t);
-  void balance(const Engine& engine, double t_target);
-  void accumulate_metrics(const Engine& engine);
-
-  MocapTrackerModel model_;
-  // per-run state
-  ReferencePose pose_, pose_now_;
-  std::vector<Eigen::Vector3d> fk_pos_;
-  std::vector<Eigen::Quaterniond> fk_rot_;
-  Eigen::VectorXd q_, v_, q_ref_, v_ref_, tau_;
-  Eigen::MatrixXd jac_a_, jac_b_;  // jacobians: 3 x nv
-  PoseTrackingWork work_;
-  std::vector<double> recorded_;  // recorded frames of q, nq each
-  int recorded_frames_ = 0;
-  double next_record_t_ = 0;
-  int stance_ = 0;                           // 0 left, 1 right
-  double stance_share_[2] = {1, 0};          // weight share per foot (contacts)
-  std::vector<double> joint_error_sum_deg_;  // per segment
-  double error_sum_deg_ = 0, max_error_deg_ = 0;
-  long error_samples_ = 0;
-  double root_error_sum_ = 0, root_error_max_ = 0, ee_error_sum_ = 0, ee_error_max_ = 0;
-  long steps_ = 0;
-  double helper_impulse_ = 0, helper_angular_impulse_ = 0;
-  double fall_time_ = -1;
-  double last_error_deg_ = 0, last_root_error_ = 0;
-  Eigen::Vector3d last_helper_force_ = Eigen::Vector3d::Zero();
+  template <class A>
+  void serialize(A& a) {
+    for (ReferencePose* p : {&pose, &pose_now})
+      a(p->root_position), a(p->root_velocity), a(p->rotations), a(p->angular_velocities);
+    a(fk_pos), a(fk_rot), a(q), a(v), a(q_ref), a(v_ref), a(tau), a(jac_a), a(jac_b);
+    a(recorded), a(recorded_frames), a(next_record_t), a(stance), a(stance_share);
+    a(joint_error_sum_deg), a(error_sum_deg), a(max_error_deg), a(error_samples);
+    a(root_error_sum), a(root_error_max), a(ee_error_sum), a(ee_error_max), a(steps);
+    a(helper_impulse), a(helper_angular_impulse), a(fall_time), a(last_error_deg),
+        a(last_root_error), a(last_helper_force);
+  }
 };
 
-// the registry's factory: relative bvh paths start at the scenario file's folder
-std::shared_ptr<const Controller> make_mocap_tracker(const YAML::Node& node,
-                                                     const ControllerContext& ctx,
-                                                     const Engine& engine);
+class MocapTracker final : public TypedController<MocapTrackerState> {
+ public:
+  // a relative params.bvh starts at the folder of ctx.source.file; ctx.duration_s sizes the
+  // recording
+  MocapTracker(const MocapTrackerParams& params, const ControllerContext& ctx,
+               const Engine& engine);
+  std::string_view type() const override { return "mocap_tracker"; }
+  void signal_names(std::vector<std::string>& names) const override;
+  YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+  // a State goes on under other gains, not under another clip (its sizes) or mode
+  bool keeps_state_of(const Controller& previous) const override;
+
+  const MocapTrackerModel& model() const { return model_; }
+  // the simulated motion of a run so far as a clip on the reference's skeleton (file units,
+  // Y-up as read)
+  BvhClip recorded_clip(const State& state) const;
+
+ protected:
+  void reset_state(State& s, const Engine& engine) const override;
+  void compute_step(State& s, const Engine& engine, ControlOutput& out) const override;
+  void state_signals(const State& s, std::vector<double>& values) const override;
+  void state_metrics(const State& s, nlohmann::json& metrics) const override;
+  // export_bvh: the recorded motion
+  void state_outputs(const State& s, const std::string& out_dir) const override;
+  // the reference sample at the engine's time: root and segment rotations (the viewer's ghost)
+  bool state_reference_qpos(const State& s, const Engine& engine,
+                            Eigen::VectorXd& qpos) const override;
+
+ private:
+  void track_state(State& s, double t) const;
+  void balance(State& s, const Engine& engine, double t_target) const;
+  void accumulate_metrics(State& s, const Engine& engine) const;
+
+  const MocapTrackerModel model_;
+  const double duration_s_;  // the run's length, 0: unknown
+};
 
 // the joint torques that push the whole-body COM with a virtual force F (N, world) while the
 // support body pushes back with -F at the same point (Coros et al. 2010):

@@ -25,14 +25,6 @@ ControllerFactory factory_of() {
         std::make_shared<const C>(read_params<P>(node, ctx), ctx, engine));
   };
 }
-// transitional: a one-object controller behind LegacyModel
-template <class C, class P>
-ControllerFactory legacy_factory_of() {
-  return [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-    return std::shared_ptr<const Controller>(
-        std::make_shared<const LegacyModel<C>>(C(read_params<P>(node, ctx), engine)));
-  };
-}
 }  // namespace
 
 const std::vector<ControllerType>& controller_registry() {
@@ -54,9 +46,9 @@ const std::vector<ControllerType>& controller_registry() {
       {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
        factory_of<Lqr, LqrParams>()},
       {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root",
-       make_mocap_tracker},
+       factory_of<MocapTracker, MocapTrackerParams>()},
       {"mocap_retarget", "BVH tracking on any model through a YAML joint map (retargeting)",
-       make_mocap_retarget_tracker},
+       factory_of<MocapRetargetTracker, MocapRetargetParams>()},
       {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
        factory_of<ControlNoise, ControlNoiseParams>()},
   };

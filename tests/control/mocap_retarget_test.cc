@@ -8,11 +8,11 @@
 #include <filesystem>
 #include <numbers>
 
+#include "control/retarget.h"
 #include "core/error.h"
 #include "engine/world_spec.h"
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
-#include "control/retarget.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
@@ -246,25 +246,27 @@ TEST(MocapRetarget, ExportMapsTheMotionBackOntoTheClip) {
   p.mode = "kinematic";
   p.export_bvh = "unused";
   auto engine = engine_of("mujoco", own.xml);
-  auto probe = engine_of("mujoco", own.xml);
-  MocapRetargetTracker tracker(p, *engine, *probe, 1.0);
+  ControllerContext ctx;
+  ctx.duration_s = 1.0;
+  ctx.scratch_engine = [&] { return engine_of("mujoco", own.xml); };
+  MocapRetargetTracker tracker(p, ctx, *engine);
   Eigen::VectorXd q0, v0;
   ASSERT_TRUE(tracker.initial_state(*engine, q0, v0));
   engine->set_positions(q0);
   engine->set_velocities(v0);
   engine->forward();
-  tracker.reset(*engine);
+  std::unique_ptr<ControllerState> state = tracker.make_state(*engine);
   ControlOutput out;
   out.resize(engine->nv(), engine->nu());
   for (int k = 0; k < 500; ++k) {  // 1 s
     engine->forward();
     out.clear();
-    tracker.compute(*engine, out);
+    tracker.compute(*state, *engine, out);
     engine->set_generalized_forces(out.tau);
     engine->step();
   }
   const std::string file = test::write_temp_file("retarget_exported.bvh", "");
-  write_bvh(tracker.recorded_clip(), file);
+  write_bvh(tracker.recorded_clip(MocapRetargetTracker::cast(*state)), file);
   BvhClip back = read_bvh(file);
   const BvhClip& src = own.clip;
   ASSERT_EQ(back.joints.size(), src.joints.size());
@@ -280,7 +282,7 @@ TEST(MocapRetarget, ExportMapsTheMotionBackOntoTheClip) {
   // the export adds nothing to the tracking error (feet deflected by contacts, which the
   // kinematic mode does not feed back): its worst joint is the tracker's own worst
   nlohmann::json metrics;
-  tracker.add_metrics(metrics);
+  tracker.add_metrics(*state, metrics);
   const double tracked = metrics["mocap"]["max_joint_error_deg"].get<double>();
   EXPECT_LT(worst * 180 / std::numbers::pi, tracked + 1e-6);
   EXPECT_LT(tracked, 3.0);

@@ -51,26 +51,28 @@ std::unique_ptr<Engine> start_engine(const std::string& xml) {
 struct Outcome {
   double mean_deg = 0, max_deg = 0, helper = 0, fall_time = -1, root_err = 0;
   nlohmann::json metrics;
+  std::unique_ptr<ControllerState> state;  // the run's, at its end
 };
 
-Outcome track(MocapTracker& tracker, Engine& engine, double seconds) {
-  tracker.reset(engine);
+Outcome track(const MocapTracker& tracker, Engine& engine, double seconds) {
+  Outcome o;
+  o.state = tracker.make_state(engine);
   ControlOutput out;
   out.resize(engine.nv(), engine.nu());
   const long steps = std::lround(seconds / engine.timestep());
   for (long k = 0; k < steps; ++k) {
     engine.forward();
     out.clear();
-    tracker.compute(engine, out);
+    tracker.compute(*o.state, engine, out);
     engine.set_generalized_forces(out.tau);
     engine.step();
     if (!engine.state_is_finite()) break;
   }
-  Outcome o;
-  tracker.add_metrics(o.metrics);
-  o.mean_deg = tracker.mean_joint_error_deg();
-  o.max_deg = tracker.max_joint_error_deg();
-  o.helper = tracker.helper_impulse_ns();
+  tracker.add_metrics(*o.state, o.metrics);
+  const MocapTracker::State& s = MocapTracker::cast(*o.state);
+  o.mean_deg = s.mean_joint_error_deg();
+  o.max_deg = s.max_joint_error_deg();
+  o.helper = s.helper_impulse_ns();
   const auto& m = o.metrics["mocap"];
   if (!m["root_fall_time_s"].is_null()) o.fall_time = m["root_fall_time_s"];
   o.root_err = m["mean_root_error_m"];
@@ -83,7 +85,7 @@ TEST(MocapTracker, KinematicFollowsTheReference) {
   MocapTrackerParams p;
   p.bvh = s.bvh;
   p.mode = "kinematic";
-  MocapTracker tracker(p, *engine);
+  MocapTracker tracker(p, {}, *engine);
   Outcome o = track(tracker, *engine, 2.5);  // more than two loops
   EXPECT_LT(o.mean_deg, 0.5);
   EXPECT_LT(o.root_err, 0.01);
@@ -96,7 +98,7 @@ TEST(MocapTracker, AssistedTracksWithAMeasuredHelper) {
   MocapTrackerParams p;
   p.bvh = s.bvh;
   p.mode = "assisted";
-  MocapTracker tracker(p, *engine);
+  MocapTracker tracker(p, {}, *engine);
   Outcome o = track(tracker, *engine, 2.5);
   EXPECT_LT(o.mean_deg, 5.0);
   EXPECT_GT(o.helper, 0.0);
@@ -105,7 +107,7 @@ TEST(MocapTracker, AssistedTracksWithAMeasuredHelper) {
   p.mode = "free";
   p.balance = false;
   auto engine2 = start_engine(s.xml);
-  MocapTracker loose(p, *engine2);
+  MocapTracker loose(p, {}, *engine2);
   Outcome f = track(loose, *engine2, 2.5);
   EXPECT_EQ(f.helper, 0.0);
   EXPECT_GT(f.root_err, o.root_err);
@@ -119,11 +121,11 @@ TEST(MocapTracker, ExportedMotionReadsBack) {
   p.bvh = s.bvh;
   p.mode = "kinematic";
   p.export_bvh = "tracked.bvh";
-  MocapTracker tracker(p, *engine);
-  track(tracker, *engine, 1.0);
+  MocapTracker tracker(p, {}, *engine);
+  Outcome o = track(tracker, *engine, 1.0);
   std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" / "export").string();
   std::filesystem::create_directories(dir);
-  tracker.write_outputs(dir);
+  tracker.write_outputs(*o.state, dir);
   BvhClip back = read_bvh(dir + "/tracked.bvh");
   EXPECT_EQ(back.joint_count(), clip.joint_count());
   EXPECT_NEAR(back.frame_time_s, clip.frame_time_s, 1e-9);
@@ -143,20 +145,20 @@ TEST(MocapTracker, RejectsBadInput) {
   ClipFiles s = make_files(make_synthetic_walk_clip(), "track_bad");
   auto engine = start_engine(s.xml);
   MocapTrackerParams p;
-  EXPECT_THROW(MocapTracker(p, *engine), InputError);  // no clip
+  EXPECT_THROW(MocapTracker(p, {}, *engine), InputError);  // no clip
   p.bvh = s.bvh;
   p.mode = "hover";
-  EXPECT_THROW(MocapTracker(p, *engine), InputError);
+  EXPECT_THROW(MocapTracker(p, {}, *engine), InputError);
   p.mode = "assisted";
   p.kp_joints["NoSuchJoint"] = 10;
-  EXPECT_THROW(MocapTracker(p, *engine), InputError);
+  EXPECT_THROW(MocapTracker(p, {}, *engine), InputError);
   // a model that is not the clip's character
   WorldSpec spec;
   spec.models.push_back({test::write_temp_file("chain.xml", test::kFloatingChainMjcf)});
   auto other = make_mujoco_engine(spec);
   MocapTrackerParams q;
   q.bvh = s.bvh;
-  EXPECT_THROW(MocapTracker(q, *other), InputError);
+  EXPECT_THROW(MocapTracker(q, {}, *other), InputError);
 }
 
 // the Coros virtual force: a force at the COM reacted at a foot is internal (no root share) and
@@ -191,7 +193,7 @@ TEST(MocapTracker, GravityCompensationReducesSag) {
     p.bvh = s.bvh;
     p.mode = "free";
     p.gravity_compensation = with;
-    MocapTracker tracker(p, *engine);
+    MocapTracker tracker(p, {}, *engine);
     o[with] = track(tracker, *engine, 0.5);
     EXPECT_LT(o[with].fall_time, 0);
   }
@@ -214,7 +216,7 @@ TEST(MocapTracker, MassWalkTenSeconds) {
     p.bvh = path;
     p.mode = mode;
     if (kinematic) p.ground = "clip";
-    MocapTracker tracker(p, *engine);
+    MocapTracker tracker(p, {}, *engine);
     Outcome o = track(tracker, *engine, 10.0);
     std::cout << mode << ": " << o.metrics.dump() << "\n";
     EXPECT_LT(o.mean_deg, std::string(mode) == "kinematic" ? 0.5 : 5.0);

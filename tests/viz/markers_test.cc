@@ -71,11 +71,11 @@ TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
 TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
   Simulation run(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), quiet());
   Engine& e = run.engine();
-  auto* tracker = &run.state_as<MocapTracker>(0);
+  const auto* tracker = dynamic_cast<const MocapTracker*>(run.controllers().at(0).get());
   ASSERT_NE(tracker, nullptr);
   while (e.time() < 0.7) ASSERT_TRUE(run.step());
   Eigen::VectorXd q;
-  ASSERT_TRUE(tracker->reference_qpos(e, q));
+  ASSERT_TRUE(tracker->reference_qpos(run.controller_state(0), e, q));
   ASSERT_EQ(q.size(), e.nq());
   const MocapTrackerModel& m = tracker->model();
   ReferencePose pose = m.reference->make_pose();
@@ -90,7 +90,7 @@ TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
   // the reference moves on with time: a later sample is another pose
   while (e.time() < 1.0) ASSERT_TRUE(run.step());
   Eigen::VectorXd later;
-  tracker->reference_qpos(e, later);
+  tracker->reference_qpos(run.controller_state(0), e, later);
   EXPECT_GT((later - q).norm(), 1e-3);
   // controllers that track no pose give none
   Simulation stand(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), quiet());
