@@ -56,9 +56,12 @@ Snapshot snapshot(const Simulation& run) {
 // does not hold, so a restored run drifts from the one that went on.)
 void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t2,
                                bool original = true) {
-  const std::string file = (fs::temp_directory_path() / ("stance_state_" + loaded.scenario.name +
-                                                         std::to_string(loaded.controllers.size())))
-                               .string();
+  // one file per test: tests on the same scenario run in parallel under ctest -j
+  const std::string file =
+      (fs::temp_directory_path() /
+       ("stance_state_" +
+        std::string(::testing::UnitTest::GetInstance()->current_test_info()->name())))
+          .string();
   Simulation run(loaded, quiet());
   step_to(run, t1);
   SimulationState saved;
