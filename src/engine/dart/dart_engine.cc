@@ -422,6 +422,7 @@ class DartEngine final : public Engine {
     check_size(q.size(), ndof_, "set_positions");
     for (const SkeletonBlock& b : blocks_) b.skeleton->setPositions(q.segment(b.dof_start, b.ndof));
     positions_set_since_step_ = true;
+    positions_usable_ = -1;
   }
   void set_velocities(const Eigen::Ref<const Eigen::VectorXd>& v) override {
     check_size(v.size(), ndof_, "set_velocities");
@@ -441,6 +442,7 @@ class DartEngine final : public Engine {
     const SkeletonBlock& b = block_of(dof);
     b.skeleton->setPosition(dof - b.dof_start, value);
     positions_set_since_step_ = true;
+    positions_usable_ = -1;
   }
 
   void difference_positions(const Eigen::Ref<const Eigen::VectorXd>& q0,
@@ -561,10 +563,13 @@ class DartEngine final : public Engine {
         dof->setSpringStiffness(0.0);
       }
       const Eigen::VectorXd& bias = skel.getCoriolisAndGravityForces();
-      const Eigen::VectorXd& external = skel.getExternalForces();
+      // DART aggregates the external forces body by body (14 k instructions on fullbody1): only
+      // when a force was applied since the last step; otherwise they are zero
+      const Eigen::VectorXd* external =
+          external_forces_since_step_ ? &skel.getExternalForces() : nullptr;
       for (int i = 0; i < b.ndof; ++i) {
         dart::dynamics::DegreeOfFreedom* dof = skel.getDof(i);
-        dof->setForce(x[b.dof_start + i] + bias[i] - external[i] +
+        dof->setForce(x[b.dof_start + i] + bias[i] - (external ? (*external)[i] : 0.0) +
                       d[b.dof_start + i] / h * dof->getVelocity());
       }
       mark_articulated_inertia_stale(skel);
@@ -665,11 +670,20 @@ class DartEngine final : public Engine {
     const SkeletonBlock& b = blocks_[body_block_[body]];
     if (jac_pos.cols() > 0) jac_pos.setZero();
     if (jac_rot.cols() > 0) jac_rot.setZero();
-    const Eigen::Vector3d offset = bn->getWorldTransform().inverse() * point_world;
-    // rows are (angular; linear); columns are the skeleton's own dofs
-    const dart::math::Jacobian j = b.skeleton->getWorldJacobian(bn, offset);
-    if (jac_pos.cols() > 0) jac_pos.middleCols(b.dof_start, b.ndof) = j.bottomRows<3>();
-    if (jac_rot.cols() > 0) jac_rot.middleCols(b.dof_start, b.ndof) = j.topRows<3>();
+    // Skeleton::getWorldJacobian(body, offset) without its two by-value copies: the body's
+    // cached world Jacobian (rows angular; linear) over the dofs it depends on, the linear
+    // rows moved to the point by omega x (R offset), as DART does
+    const Eigen::Isometry3d& t = bn->getWorldTransform();
+    const Eigen::Vector3d offset = t.inverse() * point_world;
+    const Eigen::Vector3d r = t.linear() * offset;
+    const dart::math::Jacobian& j = bn->getWorldJacobian();
+    const std::vector<std::size_t>& deps = bn->getDependentGenCoordIndices();
+    for (std::size_t k = 0; k < deps.size(); ++k) {
+      const Eigen::Index col = b.dof_start + static_cast<Eigen::Index>(deps[k]);
+      const Eigen::Vector3d w = j.col(k).head<3>();
+      if (jac_rot.cols() > 0) jac_rot.col(col) = w;
+      if (jac_pos.cols() > 0) jac_pos.col(col) = j.col(k).tail<3>() + w.cross(r);
+    }
   }
   void com_jacobian(Eigen::Ref<Eigen::MatrixXd> jac) const override {
     jac.setZero();
@@ -718,7 +732,9 @@ class DartEngine final : public Engine {
 
   void set_generalized_forces(const Eigen::Ref<const Eigen::VectorXd>& tau) override {
     check_size(tau.size(), ndof_, "set_generalized_forces");
-    for (const SkeletonBlock& b : blocks_) b.skeleton->setForces(tau.segment(b.dof_start, b.ndof));
+    // per dof: setForces takes a VectorXd, so a segment would be copied into a fresh one
+    for (const SkeletonBlock& b : blocks_)
+      for (int i = 0; i < b.ndof; ++i) b.skeleton->setForce(i, tau[b.dof_start + i]);
   }
   void set_controls(const Eigen::Ref<const Eigen::VectorXd>& ctrl) override {
     check_size(ctrl.size(), 0, "set_controls (DART models have no actuators)");
@@ -733,9 +749,12 @@ class DartEngine final : public Engine {
                             const Eigen::Vector3d& point_world) override {
     // force and point both in world coordinates; DART clears it after the step
     bodies_.at(body)->addExtForce(force_world, point_world, false, false);
+    external_forces_since_step_ = true;
   }
   void set_dof_velocity_command(int dof, double velocity) override {
     Joint* j = block_of(dof).skeleton->getDof(dof - block_of(dof).dof_start)->getJoint();
+    // a multi-dof joint can never have been commanded, so releasing it (NaN) has nothing to do
+    if (j->getNumDofs() != 1 && std::isnan(velocity)) return;
     if (j->getNumDofs() != 1)
       throw std::invalid_argument("velocity command on dof '" + dof_names_[dof] +
                                   "': DART actuates whole joints; only 1-dof joints supported");
@@ -777,13 +796,16 @@ class DartEngine final : public Engine {
     world_->step();
     use_forward_contacts_ = false;
     positions_set_since_step_ = false;
+    positions_usable_ = -1;
+    external_forces_since_step_ = false;
   }
 
   bool state_is_finite() const override {
     if (!positions_usable()) return false;
-    for (const SkeletonBlock& b : blocks_) {
-      if (!b.skeleton->getVelocities().allFinite()) return false;
-    }
+    // dof by dof: getVelocities() returns a fresh vector
+    for (const SkeletonBlock& b : blocks_)
+      for (int i = 0; i < b.ndof; ++i)
+        if (!std::isfinite(b.skeleton->getVelocity(i))) return false;
     return true;
   }
   std::string last_warning() const override { return load_warnings_; }
@@ -796,6 +818,9 @@ class DartEngine final : public Engine {
   // true when DART can build transforms from the positions: finite, and a rotation vector's
   // norm that does not overflow (exp of an infinite angle gives NaN, which DART asserts on)
   bool positions_usable() const {
+    // once per change of the positions: every pose and COM query asks, and reading each dof
+    // from its joint object misses the cache after a step (about 4 us a pass on fullbody1)
+    if (positions_usable_ >= 0) return positions_usable_ == 1;
     // dof by dof: getPositions() would allocate in the controllers' hot loop
     double sum = 0;
     for (const SkeletonBlock& b : blocks_) {
@@ -804,7 +829,8 @@ class DartEngine final : public Engine {
         sum += q * q;
       }
     }
-    return std::isfinite(sum);
+    positions_usable_ = std::isfinite(sum) ? 1 : 0;
+    return positions_usable_ == 1;
   }
 
   // true when `body` is `root` or hangs below it
@@ -1042,6 +1068,10 @@ class DartEngine final : public Engine {
   dart::collision::CollisionResult forward_contacts_;
   bool use_forward_contacts_ = false;
   bool positions_set_since_step_ = true;
+  // positions_usable() of the current positions: -1 not known yet, else 0 or 1
+  mutable int positions_usable_ = -1;
+  // an external force was added since the last step (DART clears them in the step)
+  bool external_forces_since_step_ = false;
 };
 
 }  // namespace
