@@ -10,6 +10,7 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libglfw3-dev libimgui-dev libgl-dev libegl-dev libosmesa6-dev
   gnuplot-nox ffmpeg xvfb xauth
+  python3-dartpy
   libslicot-dev libtinyxml2-dev
 )
 
