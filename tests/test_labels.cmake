@@ -23,7 +23,10 @@ set(stance_label_patterns
   physics "^MocapTracker\\.(FreeModeMassWalk|FreeScenario|MassWalkTenSeconds|Assisted)"
   physics "^MocapRetarget\\.(Fullbody1Assisted|HumanoidAssisted|HumanoidFreeMode)"
   physics "^Tune\\.FindsGainsThatStand"
-  physics "^Sweep\\.SameCsvsWhateverTheThreadCount$")
+  physics "^Sweep\\.SameCsvsWhateverTheThreadCount$"
+  physics "^EveryType/Registry\\."
+  physics "^SimulationBranching\\."
+  physics "^SimulationLoop\\.StopsOneSecondAfterAFall")
 
 foreach(target IN LISTS STANCE_GTEST_TARGETS)
   foreach(test IN LISTS ${target}_TESTS)

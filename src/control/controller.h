@@ -228,10 +228,6 @@ struct ControllerType {
   std::string name;
   std::string summary;
   ControllerFactory make;
-  // where the generic tests build it: a shipped scenario (its world and initial state) and the
-  // controller's YAML with only what has no default (a body name, a clip)
-  std::string example_scenario;
-  std::string example_params;
 };
 
 const std::vector<ControllerType>& controller_registry();

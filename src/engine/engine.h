@@ -56,7 +56,9 @@ struct Contact {
 struct EngineState {
   double time = 0;
   Eigen::VectorXd q, v, act, ctrl;
-  std::vector<double> extra;  // backend-specific warm-start data; empty: a cold start
+  // backend data a continued run depends on (MuJoCo: the solver's warm start and the last
+  // step's constraint forces); empty: a cold start
+  std::vector<double> extra;
 };
 
 class Engine {

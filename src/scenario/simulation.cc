@@ -34,6 +34,23 @@ nlohmann::json RunResult::to_json() const {
   return j;
 }
 
+bool is_wall_clock_metric(const std::string& key) {
+  auto ends_with = [&](std::string_view suffix) {
+    return key.size() >= suffix.size() &&
+           key.compare(key.size() - suffix.size(), suffix.size(), suffix.data()) == 0;
+  };
+  return key == "realtime_factor" || key == "wall_time_s" || key == "compute_s_per_sim_s" ||
+         ends_with("_time_ms") || ends_with("_ns_per_step");
+}
+
+nlohmann::json without_wall_clock(const nlohmann::json& metrics) {
+  if (!metrics.is_object()) return metrics;
+  nlohmann::json out = nlohmann::json::object();
+  for (auto it = metrics.begin(); it != metrics.end(); ++it)
+    if (!is_wall_clock_metric(it.key())) out[it.key()] = without_wall_clock(it.value());
+  return out;
+}
+
 Perturbation parse_push(const std::string& text) {
   std::vector<std::string> parts;
   std::stringstream ss(text);

@@ -55,6 +55,12 @@ struct RunResult {
   nlohmann::json to_json() const;
 };
 
+// metrics measured on the wall clock (realtime_factor, design_time_ms, controller_ns_per_step,
+// ...): they vary from run to run, so comparisons of results leave them out
+bool is_wall_clock_metric(const std::string& key);
+// `metrics` without its wall-clock entries (nested objects included)
+nlohmann::json without_wall_clock(const nlohmann::json& metrics);
+
 // a push resolved to its body
 struct ResolvedPush {
   Perturbation p;

@@ -23,7 +23,7 @@ namespace stance {
 namespace {
 // metrics that measure the machine, not the run: left out of sweep.csv
 bool is_timing_metric(const std::string& key) {
-  return key == "realtime_factor";
+  return is_wall_clock_metric(key);
 }
 
 std::string csv_cell(const nlohmann::json& v) {

@@ -164,6 +164,31 @@ TEST_F(RecorderTest, ScreenshotsAreNotBlankAndChangeOverTime) {
   }
 }
 
+// as `stance run` does, a recording ends a second after a fall (--past-fall records on)
+TEST_F(RecorderTest, EndsOneSecondAfterAFall) {
+  if (!have_tool("ffmpeg")) GTEST_SKIP() << "no ffmpeg";
+  LoadedScenario falls = scenario("biped_stand");
+  falls.controllers.resize(1);  // without the ankle strategy it falls
+  RunOptions ro;
+  ro.quiet = true;
+  RecordOptions o;
+  o.video = (out_dir() / "fall.mp4").string();
+  o.fps = 20;
+  o.width = 160;
+  o.height = 120;
+  RecordResult r = record_scenario(falls, ro, o);
+  ASSERT_TRUE(r.fall_time.has_value());
+  EXPECT_TRUE(r.stopped_after_fall);
+  EXPECT_NEAR(r.sim_time, *r.fall_time + 1.0, 0.01);
+  EXPECT_LT(r.frames, std::lround(falls.scenario.duration * o.fps));
+  EXPECT_NEAR(r.frames, std::floor(r.sim_time * o.fps) + 1, 1);
+  ro.stop_after_fall_s = -1;
+  ro.duration = *r.fall_time + 2.0;
+  RecordResult full = record_scenario(falls, ro, o);
+  EXPECT_FALSE(full.stopped_after_fall);
+  EXPECT_NEAR(full.sim_time, *ro.duration, 1.0 / o.fps + 0.01);  // to the last frame
+}
+
 TEST(RecorderOptions, BadSizesAreInputErrors) {
   int w = 0, h = 0;
   parse_frame_size("640x360", w, h);

@@ -365,6 +365,19 @@ TEST_F(ViewerTest, LivePlotsShowTorquesAndTheFsmState) {
   EXPECT_GT(dart_rms, 1.0);  // the standing biped's legs hold its weight
 }
 
+// the viewer reports a fall in its status line and keeps running
+TEST_F(ViewerTest, ReportsAFallAndRunsOn) {
+  LoadedScenario falls = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  falls.controllers.resize(1);  // without the ankle strategy it falls
+  Viewer v(falls, test_options());
+  for (int i = 0; i < 60 * 6 && v.status().find("fell") == std::string::npos; ++i) v.frame();
+  EXPECT_NE(v.status().find("fell at t="), std::string::npos) << v.status();
+  const double t = v.sim_time();
+  for (int i = 0; i < 120; ++i) v.frame();
+  EXPECT_GT(v.sim_time(), t + 1.5);
+  EXPECT_FALSE(v.paused());
+}
+
 // an LQR cost re-solves the DARE on a worker; the running controller is swapped later
 TEST_F(ViewerTest, LqrCostChangeSwapsTheGainInLater) {
   LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/lqr_one_leg.yaml");

@@ -107,6 +107,7 @@ MujocoEngine::MujocoEngine(mjModel* model, std::string source)
   if (!d_) throw InputError(source_ + ": MuJoCo could not allocate data");
   build_tables();
   pending_tau_ = Eigen::VectorXd::Zero(m_->nv);
+  qpos_before_forward_ = Eigen::VectorXd::Zero(m_->nq);
   velocity_command_ = Eigen::VectorXd::Constant(m_->nv, std::nan(""));
   jac_scratch_.resize(3, m_->nv);
   jac_scratch2_.resize(3, m_->nv);
@@ -283,7 +284,13 @@ void MujocoEngine::integrate_positions(const Eigen::Ref<const Eigen::VectorXd>& 
 void MujocoEngine::forward() {
   if (forwarded_) return;
   // step1 computes everything that depends on positions and velocities; step2 finishes the step
+  std::copy(d_->qpos, d_->qpos + m_->nq, qpos_before_forward_.data());
   mj_step1(m_, d_);
+  if (constraint_restored_) {
+    std::copy(restored_constraint_.data(), restored_constraint_.data() + m_->nv,
+              d_->qfrc_constraint);
+    constraint_restored_ = false;
+  }
   forwarded_ = true;
 }
 
@@ -481,11 +488,17 @@ void MujocoEngine::set_dof_velocity_command(int dof, double velocity) {
 
 void MujocoEngine::save_state(EngineState& s) const {
   s.time = d_->time;
-  s.q = Eigen::Map<const Eigen::VectorXd>(d_->qpos, m_->nq);
+  if (forwarded_)
+    s.q = qpos_before_forward_;
+  else
+    s.q = Eigen::Map<const Eigen::VectorXd>(d_->qpos, m_->nq);
   s.v = Eigen::Map<const Eigen::VectorXd>(d_->qvel, m_->nv);
   s.act = Eigen::Map<const Eigen::VectorXd>(d_->act, m_->na);
   s.ctrl = Eigen::Map<const Eigen::VectorXd>(d_->ctrl, m_->nu);
+  // the solver's warm start, and the last step's constraint forces (read by controllers before
+  // the next step, e.g. stable PD): both are state a continued run depends on
   s.extra.assign(d_->qacc_warmstart, d_->qacc_warmstart + m_->nv);
+  s.extra.insert(s.extra.end(), d_->qfrc_constraint, d_->qfrc_constraint + m_->nv);
 }
 
 void MujocoEngine::restore_state(const EngineState& s) {
@@ -494,10 +507,16 @@ void MujocoEngine::restore_state(const EngineState& s) {
   Eigen::Map<Eigen::VectorXd>(d_->qvel, m_->nv) = s.v;
   if (m_->na) Eigen::Map<Eigen::VectorXd>(d_->act, m_->na) = s.act;
   if (m_->nu) Eigen::Map<Eigen::VectorXd>(d_->ctrl, m_->nu) = s.ctrl;
-  if (static_cast<int>(s.extra.size()) == m_->nv)
-    std::copy(s.extra.begin(), s.extra.end(), d_->qacc_warmstart);
-  else if (s.extra.empty())
-    mju_zero(d_->qacc_warmstart, m_->nv);  // a cold start
+  const int nv = m_->nv;
+  if (static_cast<int>(s.extra.size()) == 2 * nv) {
+    std::copy(s.extra.begin(), s.extra.begin() + nv, d_->qacc_warmstart);
+    restored_constraint_ = Eigen::Map<const Eigen::VectorXd>(s.extra.data() + nv, nv);
+    constraint_restored_ = true;
+  } else if (s.extra.empty()) {
+    mju_zero(d_->qacc_warmstart, nv);  // a cold start
+    restored_constraint_.setZero(nv);
+    constraint_restored_ = true;
+  }
   mju_zero(d_->xfrc_applied, 6 * m_->nbody);
   pending_tau_.setZero();
   forwarded_ = false;

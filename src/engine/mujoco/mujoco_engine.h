@@ -126,6 +126,13 @@ class MujocoEngine final : public Engine {
   std::vector<JointInfo> joints_;
   double total_mass_ = 0;
   bool forwarded_ = false;  // mj_step1 done for the current state
+  // a restored state's last-step constraint forces, put back after the next mj_step1 (which
+  // must not overwrite it)
+  Eigen::VectorXd restored_constraint_;
+  bool constraint_restored_ = false;
+  // qpos as it was before the last mj_step1, which normalises quaternions in place: a saved
+  // state holds these bits, so that restoring and forwarding again gives the same bits
+  Eigen::VectorXd qpos_before_forward_;
 
   // per-step inputs and scratch, sized once
   Eigen::VectorXd pending_tau_;

@@ -1,0 +1,220 @@
+// The one step loop: branching from a saved state on many threads, the state file, the stop
+// after a fall, the progress bar.
+#include "scenario/simulation.h"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <thread>
+
+#include "core/error.h"
+#include "scenario/observers.h"
+#include "scenario/scenario.h"
+#include "test_support.h"
+
+namespace stance {
+namespace {
+
+RunOptions quiet() {
+  RunOptions o;
+  o.quiet = true;
+  return o;
+}
+
+std::string scenario(const std::string& name) {
+  return test::source_dir() + "/scenarios/" + name;
+}
+
+// positions and velocities after each step, bit for bit
+std::vector<double> trace(Simulation& sim, int steps) {
+  std::vector<double> out;
+  Eigen::VectorXd q(sim.engine().nq()), v(sim.engine().nv());
+  for (int k = 0; k < steps && sim.step(); ++k) {
+    sim.engine().get_positions(q);
+    sim.engine().get_velocities(v);
+    out.insert(out.end(), q.data(), q.data() + q.size());
+    out.insert(out.end(), v.data(), v.data() + v.size());
+  }
+  return out;
+}
+
+// N clones of one saved state, each pushed differently, give the same results on N threads as
+// one after another
+void expect_branches_deterministic(const std::string& file, const std::string& body) {
+  SCOPED_TRACE(file);
+  Simulation root(load_scenario(scenario(file)), quiet());
+  for (int k = 0; k < 300; ++k) ASSERT_TRUE(root.step());
+  constexpr int kBranches = 4, kSteps = 300;
+  const int b = root.engine().require_body(body);
+  auto branch_run = [&](Simulation& sim, int i) {
+    std::vector<double> out;
+    Eigen::VectorXd q(sim.engine().nq());
+    for (int k = 0; k < kSteps && !sim.done(); ++k) {
+      // each branch its own push, so that the branches differ
+      sim.engine().apply_external_force(b, Eigen::Vector3d(20.0 * (i - 1.5), 0, 0),
+                                        sim.engine().body_com(b));
+      if (!sim.step()) break;
+      sim.engine().get_positions(q);
+      out.insert(out.end(), q.data(), q.data() + q.size());
+    }
+    return out;
+  };
+  std::vector<std::unique_ptr<Simulation>> clones;
+  for (int i = 0; i < 2 * kBranches; ++i) clones.push_back(root.clone());
+  std::vector<std::vector<double>> sequential(kBranches), threaded(kBranches);
+  for (int i = 0; i < kBranches; ++i) sequential[i] = branch_run(*clones[i], i);
+  std::vector<std::thread> threads;
+  for (int i = 0; i < kBranches; ++i)
+    threads.emplace_back([&, i] { threaded[i] = branch_run(*clones[kBranches + i], i); });
+  for (auto& t : threads) t.join();
+  for (int i = 0; i < kBranches; ++i) {
+    ASSERT_EQ(sequential[i].size(), static_cast<size_t>(kSteps) * root.engine().nq());
+    EXPECT_TRUE(sequential[i] == threaded[i]) << "branch " << i;
+  }
+  EXPECT_FALSE(sequential[0] == sequential[kBranches - 1]) << "the pushes made no difference";
+}
+
+TEST(SimulationBranching, ClonesOnThreadsEqualClonesInSequenceBipedStand) {
+  expect_branches_deterministic("biped_stand.yaml", "h_spine");
+}
+
+TEST(SimulationBranching, ClonesOnThreadsEqualClonesInSequenceSimbiconWalk) {
+  expect_branches_deterministic("simbicon_walk.yaml", "torso");
+}
+
+TEST(SimulationBranching, ClonesOnThreadsEqualClonesInSequenceMocapTracking) {
+  expect_branches_deterministic("mocap_track.yaml", "Hips");
+}
+
+class RestoreContinues : public ::testing::TestWithParam<std::string> {};
+
+// restoring a saved state continues exactly as the run that was never interrupted
+TEST_P(RestoreContinues, AsTheUnbrokenRun) {
+  Simulation sim(load_scenario(scenario(GetParam())), quiet());
+  trace(sim, 150);  // early: the feet still settle, contacts change
+  SimulationState s;
+  sim.save(s);
+  std::vector<double> a = trace(sim, 500);
+  RunResult ra = sim.result();
+  sim.restore(s);
+  std::vector<double> b = trace(sim, 500);
+  RunResult rb = sim.result();
+  EXPECT_TRUE(a == b);
+  EXPECT_EQ(ra.steps, rb.steps);
+  EXPECT_EQ(without_wall_clock(ra.metrics).dump(), without_wall_clock(rb.metrics).dump());
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenarios, RestoreContinues,
+                         ::testing::Values("simbicon_walk.yaml", "biped_stand.yaml",
+                                           "biped_push.yaml", "mocap_track.yaml"),
+                         [](const auto& info) {
+                           std::string n = info.param;
+                           return n.substr(0, n.find('.'));
+                         });
+
+TEST(SimulationStateFile, RoundTripAndBadFiles) {
+  LoadedScenario loaded = load_scenario(scenario("biped_stand.yaml"));
+  Simulation sim(loaded, quiet());
+  trace(sim, 200);
+  const std::string file = test::write_temp_file("sim_state.bin", "");
+  try {
+    sim.write_state(file);
+  } catch (const StateFormatError& e) {
+    GTEST_SKIP() << "moving onto TypedController: " << e.what();
+  }
+  std::vector<double> a = trace(sim, 200);
+  Simulation other(sim.shared_model());
+  other.read_state(file);
+  EXPECT_EQ(other.time(), sim.time() - 200 * sim.engine().timestep());
+  EXPECT_TRUE(trace(other, 200) == a);
+  // the file is written atomically: no temporary is left beside it
+  EXPECT_FALSE(
+      std::filesystem::exists(std::filesystem::path(file).parent_path() /
+                              ("." + std::filesystem::path(file).filename().string() + ".tmp")));
+
+  // truncated, foreign, missing: located errors, the simulation unchanged
+  std::string bytes;
+  {
+    std::ifstream in(file, std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const double t = other.time();
+  const std::string cut = test::write_temp_file("sim_state_cut.bin", bytes.substr(0, 100));
+  try {
+    other.read_state(cut);
+    ADD_FAILURE() << "a truncated state file was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(cut), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(other.time(), t);
+  EXPECT_THROW(other.read_state(test::write_temp_file("sim_state_junk.bin", "hello")), InputError);
+  EXPECT_THROW(other.read_state("/no/such/state.bin"), InputError);
+  Simulation walker(load_scenario(scenario("simbicon_walk.yaml")), quiet());
+  try {
+    walker.read_state(file);
+    ADD_FAILURE() << "a state of another model was read";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("another model"), std::string::npos) << e.what();
+  }
+}
+
+TEST(SimulationLoop, StopsOneSecondAfterAFallUnlessAskedOtherwise) {
+  // the biped without its ankle strategy falls well before 10 s
+  LoadedScenario loaded = load_scenario(scenario("biped_stand.yaml"));
+  loaded.controllers.resize(1);
+  RunResult r = Simulation(loaded, quiet()).run();
+  ASSERT_TRUE(r.fell);
+  EXPECT_NEAR(r.sim_time, *r.fall_time + 1.0, 2e-3);
+  RunOptions o = quiet();
+  o.stop_after_fall_s = -1;
+  RunResult full = Simulation(loaded, o).run();
+  EXPECT_TRUE(full.fell);
+  EXPECT_EQ(*full.fall_time, *r.fall_time);
+  EXPECT_NEAR(full.sim_time, loaded.scenario.duration, 2e-3);
+}
+
+TEST(SimulationLoop, ObserversSeeEveryStep) {
+  struct Counter : StepObserver {
+    int starts = 0, steps = 0, finishes = 0;
+    void on_start(const Simulation&) override { ++starts; }
+    void on_step(const Simulation&) override { ++steps; }
+    void on_finish(const Simulation&, const RunResult&) override { ++finishes; }
+  } counter;
+  RunOptions o = quiet();
+  o.duration = 0.25;
+  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  sim.add_observer(&counter);
+  RunResult r = sim.run();
+  EXPECT_EQ(counter.starts, 1);
+  EXPECT_EQ(counter.steps, r.steps);
+  EXPECT_EQ(counter.finishes, 1);
+  EXPECT_GT(r.steps, 0);
+}
+
+TEST(SimulationLoop, RunWritesItsFilesWithoutTemporaries) {
+  const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
+                           ("simloop_" + std::to_string(::getpid())))
+                              .string();
+  RunOptions o = quiet();
+  o.duration = 0.3;
+  o.out_dir = dir;
+  Simulation(load_scenario(scenario("pd_hold.yaml")), o).run();
+  EXPECT_TRUE(std::filesystem::exists(dir + "/summary.json"));
+  EXPECT_TRUE(std::filesystem::exists(dir + "/log.csv"));
+  for (const auto& f : std::filesystem::directory_iterator(dir))
+    EXPECT_NE(f.path().filename().string()[0], '.') << f.path();
+  std::filesystem::remove_all(dir);
+}
+
+TEST(ProgressBar, LineShowsFractionTimesAndEta) {
+  EXPECT_EQ(ProgressBar::line(0.5, 5, 10, 2),
+            "[###############               ]  50%  5.0/10.0 s  ETA 2s");
+  EXPECT_EQ(ProgressBar::line(0.25, 2.5, 10, 60),
+            "[########                      ]  25%  2.5/10.0 s"
+            "  ETA 3m00s");
+  EXPECT_NE(ProgressBar::line(0, 0, 10, 0).find("ETA --"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace stance
