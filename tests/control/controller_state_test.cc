@@ -50,12 +50,8 @@ Snapshot snapshot(const Simulation& run) {
 }
 
 // run to t1, save the state in memory and to a file, run on to t2. Two new runs, one restored
-// from memory and one read from the file, must reach the same state at t2; with `original`, also
-// the state of the run that went on. (Not with SPD's constraint forces on MuJoCo: they are read
-// after a forward() whose solve depends on the last step's applied forces, which the engine state
-// does not hold, so a restored run drifts from the one that went on.)
-void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t2,
-                               bool original = true) {
+// from memory and one read from the file, must reach the same state at t2 as the run that went on.
+void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t2) {
   // one file per test: tests on the same scenario run in parallel under ctest -j
   const std::string file =
       (fs::temp_directory_path() /
@@ -80,7 +76,7 @@ void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t
   EXPECT_EQ(a.v, b.v);
   EXPECT_EQ(a.signals, b.signals);
   EXPECT_EQ(restored.result().metrics.dump(), resumed.result().metrics.dump());
-  if (original) {
+  {
     const Snapshot c = snapshot(run);
     EXPECT_EQ(c.q, b.q);
     EXPECT_EQ(c.signals, b.signals);
@@ -101,7 +97,7 @@ TEST(ControllerStateFile, PlainPd) {
 }
 
 TEST(ControllerStateFile, StablePdAnkleStrategyAndSkateboardDrive) {
-  expect_state_file_resumes(load_scenario(scenario_path("biped_skateboard.yaml")), 1.0, 1.5, false);
+  expect_state_file_resumes(load_scenario(scenario_path("biped_skateboard.yaml")), 1.0, 1.5);
 }
 
 TEST(ControllerStateFile, SimbiconMidWalk) {
@@ -119,7 +115,7 @@ TEST(ControllerStateFile, ControlNoiseStream) {
   expect_state_file_resumes(
       load_scenario(scenario_path("lqr_one_leg.yaml"),
                     {"controllers=[{type: stable_pd}, {type: control_noise, other_std: 0.3}]"}),
-      0.3, 0.6, false);
+      0.3, 0.6);
 }
 
 TEST(ControllerLiveEdit, SimbiconKeepsItsFsmPhaseAndSteps) {
