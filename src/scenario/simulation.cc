@@ -539,12 +539,12 @@ void Simulation::restore(const SimulationState& state) {
     else
       states_[i] = state.controllers[i]->clone();
   }
-  // the engine holds the servo commands of the saved moment
-  Eigen::VectorXd commands = state.progress.velocity_sent;
+  // the engine goes on with the servo commands of the saved moment: only those that differ
+  // from what it holds now are sent (a release on a dof that never had one is not)
+  Eigen::VectorXd held = progress_.velocity_sent;
   progress_ = state.progress;
-  progress_.velocity_sent.setConstant(std::nan(""));
-  for (int i = 0; i < commands.size(); ++i) engine_->set_dof_velocity_command(i, std::nan(""));
-  send_velocity_commands(commands);
+  progress_.velocity_sent = held;
+  send_velocity_commands(state.progress.velocity_sent);
 }
 
 std::unique_ptr<Simulation> Simulation::clone() const {
