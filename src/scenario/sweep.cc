@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
+#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -96,12 +97,25 @@ void parallel_for(int n, int threads, const std::function<void(int)>& job) {
   int t = threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency());
   t = std::clamp(t, 1, n);
   std::atomic<int> next{0};
+  // an exception in a job (a bug: bad input is each job's own result) stops the others from
+  // taking more work and is rethrown here, on the calling thread
+  std::mutex error_mutex;
+  std::exception_ptr error;
   auto worker = [&]() {
-    for (int i = next++; i < n; i = next++) job(i);
+    for (int i = next++; i < n; i = next++) {
+      try {
+        job(i);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(error_mutex);
+        if (!error) error = std::current_exception();
+        next = n;
+      }
+    }
   };
   std::vector<std::thread> pool;
   for (int k = 0; k < t; ++k) pool.emplace_back(worker);
   for (auto& th : pool) th.join();
+  if (error) std::rethrow_exception(error);
 }
 
 RunResult run_without_timing(const LoadedScenario& loaded, const RunOptions& options) {
@@ -143,7 +157,8 @@ std::vector<SweepPoint> run_sweep(
     pt.value = o.values[i];
     try {
       pt.result = run_without_timing(scenarios[i], run_options);
-    } catch (const std::exception& e) {
+    } catch (const InputError& e) {
+      // a value this point's run rejects; anything else is a bug and ends the sweep
       pt.error = e.what();
     }
     std::lock_guard<std::mutex> lock(done_mutex);

@@ -458,7 +458,8 @@ TuneResult run_tune(const TuneOptions& o,
       duration = o.duration ? *o.duration : loaded.scenario.duration;
       RunResult r = run_without_timing(loaded, run_options);
       return score_run(r, duration, o.metric, o.fall_penalty);
-    } catch (const std::exception& e) {
+    } catch (const InputError& e) {
+      // a candidate its controllers reject scores as failed; anything else is a bug
       return failed_run(e.what(), duration, o.fall_penalty);
     }
   };
