@@ -3,12 +3,14 @@
 #include <benchmark/benchmark.h>
 #include <mujoco/mujoco.h>
 
+#include <chrono>
 #include <filesystem>
 
 #include "control/lqr.h"
 #include "engine/mujoco/mujoco_engine.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
+#include "scenario/sweep.h"
 
 namespace {
 
@@ -64,7 +66,8 @@ void BM_LqrGainOnly(benchmark::State& state) {
 }
 BENCHMARK(BM_LqrGainOnly);
 
-// MuJoCo's own step on the same model and state, for scale
+// MuJoCo's own step on the same model and state, for scale: a bare-engine baseline (constant
+// set-point controls, no controller), so it calls mj_step rather than Simulation::step
 void BM_MjStep(benchmark::State& state) {
   if (humanoid_missing(state)) return;
   auto engine = one_leg_engine();
@@ -105,5 +108,47 @@ void BM_LqrDesign(benchmark::State& state) {
   state.counters["dare_ms"] = dare / n;
 }
 BENCHMARK(BM_LqrDesign)->Unit(benchmark::kMillisecond);
+
+// the push-force sweep (8 points, 0..40 N on the torso at 1 s, 1.5 s runs, one thread),
+// once with the sweep's shared controller models and once with every point designing its own
+// LQR. One iteration is both sweeps. Counters:
+//   cached_s, rebuilt_s            wall time of one sweep each way
+//   rebuilt_over_cached            their ratio
+//   cached_designs, rebuilt_designs  LQR designs made per sweep (lqr_designs_made())
+void BM_LqrPushSweep(benchmark::State& state) {
+  if (humanoid_missing(state)) return;
+  SweepOptions options;
+  options.scenario = kScenario;
+  options.sets = {"controllers.0.force_plot=false",
+                  "perturbations=[{body: torso, force: [0, 0, 0], start: 1, duration: 0.1}]"};
+  options.param = "perturbations.0.force.0";
+  options.values = linspace(0, 40, 8);
+  options.duration = 1.5;
+  options.threads = 1;
+  double seconds[2] = {0, 0};
+  long designs[2] = {0, 0};
+  for (auto _ : state) {
+    for (int rebuilt = 0; rebuilt < 2; ++rebuilt) {
+      options.share_models = rebuilt == 0;
+      const long designs0 = lqr_designs_made();
+      const auto t0 = std::chrono::steady_clock::now();
+      std::vector<SweepPoint> points = run_sweep(options);
+      seconds[rebuilt] +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      designs[rebuilt] += lqr_designs_made() - designs0;
+      for (const SweepPoint& p : points)
+        if (!p.error.empty()) state.SkipWithError(p.error.c_str());
+      benchmark::DoNotOptimize(points.data());
+    }
+  }
+  const double n = static_cast<double>(state.iterations());
+  state.counters["cached_s"] = seconds[0] / n;
+  state.counters["rebuilt_s"] = seconds[1] / n;
+  state.counters["rebuilt_over_cached"] = seconds[0] > 0 ? seconds[1] / seconds[0] : 0.0;
+  state.counters["cached_designs"] = designs[0] / n;
+  state.counters["rebuilt_designs"] = designs[1] / n;
+  state.SetLabel("8-point push sweep, 1.5 s runs, 1 thread: models cached, then rebuilt");
+}
+BENCHMARK(BM_LqrPushSweep)->Unit(benchmark::kSecond)->UseRealTime();
 
 }  // namespace

@@ -131,6 +131,12 @@ if design is not None:
                  f"{fmt(design)} ms (set-point {fmt(get('BM_LqrDesign', 'setpoint_ms'))}, "
                  f"linearisation {fmt(get('BM_LqrDesign', 'linearize_ms'))}, "
                  f"DARE {fmt(get('BM_LqrDesign', 'dare_ms'))} ms)"))
+sw = "BM_LqrPushSweep"
+if get(sw, "cached_s") is not None:
+    rows.append(("LQR push sweep, 8 points (1.5 s runs, 1 thread): models cached vs rebuilt",
+                 f"{fmt(get(sw, 'cached_s'))} s vs {fmt(get(sw, 'rebuilt_s'))} s per sweep: "
+                 f"{fmt(get(sw, 'rebuilt_over_cached'))}x; LQR designs "
+                 f"{fmt(get(sw, 'cached_designs'))} vs {fmt(get(sw, 'rebuilt_designs'))}"))
 for engine, name in (("MuJoCo", "BM_SimbiconWalkMujoco"), ("DART", "BM_SimbiconWalkDart")):
     if name in runs:
         rows.append((f"SIMBICON 2D walk at 1700 Hz, {engine}",

@@ -143,7 +143,7 @@ std::vector<SweepPoint> run_sweep(
   // points that change neither the world nor a controller's parameters (a push force, the
   // fall criterion) share the controllers' models: an LQR is designed once
   ControllerCache cache;
-  run_options.cache = &cache;
+  if (o.share_models) run_options.cache = &cache;
   {
     // the first run's engine and controllers build here too, so their errors are clean
     Simulation probe(scenarios[0], run_options);

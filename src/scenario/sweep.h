@@ -28,6 +28,9 @@ struct SweepOptions {
   int threads = 0;                 // 0: every core (std::thread::hardware_concurrency)
   std::string engine;              // overrides the scenario's when set
   std::optional<double> duration;  // s, overrides the scenario's
+  // false: every point builds its controllers' models afresh (bench/lqr_bench.cc measures what
+  // the shared cache saves; nothing else needs to turn it off)
+  bool share_models = true;
 };
 
 struct SweepPoint {
