@@ -14,6 +14,7 @@
 
 #include "control/controller.h"
 #include "control/mocap_tracker.h"
+#include "control/retarget.h"
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
@@ -21,7 +22,6 @@
 #include "model/skel_to_mjcf.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
-#include "control/retarget.h"
 #include "scenario/push_threshold.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
