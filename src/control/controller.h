@@ -26,6 +26,25 @@ namespace stance {
 
 class Engine;
 
+// one dimension of the low-dimensional correction a controller lets the planner make (an offset
+// of one of its targets), with the size of one unit of the planner's noise
+struct CorrectionDim {
+  std::string name;    // e.g. "swing_hip_pitch"
+  double scale = 0.1;  // the offset one unit of noise makes, in `unit`
+  std::string unit;    // rad, m, ...
+};
+
+// how far a run is from what a controller tracks, now (the planner's cost terms)
+struct TrackingError {
+  double joint_rad = 0;   // mean over tracked joints of the geodesic angle error
+  double root_m = 0;      // root position error
+  double body_m = 0;      // mean world position error of the tracked bodies
+  double root_tilt_rad = 0;  // root orientation error about horizontal axes
+};
+
+// a controller's verdict on a fall, judged against what it tracks
+enum class FallVerdict { kNoOpinion, kUp, kFell };
+
 // what the controllers produce for one step; sized once per run
 struct ControlOutput {
   Eigen::VectorXd tau;   // generalised forces, dim nv; summed over controllers
@@ -36,6 +55,9 @@ struct ControlOutput {
   // changes them.
   Eigen::VectorXd dof_velocity;
   bool dof_velocity_used = false;
+  // the planner's correction for the controller being computed (its correction_dims() entries,
+  // in their units), set by the simulation before each compute(); null: no correction
+  const double* correction = nullptr;
 
   void resize(int nv, int nu) {
     tau = Eigen::VectorXd::Zero(nv);
@@ -109,6 +131,21 @@ class Controller {
                               Eigen::VectorXd& qpos) const {
     return false;
   }
+  // the planner's hook: the dimensions of the correction this controller applies to its targets
+  // when ControlOutput::correction is set (appended); none by default, and the planner then
+  // corrects with residual joint torques
+  virtual void correction_dims(std::vector<CorrectionDim>& dims) const {}
+  // the error against what the controller tracks now; false when it tracks nothing
+  virtual bool tracking_error(const ControllerState& state, const Engine& engine,
+                              TrackingError& error) const {
+    return false;
+  }
+  // a fall judged against the tracked reference (a crouch in a clip is no fall); kNoOpinion
+  // leaves it to the scenario's fall criterion. `reason` is set on kFell.
+  virtual FallVerdict fall_verdict(const ControllerState& state, const Engine& engine,
+                                   std::string& reason) const {
+    return FallVerdict::kNoOpinion;
+  }
   // the state a run should start from (dim nq and nv), applied by the simulation once the
   // controllers are built (a tracked clip's first frame); false: the scenario's own start
   virtual bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
@@ -179,6 +216,14 @@ class TypedController : public Controller {
                       Eigen::VectorXd& qpos) const final {
     return state_reference_qpos(cast(state), engine, qpos);
   }
+  bool tracking_error(const ControllerState& state, const Engine& engine,
+                      TrackingError& error) const final {
+    return state_tracking_error(cast(state), engine, error);
+  }
+  FallVerdict fall_verdict(const ControllerState& state, const Engine& engine,
+                           std::string& reason) const final {
+    return state_fall_verdict(cast(state), engine, reason);
+  }
 
   static S& cast(ControllerState& s) { return static_cast<StateOf<S>&>(s).value; }
   static const S& cast(const ControllerState& s) { return static_cast<const StateOf<S>&>(s).value; }
@@ -198,6 +243,14 @@ class TypedController : public Controller {
   virtual bool state_reference_qpos(const S& state, const Engine& engine,
                                     Eigen::VectorXd& qpos) const {
     return false;
+  }
+  virtual bool state_tracking_error(const S& state, const Engine& engine,
+                                    TrackingError& error) const {
+    return false;
+  }
+  virtual FallVerdict state_fall_verdict(const S& state, const Engine& engine,
+                                         std::string& reason) const {
+    return FallVerdict::kNoOpinion;
   }
 };
 
