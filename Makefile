@@ -8,7 +8,7 @@ JOBS ?= $(shell nproc)
 STANCE = $(BUILD)/stance
 PREFIX ?= /usr/local
 
-.PHONY: demo test test-fast build install deps bench clean format
+.PHONY: demo test test-fast build install deps bench clean format eval-track
 
 deps:
 	@bash scripts/install-deps.sh
@@ -35,6 +35,10 @@ demo: build
 bench: deps $(BUILD)/CMakeCache.txt
 	cmake --build $(BUILD) -j$(JOBS) --target stance_bench
 	@bash bench/report.sh $(BUILD)
+
+# the planner's tracking matrix (not part of CI: about two hours on 2 cores)
+eval-track: build
+	@bash scripts/eval_track.sh $(BUILD)
 
 format:
 	clang-format -i $$(git ls-files '*.cc' '*.h')

@@ -84,6 +84,26 @@ int main(int argc, char** argv) {
   bvh_retarget_cmd->add_option("--duration", retarget.duration_s, "seconds to write");
   bvh_retarget_cmd->add_option("--first-frame", retarget.first_frame, "first frame of the range");
   bvh_retarget_cmd->add_option("--last-frame", retarget.last_frame, "last frame (-1: the end)");
+  stance::BvhTrackCommand track;
+  std::string track_record;
+  auto* bvh_track_cmd = bvh_cmd->add_subcommand(
+      "track", "track a clip in free mode with the sampling planner (no per-clip tuning)");
+  bvh_track_cmd->add_option("input", track.bvh, "BVH file")->required();
+  bvh_track_cmd->add_option("--out", track.out_dir,
+                            "output folder (track.yaml, summary.json, log.csv, tracked.bvh)");
+  bvh_track_cmd->add_option("--duration", track.duration, "seconds (default: the clip once)");
+  bvh_track_cmd->add_flag("--loop", track.loop, "repeat the clip, root carried forward");
+  bvh_track_cmd->add_option("--first-frame", track.first_frame, "first frame of the range");
+  bvh_track_cmd->add_option("--last-frame", track.last_frame, "last frame (-1: the end)");
+  bvh_track_cmd->add_option("--map", track.map, "YAML joint map onto --model");
+  bvh_track_cmd->add_option("--model", track.model, "model file (MJCF, URDF, SKEL)");
+  bvh_track_cmd->add_option("--engine", track.engine, "mujoco or dart");
+  bvh_track_cmd->add_option("--threads", track.threads, "rollout threads (default: all cores)");
+  bvh_track_cmd->add_option("--set", track.sets, "override: key.path=value")
+      ->allow_extra_args(false);
+  bvh_track_cmd->add_option("--record", track_record, "also render the run as an MP4");
+  bvh_track_cmd->add_flag("--quiet", track.quiet, "no summary on stdout");
+
   stance::Bvh2MjcfCommand bvh2mjcf;
   auto* bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");
   bvh2mjcf_cmd->add_option("input", bvh2mjcf.bvh, "BVH file")->required();
@@ -205,6 +225,20 @@ int main(int argc, char** argv) {
   if (*bvh2mjcf_cmd) return stance::bvh2mjcf_command(bvh2mjcf);
   if (*bvh_synth_cmd) return stance::bvh_synth_walk_command(synth_out);
   if (*bvh_retarget_cmd) return stance::bvh_retarget_command(retarget);
+  if (*bvh_track_cmd) {
+    int code = stance::bvh_track_command(track);
+    if (code != stance::kExitOk || track_record.empty()) return code;
+#ifdef STANCE_HAVE_VIEWER
+    // the recorder runs the same deterministic scenario again, rendering it
+    stance::RunCommand rec = stance::bvh_track_run(
+        track, (std::filesystem::path(track.out_dir) / "track.yaml").string());
+    rec.record = track_record;
+    return stance::record_command(rec);
+#else
+    std::cerr << "error: --record needs the viewer build (STANCE_WITH_VIEWER)\n";
+    return stance::kExitBadInput;
+#endif
+  }
   if (*list_cmd) return stance::list_command(list_dir);
   if (*sweep_cmd) return stance::sweep_command(sweep);
   if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);

@@ -164,6 +164,25 @@ for engine, name in (("MuJoCo", "BM_MocapRetargetFullbody1Mujoco"),
         rows.append((f"Mocap retargeting on fullbody1, 1 ms step, {engine}",
                      tracked(name, "mocap_retarget")))
 
+def planner(prefix):
+    # BM_Planner*/<threads>/iterations:N: the runs on 1 and 2 threads
+    found = {}
+    for key in runs:
+        if key.startswith(prefix + "/"):
+            found[key.split("/")[1]] = key
+    return found
+for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 ms step"),
+                      ("BM_PlannerMocap", "planner tracking the synthetic walk, MuJoCo")):
+    p = planner(prefix)
+    if "1" in p and "2" in p:
+        one, two = p["1"], p["2"]
+        rows.append((f"Sampling planner ({label}): compute per simulated second, 1 / 2 threads; "
+                     "a rollout step vs the bare and the base-policy step",
+                     f"{fmt(get(one, 'compute_s_per_sim_s'))} / {fmt(get(two, 'compute_s_per_sim_s'))} s/s; "
+                     f"{fmt(get(two, 'rollout_us'))} µs vs {fmt(get(two, 'step_us'))} / "
+                     f"{fmt(get(two, 'controlled_us'))} µs: overhead {pct(get(two, 'overhead_vs_step'))} "
+                     f"over the bare step, {pct(get(two, 'overhead_vs_controlled'))} over the base policy's"))
+
 cpu = [get(n, "cpu_per_wall") for n in ("BM_BipedStandMujoco", "BM_BipedStandDart")]
 cpu = [c for c in cpu if c is not None]
 print(f"`make bench`, {context.get('date', '')}: {context.get('num_cpus', '?')} CPUs at "

@@ -26,7 +26,8 @@ set(stance_label_patterns
   physics "^Sweep\\.SameCsvsWhateverTheThreadCount$"
   physics "^EveryType/Registry\\."
   physics "^SimulationBranching\\."
-  physics "^SimulationLoop\\.StopsOneSecondAfterAFall")
+  physics "^SimulationLoop\\.StopsOneSecondAfterAFall"
+  physics "^PlannerStanding\\.")
 
 foreach(target IN LISTS STANCE_GTEST_TARGETS)
   foreach(test IN LISTS ${target}_TESTS)

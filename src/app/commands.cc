@@ -13,8 +13,10 @@
 #include <numbers>
 
 #include "control/controller.h"
+#include "control/mocap_retarget_tracker.h"
 #include "control/mocap_tracker.h"
 #include "control/retarget.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
@@ -204,6 +206,83 @@ int bvh_retarget_command(const BvhRetargetCommand& cmd) {
         motion.mean_fit_error_deg());
     return kExitOk;
   });
+}
+
+std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
+  namespace fs = std::filesystem;
+  if (cmd.map.empty() != cmd.model.empty())
+    throw InputError("bvh track: --map and --model go together");
+  if (cmd.duration && !(*cmd.duration > 0))
+    throw InputError("--duration: expected a positive number of seconds");
+  const BvhClip clip = read_bvh(cmd.bvh);
+  const int last = cmd.last_frame < 0 ? clip.frame_count - 1 : cmd.last_frame;
+  if (cmd.first_frame < 0 || cmd.first_frame >= clip.frame_count || last <= cmd.first_frame ||
+      last >= clip.frame_count)
+    throw InputError(fmt::format("{}: frames {}..{} are not a range of its {} frames", cmd.bvh,
+                                 cmd.first_frame, cmd.last_frame, clip.frame_count));
+  fs::create_directories(cmd.out_dir);
+  const fs::path dir = fs::absolute(cmd.out_dir);
+  YAML::Node doc;
+  doc["name"] = "bvh_track_" + fs::path(cmd.bvh).stem().string();
+  doc["engine"] = cmd.engine;
+  YAML::Node tracker;
+  tracker["type"] = "mocap_retarget";
+  tracker["bvh"] = fs::absolute(cmd.bvh).string();
+  tracker["mode"] = "free";
+  tracker["loop"] = cmd.loop;
+  tracker["first_frame"] = cmd.first_frame;
+  tracker["last_frame"] = last;
+  tracker["export_bvh"] = "tracked.bvh";
+  // the shared defaults, spelled out so that the scenario shows what it runs
+  const MocapRetargetParams defaults;
+  tracker["kp"] = defaults.kp;
+  tracker["kd"] = defaults.kd;
+  if (cmd.map.empty()) {
+    // the clip's own character, starting on the range's first frame
+    BvhCharacterOptions o;
+    o.reference.first_frame = cmd.first_frame;
+    BvhCharacter ch = make_bvh_character(clip, o);
+    write_file_atomically(dir / "character.xml", ch.mjcf);
+    doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
+    doc["model"][0]["file"] = "character.xml";
+  } else {
+    doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
+    const std::string model = cmd.model.find("://") != std::string::npos
+                                  ? cmd.model
+                                  : fs::absolute(cmd.model).string();
+    doc["model"][0]["file"] = model;
+    tracker["joint_map"] = fs::absolute(cmd.map).string();
+  }
+  doc["duration"] = cmd.duration ? *cmd.duration
+                                 : (last - cmd.first_frame) * clip.frame_time_s;
+  doc["controllers"].push_back(tracker);
+  doc["planner"]["enabled"] = true;
+  doc["planner"]["threads"] = cmd.threads;
+  YAML::Emitter out;
+  out << doc;
+  const fs::path path = dir / "track.yaml";
+  write_file_atomically(path, std::string("# written by stance bvh track\n") + out.c_str() + "\n");
+  return path.string();
+}
+
+RunCommand bvh_track_run(const BvhTrackCommand& cmd, const std::string& scenario) {
+  RunCommand run;
+  run.scenario = scenario;
+  run.engine = cmd.engine;
+  run.sets = cmd.sets;
+  run.out_dir = cmd.out_dir;
+  run.quiet = cmd.quiet;
+  return run;
+}
+
+int bvh_track_command(const BvhTrackCommand& cmd) {
+  std::string scenario;
+  int code = guarded([&] {
+    scenario = write_bvh_track_scenario(cmd);
+    return kExitOk;
+  });
+  if (code != kExitOk) return code;
+  return run_command(bvh_track_run(cmd, scenario));
 }
 
 int bvh_synth_walk_command(const std::string& out_path) {

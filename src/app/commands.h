@@ -80,6 +80,29 @@ struct BvhRetargetCommand {
 };
 int bvh_retarget_command(const BvhRetargetCommand& cmd);
 
+// `stance bvh track IN.bvh --out DIR ...`: the clip tracked in free mode with the sampling
+// planner, on a character built from the clip (as bvh2mjcf does) or, with a map, on a model.
+// Writes DIR/track.yaml (the scenario it runs; DIR/character.xml without a map), then runs it:
+// DIR/summary.json, DIR/log.csv and DIR/tracked.bvh (the simulated motion on the clip's skeleton)
+struct BvhTrackCommand {
+  std::string bvh;
+  std::string out_dir = "out/track";
+  std::optional<double> duration;  // s; default: the clip range once
+  bool loop = false;
+  int first_frame = 0;
+  int last_frame = -1;
+  std::string map, model;  // both or neither
+  std::string engine = "mujoco";
+  int threads = 0;                // rollout threads, 0: every core
+  std::vector<std::string> sets;  // overrides on the generated scenario
+  bool quiet = false;
+};
+// writes the scenario (and the character) into cmd.out_dir; returns the scenario's path
+std::string write_bvh_track_scenario(const BvhTrackCommand& cmd);
+// the run options bvh track uses on that scenario (for the recorder too)
+RunCommand bvh_track_run(const BvhTrackCommand& cmd, const std::string& scenario);
+int bvh_track_command(const BvhTrackCommand& cmd);
+
 // list scenarios in a folder and the registered controllers
 int list_command(const std::string& scenario_dir);
 

@@ -218,7 +218,11 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
   s.last_x = fwd.dot(point);
   s.lateral_last = left.dot(point);
   s.last_time = t;
-  s.swing_hip_target = tg.swing_hip + tg.cd * s.d + tg.cv * s.v;
+  // the planner's correction (correction_dims): offsets of the swing thigh, torso and stance
+  // ankle targets, and in 3D of the swing thigh's and the torso's roll
+  const double* c = out.correction;
+  const double dc_swing = c ? c[0] : 0.0, dc_torso = c ? c[1] : 0.0, dc_ankle = c ? c[2] : 0.0;
+  s.swing_hip_target = tg.swing_hip + tg.cd * s.d + tg.cv * s.v + dc_swing;
 
   // relative servos: knees and ankles
   auto servo = [&](int dof, double target, const SimbiconJointGain& gain) {
@@ -231,8 +235,8 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
     // 3D: world-frame orientation servos; outward is +y for the left swing leg
     const double outward = swing == kLeft ? 1.0 : -1.0;
     const double d_lat = left.dot(point - ankle), v_lat = left.dot(velocity);
-    const double roll_target =
-        outward * tg.swing_hip_roll + tg.cd_lateral * d_lat + tg.cv_lateral * v_lat;
+    const double roll_target = outward * tg.swing_hip_roll + tg.cd_lateral * d_lat +
+                               tg.cv_lateral * v_lat + (c ? c[3] : 0.0);
     const Eigen::Vector3d minus_y = -Eigen::Vector3d::UnitY(), unit_x = Eigen::Vector3d::UnitX();
     // heading policy: the heading turns by +path_gain per metre of lateral offset from the
     // start line. Measured, not derived: this sign brings the walker back to the line (the
@@ -242,9 +246,9 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
                                     -m.params.max_steer_rad, m.params.max_steer_rad);
     const Eigen::Quaterniond heading =
         Eigen::AngleAxisd(steer, Eigen::Vector3d::UnitZ()) * m.heading;
-    const Eigen::Quaterniond torso_goal = heading *
-                                          Eigen::AngleAxisd(outward * tg.torso_roll, unit_x) *
-                                          Eigen::AngleAxisd(tg.torso, minus_y);
+    const Eigen::Quaterniond torso_goal =
+        heading * Eigen::AngleAxisd(outward * tg.torso_roll + (c ? c[4] : 0.0), unit_x) *
+        Eigen::AngleAxisd(tg.torso + dc_torso, minus_y);
     const Eigen::Quaterniond thigh_goal = heading * Eigen::AngleAxisd(roll_target, unit_x) *
                                           Eigen::AngleAxisd(s.swing_hip_target, minus_y);
     auto orientation_servo = [&](int body, const Eigen::Quaterniond& goal,
@@ -275,7 +279,8 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
     out.tau[m.knee[swing]] += servo(m.knee[swing], tg.swing_knee, gn.swing_knee);
     out.tau[m.knee[stance]] += servo(m.knee[stance], tg.stance_knee, gn.stance_knee);
     out.tau[m.ankle[swing]] += servo(m.ankle[swing], tg.swing_ankle, gn.swing_ankle);
-    out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle, gn.stance_ankle);
+    out.tau[m.ankle[stance]] +=
+        servo(m.ankle[stance], tg.stance_ankle + dc_ankle, gn.stance_ankle);
     return;
   }
 
@@ -284,7 +289,8 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
   const double torso_rate = -engine.body_velocity(m.torso)[1];
   const double thigh_angle = pitch_about_minus_y(engine.body_pose(m.thigh[swing]).quat);
   const double thigh_rate = -engine.body_velocity(m.thigh[swing])[1];
-  const double tau_torso = gn.torso.kp * (tg.torso - torso_angle) - gn.torso.damping() * torso_rate;
+  const double tau_torso =
+      gn.torso.kp * (tg.torso + dc_torso - torso_angle) - gn.torso.damping() * torso_rate;
   const double tau_swing_hip = clamp_torque(
       gn.swing_hip.kp * (s.swing_hip_target - thigh_angle) - gn.swing_hip.damping() * thigh_rate,
       gn.swing_hip.max_torque);
@@ -297,7 +303,14 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
   out.tau[m.knee[swing]] += servo(m.knee[swing], tg.swing_knee, gn.swing_knee);
   out.tau[m.knee[stance]] += servo(m.knee[stance], tg.stance_knee, gn.stance_knee);
   out.tau[m.ankle[swing]] += servo(m.ankle[swing], tg.swing_ankle, gn.swing_ankle);
-  out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle, gn.stance_ankle);
+  out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle + dc_ankle, gn.stance_ankle);
+}
+
+void Simbicon::correction_dims(std::vector<CorrectionDim>& dims) const {
+  for (const char* name : {"swing_hip_pitch", "torso_pitch", "stance_ankle_pitch"})
+    dims.push_back({name, 0.1, "rad"});
+  if (model_.spatial)
+    for (const char* name : {"swing_hip_roll", "torso_roll"}) dims.push_back({name, 0.1, "rad"});
 }
 
 void Simbicon::signal_names(std::vector<std::string>& names) const {

@@ -249,6 +249,9 @@ class Simbicon final : public TypedController<SimbiconState> {
   Simbicon(const SimbiconParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return "simbicon"; }
   void signal_names(std::vector<std::string>& names) const override;
+  // the planner's hook: offsets of the swing-thigh, torso and stance-ankle pitch targets (rad),
+  // and in 3D of the swing thigh's and the torso's roll
+  void correction_dims(std::vector<CorrectionDim>& dims) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
 
   const Model& model() const { return model_; }

@@ -34,6 +34,12 @@ JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engi
       throw InputError("target: '" + name + "' is not a hinge or slide dof");
     m.targets.emplace_back(j.qpos_adr, value);
   }
+  for (const auto& name : params.planner_dofs) {
+    const JointInfo& j = engine.joint(engine.dof_joint(engine.require_dof(name)));
+    if (j.type != JointType::kHinge && j.type != JointType::kSlide)
+      throw InputError("planner_dofs: '" + name + "' is not a hinge or slide dof");
+    m.planner_qpos.push_back(j.qpos_adr);
+  }
   m.scalar_gains_only = true;
   for (int i = 0; i < nv; ++i) {
     if (m.kp[i] == 0 && m.kd[i] == 0) continue;
@@ -50,6 +56,7 @@ JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engi
 
 void StablePdState::resize(int nq, int nv) {
   q_target.resize(nq);
+  q_planned.resize(nq);
   q.resize(nq);
   q_pred.resize(nq);
   for (Eigen::VectorXd* x : {&v, &err, &p, &d, &c, &f, &rhs, &kd_dt}) x->setZero(nv);
@@ -140,10 +147,19 @@ void JointPd<kStable>::reset_state(State& s, const Engine& engine) const {
 
 template <bool kStable>
 void JointPd<kStable>::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
+  // the planner's offsets go on a copy of the target, swapped in while computing
+  const bool planned = out.correction && !model_.planner_qpos.empty();
+  if (planned) {
+    s.q_planned = s.q_target;
+    for (size_t i = 0; i < model_.planner_qpos.size(); ++i)
+      s.q_planned[model_.planner_qpos[i]] += out.correction[i];
+    s.q_target.swap(s.q_planned);
+  }
   if constexpr (kStable)
     compute_stable_pd(model_, s, engine, out);
   else
     compute_plain_pd(model_, s, engine, out);
+  if (planned) s.q_target.swap(s.q_planned);
   // tracking error of the controlled dofs, now (not predicted)
   double e = 0;
   int n = 0;
@@ -156,6 +172,12 @@ void JointPd<kStable>::compute_step(State& s, const Engine& engine, ControlOutpu
   s.last_error_norm = n ? std::sqrt(e / n) : 0;
   s.error_sq_sum += e / std::max(n, 1);
   ++s.error_samples;
+}
+
+template <bool kStable>
+void JointPd<kStable>::correction_dims(std::vector<CorrectionDim>& dims) const {
+  for (const auto& name : model_.params.planner_dofs)
+    dims.push_back({name, model_.params.planner_scale, "rad or m"});
 }
 
 template <bool kStable>

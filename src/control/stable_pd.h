@@ -27,6 +27,9 @@ struct JointPdParams {
   NamedValues target;                  // dof -> target; unnamed dofs hold their initial value
   bool constraint_forces = true;       // include last step's constraint forces (SPD only)
   double max_torque = 0;               // N m, symmetric clamp; 0: none
+  // the planner's hook: hinge/slide dofs whose targets it may offset, by `planner_scale` per unit
+  std::vector<std::string> planner_dofs;
+  double planner_scale = 0.1;  // rad (m on slides)
 
   template <class V>
   void visit(V& v) {
@@ -38,6 +41,9 @@ struct JointPdParams {
     v("target", target, {.unit = "rad or m", .help = "target pose; default: the initial pose"});
     v("constraint_forces", constraint_forces, {.help = "SPD: include constraint forces"});
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "torque clamp; 0: none"});
+    v("planner_dofs", planner_dofs, {.help = "dofs whose targets the planner offsets"});
+    v("planner_scale", planner_scale,
+      {.unit = "rad or m", .min = 0, .max = 10, .help = "planner target offset per unit"});
   }
 };
 
@@ -50,6 +56,7 @@ struct JointPdModel {
   // and the engine's manifold difference (ball and free joints) can be skipped
   bool scalar_gains_only = false;
   std::vector<std::pair<int, int>> scalar_dofs;  // (dof, qpos index) of the dofs with a gain
+  std::vector<int> planner_qpos;                 // qpos index per planner dof
 };
 
 JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engine);
@@ -57,6 +64,7 @@ JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engi
 // the per-run data: the target pose captured at reset, work vectors, the error statistics
 struct StablePdState {
   Eigen::VectorXd q_target, q, v, q_pred, err, p, d, c, f, rhs, kd_dt;  // nq or nv
+  Eigen::VectorXd q_planned;  // nq: the target with the planner's offsets, while computing
   double last_error_norm = 0;  // rad, RMS over the controlled dofs
   double error_sq_sum = 0;     // rad^2, sum over steps of the mean squared error
   long error_samples = 0;
@@ -65,7 +73,7 @@ struct StablePdState {
   template <class A>
   void serialize(A& a) {
     a(q_target), a(q), a(v), a(q_pred), a(err), a(p), a(d), a(c), a(f), a(rhs), a(kd_dt);
-    a(last_error_norm), a(error_sq_sum), a(error_samples);
+    a(q_planned), a(last_error_norm), a(error_sq_sum), a(error_samples);
   }
 };
 
@@ -84,6 +92,8 @@ class JointPd final : public TypedController<StablePdState> {
   void signal_names(std::vector<std::string>& names) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
   std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
+  // one target offset per planner dof
+  void correction_dims(std::vector<CorrectionDim>& dims) const override;
   // the named targets are captured into the State at reset: a State made for other targets
   // would hold the old ones
   bool keeps_state_of(const Controller& previous) const override;

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "params/params.h"
+#include "scenario/planner_params.h"
 
 namespace stance {
 
@@ -81,6 +82,7 @@ struct Scenario {
   std::vector<Perturbation> perturbations;
   FallCriterion fall;
   LogOptions log;
+  PlannerParams planner;
 
   template <class V>
   void visit(V& v) {
@@ -102,6 +104,7 @@ struct Scenario {
     v("perturbations", perturbations);
     v("fall", fall);
     v("log", log);
+    v("planner", planner);
   }
 };
 

@@ -188,6 +188,8 @@ void build_controllers(const LoadedScenario& loaded, const RunOptions& options,
   }
 }
 
+void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m);
+
 std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
                                              const RunOptions& options,
                                              std::unique_ptr<Engine>& engine) {
@@ -242,7 +244,34 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
   const double dt = e.timestep();
   m->total_steps = std::lround(sc.duration / dt);
   m->log_every = std::max<long>(1, std::lround(1.0 / (sc.log.rate_hz * dt)));
+  if (sc.planner.enabled) add_planner(loaded, options, *m);
   return m;
+}
+
+// the planner's rollouts run the same scenario without planning, at the planner's timestep,
+// without the scheduled pushes (the planner reacts to a push; it does not foresee it) and
+// without the controllers' output files
+void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m) {
+  const PlannerParams& p = m.scenario.planner;
+  LoadedScenario r = loaded;
+  r.scenario.planner.enabled = false;
+  r.scenario.perturbations.clear();
+  if (p.timestep > 0) r.scenario.timestep = p.timestep;
+  for (YAML::Node& node : r.controllers) {
+    node = YAML::Clone(node);
+    if (node["export_bvh"]) node.remove("export_bvh");
+  }
+  RunOptions ro = options;
+  ro.extra_pushes.clear();
+  ro.duration = m.scenario.duration + p.horizon_s + 1;
+  std::unique_ptr<Engine> scratch;
+  std::shared_ptr<SimulationModel> rollout = build_model(r, ro, scratch);
+  m.planner = make_planner_model(p, m, rollout);
+  m.plans = true;
+  auto dimensions = std::make_shared<PlannerModel>(*m.planner);
+  dimensions->rollout = nullptr;  // a rollout plans nothing
+  rollout->planner = std::move(dimensions);
+  rollout->plans = false;
 }
 
 }  // namespace
@@ -297,6 +326,7 @@ SimulationState& SimulationState::operator=(const SimulationState& other) {
 Simulation::Simulation(std::shared_ptr<const SimulationModel> model)
     : model_(std::move(model)), engine_(model_->make_engine()) {
   controllers_ = model_->controllers;
+  if (model_->plans) planner_ = std::make_unique<Planner>(model_->planner);
   start_run();
 }
 
@@ -308,6 +338,7 @@ Simulation::Simulation(const LoadedScenario& loaded, const RunOptions& options) 
   run_files_ = options;
   engine_->restore_state(model_->initial);
   engine_->forward();
+  if (model_->plans) planner_ = std::make_unique<Planner>(model_->planner);
   start_run();
 }
 
@@ -316,6 +347,7 @@ Simulation::~Simulation() = default;
 void Simulation::start_run() {
   Engine& e = *engine_;
   out_.resize(e.nv(), e.nu());
+  correction_.setZero(model_->planner ? model_->planner->dimensions.size() : 0);
   progress_ = RunProgress{};
   progress_.velocity_sent = out_.dof_velocity;
   states_.clear();
@@ -356,23 +388,42 @@ void Simulation::send_velocity_commands(const Eigen::VectorXd& commands) {
   }
 }
 
+// the planner (when it is time), then the controllers with their share of its correction, then
+// the residual torques
+void Simulation::compute_controls() {
+  Engine& e = *engine_;
+  out_.clear();
+  const PlannerModel* pm = model_->planner.get();
+  if (pm) {
+    if (planner_ && e.time() + 1e-12 >= progress_.plan.next_plan) planner_->plan(*this);
+    progress_.plan.evaluate(e.time(), correction_);
+    for (size_t d = 0; d < pm->dimensions.size(); ++d) correction_[d] *= pm->dimensions[d].scale;
+  }
+  for (size_t i = 0; i < controllers_.size(); ++i) {
+    const int first = pm ? pm->controller_first[i] : -1;
+    out_.correction = first >= 0 ? correction_.data() + first : nullptr;
+    if (controller_seconds_) {
+      auto t0 = std::chrono::steady_clock::now();
+      controllers_[i]->compute(*states_[i], e, out_);
+      (*controller_seconds_)[i] +=
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    } else {
+      controllers_[i]->compute(*states_[i], e, out_);
+    }
+  }
+  out_.correction = nullptr;
+  out_.tau *= model_->scenario.torque_scale;
+  if (pm)
+    for (size_t d = 0; d < pm->dimensions.size(); ++d)
+      if (pm->dimensions[d].dof >= 0) out_.tau[pm->dimensions[d].dof] += correction_[d];
+}
+
 bool Simulation::step() {
   Engine& e = *engine_;
   RunProgress& s = progress_;
   if (s.diverged) return false;
   e.forward();
-  out_.clear();
-  if (controller_seconds_) {
-    for (size_t i = 0; i < controllers_.size(); ++i) {
-      auto t0 = std::chrono::steady_clock::now();
-      controllers_[i]->compute(*states_[i], e, out_);
-      (*controller_seconds_)[i] +=
-          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    }
-  } else {
-    for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->compute(*states_[i], e, out_);
-  }
-  out_.tau *= model_->scenario.torque_scale;
+  compute_controls();
   e.set_generalized_forces(out_.tau);
   if (out_.ctrl_used) e.set_controls(out_.ctrl);
   if (out_.dof_velocity_used) send_velocity_commands(out_.dof_velocity);
@@ -471,6 +522,14 @@ RunResult Simulation::result() const {
   m["pushes_applied"] = static_cast<int>(model_->pushes.size());
   m["pushes_survived"] = survived;
   for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->add_metrics(*states_[i], m);
+  if (model_->plans) {
+    const CorrectionPlan& plan = s.plan;
+    nlohmann::json& pm = m["planner"];
+    pm["plans"] = plan.plans;
+    pm["dimensions"] = model_->planner->dimensions.size();
+    pm["mean_cost"] = plan.plans ? plan.cost_sum / plan.plans : 0.0;
+    pm["kept_nominal_share"] = plan.plans ? double(plan.kept_nominal) / plan.plans : 0.0;
+  }
   return r;
 }
 
@@ -492,6 +551,9 @@ RunResult Simulation::run() {
   RunResult r = result();
   r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   r.metrics["realtime_factor"] = r.wall_time_s > 0 ? r.sim_time / r.wall_time_s : 0.0;
+  r.metrics["compute_s_per_sim_s"] = r.sim_time > 0 ? r.wall_time_s / r.sim_time : 0.0;
+  if (r.metrics.contains("mocap") && r.metrics["mocap"].is_object())
+    r.metrics["mocap"]["compute_s_per_sim_s"] = r.metrics["compute_s_per_sim_s"];
   for (StepObserver* o : observers_) o->on_finish(*this, r);
   if (log) {
     remove_observer(log.get());

@@ -20,6 +20,7 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
+#include "scenario/planner.h"
 #include "scenario/scenario.h"
 
 namespace stance {
@@ -81,6 +82,9 @@ struct SimulationModel {
   double stop_after_fall_s = 1.0;
   long total_steps = 0;
   long log_every = 1;
+  // the planner's dimensions and rollout model; null: no planner
+  std::shared_ptr<const PlannerModel> planner;
+  bool plans = false;  // runs of this model plan (false for the planner's own rollouts)
 
   // a new engine of this world at the initial state (under the one load lock)
   std::unique_ptr<Engine> make_engine() const;
@@ -127,12 +131,14 @@ struct RunProgress {
   double torque_sq_sum = 0, max_abs_torque = 0;
   long torque_samples = 0;
   Eigen::VectorXd velocity_sent;  // the velocity commands the engine holds, dim nv; NaN: none
+  CorrectionPlan plan;            // the planner's correction being applied
 
   template <class A>
   void serialize(A& a) {
     a(steps), a(fell), a(fall_time), a(fall_reason), a(diverged), a(divergence), a(diverged_at);
     a(com_height0), a(min_com_height), a(com0), a(torque_sq_sum), a(max_abs_torque);
     a(torque_samples), a(velocity_sent);
+    plan.serialize(a);
   }
 };
 
@@ -217,6 +223,10 @@ class Simulation {
   // the controllers' log values now, appended (signal_names order)
   void signals(std::vector<double>& values) const;
   double time() const { return engine_->time(); }
+  // the planner of this run; null when the scenario plans nothing (and in rollouts)
+  const Planner* planner() const { return planner_.get(); }
+  // the correction applied in the last step, in each dimension's unit (planner's dimensions)
+  const Eigen::VectorXd& correction() const { return correction_; }
   // benchmarks: add each controller's compute() wall time (s) into `seconds` (one entry per
   // controller) on every step; null: off
   void time_controllers(std::vector<double>* seconds) { controller_seconds_ = seconds; }
@@ -224,6 +234,7 @@ class Simulation {
  private:
   void start_run();
   void detect_fall();
+  void compute_controls();
   void send_velocity_commands(const Eigen::VectorXd& commands);
 
   std::shared_ptr<const SimulationModel> model_;
@@ -235,6 +246,9 @@ class Simulation {
   std::vector<StepObserver*> observers_;
   RunOptions run_files_;  // out_dir and progress for run()
   std::vector<double>* controller_seconds_ = nullptr;
+  Eigen::VectorXd correction_;          // this step's correction, dim planner dimensions
+  std::unique_ptr<Planner> planner_;  // made when the model plans
+  friend class Planner;               // rollouts set their candidate plan and read the state
 };
 
 // build the engine of a scenario with its initial pose applied (no controllers)

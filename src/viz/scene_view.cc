@@ -332,6 +332,19 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
     for (size_t i = 0; i < run.controllers().size(); ++i)
       run.controllers()[i]->markers(run.controller_state(i), engine, markers_);
     for (const auto& m : markers_) add_marker(m);
+    // the planner's chosen rollout: where the root goes over the horizon
+    if (const Planner* planner = run.planner()) {
+      const auto& path = planner->best_path();
+      for (size_t k = 1; k < path.size(); ++k) {
+        Marker line;
+        line.shape = Marker::Shape::kLine;
+        line.pos = path[k - 1];
+        line.end = path[k];
+        line.radius = 0.008;
+        line.rgba = {0.2f, 0.85f, 0.3f, 0.9f};
+        add_marker(line);
+      }
+    }
   }
   for (const auto& m : extra_markers) add_marker(m);
   if (options.com) {

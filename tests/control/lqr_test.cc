@@ -209,8 +209,7 @@ nlohmann::json summary_without_timing(const std::string& dir) {
   nlohmann::json j = nlohmann::json::parse(in);
   j.erase("wall_time_s");
   // wall-clock measurements, not simulation results
-  for (const char* k : {"design_time_ms", "controller_ns_per_step", "realtime_factor"})
-    j["metrics"].erase(k);
+  j["metrics"] = without_wall_clock(j["metrics"]);
   return j;
 }
 

@@ -1,0 +1,389 @@
+#include "scenario/planner.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <numeric>
+#include <random>
+
+#include "core/error.h"
+#include "engine/engine.h"
+#include "scenario/simulation.h"
+
+namespace stance {
+
+namespace {
+
+uint64_t splitmix64(uint64_t x) {
+  x += 0x9e3779b97f4a7c15ull;
+  x = (x ^ (x >> 30)) * 0xbf58476d1ce4e5b9ull;
+  x = (x ^ (x >> 27)) * 0x94d049bb133111ebull;
+  return x ^ (x >> 31);
+}
+
+Eigen::Vector3d horizontal(const Eigen::Vector3d& x, const Eigen::Vector3d& up) {
+  return x - up.dot(x) * up;
+}
+
+}  // namespace
+
+// ---- the plan
+
+void CorrectionPlan::evaluate(double t, Eigen::Ref<Eigen::VectorXd> out) const {
+  const int n = static_cast<int>(knots.cols());
+  if (n == 0 || knots.rows() != out.size()) {
+    out.setZero();
+    return;
+  }
+  if (n == 1 || knot_dt <= 0) {
+    out = knots.col(0);
+    return;
+  }
+  const double s = std::max(0.0, (t - t0) / knot_dt);
+  const int j = static_cast<int>(std::floor(s));
+  if (j >= n - 1) {
+    out = knots.col(n - 1);
+    return;
+  }
+  const double a = s - j;
+  out = (1 - a) * knots.col(j) + a * knots.col(j + 1);
+}
+
+// ---- the worker pool
+
+WorkerPool::WorkerPool(int threads) {
+  for (int w = 1; w < threads; ++w) threads_.emplace_back([this, w] { work(w); });
+}
+
+WorkerPool::~WorkerPool() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  for (auto& t : threads_) t.join();
+}
+
+void WorkerPool::run(int n, const std::function<void(int, int)>& job) {
+  if (n <= 0) return;
+  auto drain = [&](int worker) {
+    for (;;) {
+      int task;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (next_ >= tasks_) return;
+        task = next_++;
+      }
+      try {
+        job(worker, task);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!error_) error_ = std::current_exception();
+        next_ = tasks_;
+      }
+    }
+  };
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    job_ = &job;
+    tasks_ = n;
+    next_ = 0;
+    error_ = nullptr;
+    busy_ = static_cast<int>(threads_.size());
+    ++generation_;
+  }
+  wake_.notify_all();
+  drain(0);
+  std::exception_ptr error;
+  {
+    std::unique_lock<std::mutex> lock(mutex_);
+    done_.wait(lock, [&] { return busy_ == 0; });
+    job_ = nullptr;
+    error = error_;
+  }
+  if (error) std::rethrow_exception(error);
+}
+
+void WorkerPool::work(int worker) {
+  long seen = 0;
+  for (;;) {
+    const std::function<void(int, int)>* job;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
+      if (stop_) return;
+      seen = generation_;
+      job = job_;
+    }
+    for (;;) {
+      int task;
+      {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (next_ >= tasks_) break;
+        task = next_++;
+      }
+      try {
+        (*job)(worker, task);
+      } catch (...) {
+        std::lock_guard<std::mutex> lock(mutex_);
+        if (!error_) error_ = std::current_exception();
+        next_ = tasks_;
+      }
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      if (--busy_ == 0) done_.notify_all();
+    }
+  }
+}
+
+// ---- the model
+
+std::shared_ptr<const PlannerModel> make_planner_model(
+    const PlannerParams& params, const SimulationModel& model,
+    std::shared_ptr<const SimulationModel> rollout) {
+  const std::string& where = model.source;
+  auto fail = [&](const std::string& msg) {
+    throw InputError(where.empty() ? msg : fmt::format("{}: {}", where, msg));
+  };
+  if (params.method != "sampling" && params.method != "cem")
+    fail(fmt::format("planner.method: expected sampling or cem, found '{}'", params.method));
+  if (params.method == "cem" && params.elites > params.samples)
+    fail(fmt::format("planner.elites: {} is more than planner.samples ({})", params.elites,
+                     params.samples));
+  if (params.interval_s > params.horizon_s)
+    fail(fmt::format("planner.interval_s: {} s is longer than planner.horizon_s ({} s)",
+                     params.interval_s, params.horizon_s));
+  auto pm = std::make_shared<PlannerModel>();
+  pm->params = params;
+  pm->rollout = std::move(rollout);
+  std::unique_ptr<Engine> engine = model.make_engine();
+  const Engine& e = *engine;
+  // the controllers' own corrections
+  pm->controller_first.assign(model.controllers.size(), -1);
+  std::vector<CorrectionDim> dims;
+  for (size_t i = 0; i < model.controllers.size(); ++i) {
+    dims.clear();
+    model.controllers[i]->correction_dims(dims);
+    if (dims.empty()) continue;
+    pm->controller_first[i] = static_cast<int>(pm->dimensions.size());
+    for (const CorrectionDim& d : dims)
+      pm->dimensions.push_back(
+          {fmt::format("controllers[{}].{}", i, d.name), static_cast<int>(i), -1, d.scale});
+  }
+  // else residual torques
+  if (pm->dimensions.empty()) {
+    std::vector<int> dofs;
+    for (const std::string& name : params.residual_dofs) {
+      int dof = e.dof_index(name);
+      if (dof < 0)
+        fail(fmt::format("planner.residual_dofs: unknown dof '{}'{}", name,
+                         did_you_mean(name, e.dof_names())));
+      dofs.push_back(dof);
+    }
+    if (dofs.empty())
+      for (int dof = 0; dof < e.nv(); ++dof)
+        if (e.joint(e.dof_joint(dof)).type != JointType::kFree) dofs.push_back(dof);
+    for (int dof : dofs)
+      pm->dimensions.push_back(
+          {"residual." + e.dof_name(dof), -1, dof, params.residual_torque});
+  }
+  if (pm->dimensions.empty()) fail("planner: the model has no joint to correct");
+  if (e.nbody() > 0) {
+    pm->root_body = 0;
+    pm->root_up_local = e.body_pose(0).quat.conjugate() * model.up;
+  }
+  return pm;
+}
+
+// ---- planning
+
+Planner::Planner(std::shared_ptr<const PlannerModel> model) : model_(std::move(model)) {
+  const PlannerParams& p = model_->params;
+  int threads = p.threads > 0 ? p.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, std::max(1, p.samples));
+  pool_ = std::make_unique<WorkerPool>(threads);
+  seed_ = splitmix64(static_cast<uint64_t>(model_->rollout->scenario.seed) + 0x5eedull);
+  const int dims = static_cast<int>(model_->dimensions.size());
+  candidates_.resize(p.samples);
+  const size_t path_points =
+      static_cast<size_t>(p.horizon_s / std::max(p.cost_interval_s, 1e-4)) + 4;
+  for (Candidate& c : candidates_) {
+    c.knots.setZero(dims, p.knots);
+    c.path.reserve(path_points);
+  }
+  best_path_.reserve(path_points);
+  order_.resize(p.samples);
+}
+
+Planner::~Planner() = default;
+
+void Planner::draw(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& deviation, long plan,
+                   int round, int index, Eigen::MatrixXd& knots) const {
+  // one stream per (scenario seed, planning step, round, candidate): any thread may draw it
+  uint64_t s = splitmix64(seed_ ^ splitmix64(static_cast<uint64_t>(plan) * 0x100000001b3ull +
+                                             static_cast<uint64_t>(round) * 65537ull +
+                                             static_cast<uint64_t>(index)));
+  std::mt19937_64 rng(s);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const double limit = model_->params.limit;
+  for (int j = 0; j < knots.cols(); ++j)
+    for (int d = 0; d < knots.rows(); ++d)
+      knots(d, j) = std::clamp(mean(d, j) + deviation(d, j) * normal(rng), -limit, limit);
+}
+
+double Planner::rollout(Simulation& sim, Candidate& c) const {
+  const PlannerParams& p = model_->params;
+  const PlannerCostWeights& w = p.cost;
+  sim.restore(*start_);
+  CorrectionPlan& plan = sim.progress_.plan;
+  const double t0 = plan.t0, t_end = t0 + p.horizon_s;
+  plan.knots = c.knots;
+  plan.next_plan = std::numeric_limits<double>::infinity();
+  c.path.clear();
+  c.steps = 0;
+  const SimulationModel& m = sim.model();
+  const Eigen::Vector3d up = m.up;
+  double stage = 0, penalty = 0;
+  int samples = 0;
+  double next_cost = t0 + p.cost_interval_s;
+  while (sim.time() < t_end - 1e-9) {
+    ++c.steps;
+    if (!sim.step()) {  // diverged: the worst fall
+      penalty = 2 * w.fall;
+      break;
+    }
+    const double t = sim.time();
+    if (sim.progress_.fell) {
+      penalty = w.fall * (1 + std::max(0.0, t_end - t) / p.horizon_s);
+      break;
+    }
+    if (t + 1e-9 < next_cost) continue;
+    next_cost += p.cost_interval_s;
+    const Engine& e = sim.engine();
+    TrackingError total, one;
+    bool tracked = false;
+    for (size_t i = 0; i < sim.controllers_.size(); ++i) {
+      one = TrackingError{};
+      if (!sim.controllers_[i]->tracking_error(*sim.states_[i], e, one)) continue;
+      tracked = true;
+      total.joint_rad += one.joint_rad;
+      total.root_m += one.root_m;
+      total.body_m += one.body_m;
+      total.root_tilt_rad += one.root_tilt_rad;
+    }
+    double cost;
+    if (tracked) {
+      cost = w.joint * total.joint_rad * total.joint_rad + w.root * total.root_m * total.root_m +
+             w.body * total.body_m * total.body_m +
+             w.root_tilt * total.root_tilt_rad * total.root_tilt_rad;
+    } else {
+      // the capture point (COM + v sqrt(h / g)) against the start: where the COM would have
+      // to be to come to rest, so a push shows before the COM has moved
+      const Eigen::Vector3d com = e.com();
+      const Eigen::Vector3d vel = horizontal(e.com_velocity(), up);
+      const double h = std::max(1e-3, up.dot(com) - m.scenario.fall.ground_height);
+      const double g = std::max(1e-6, e.gravity().norm());
+      const Eigen::Vector3d offset =
+          horizontal(com - sim.progress_.com0, up) + std::sqrt(h / g) * vel;
+      double tilt = 0;
+      if (model_->root_body >= 0) {
+        const Eigen::Vector3d root_up = e.body_pose(model_->root_body).quat * model_->root_up_local;
+        tilt = std::acos(std::clamp(root_up.dot(up), -1.0, 1.0));
+      }
+      const double drop = std::max(0.0, up.dot(sim.progress_.com0 - com));
+      cost = w.capture * offset.squaredNorm() + w.com_velocity * vel.squaredNorm() +
+             w.upright * tilt * tilt + w.height * drop * drop;
+    }
+    stage += cost;
+    ++samples;
+    if (model_->root_body >= 0 && c.path.size() < c.path.capacity())
+      c.path.push_back(e.body_pose(model_->root_body).pos);
+  }
+  const double effort = c.knots.size() ? c.knots.squaredNorm() / c.knots.size() : 0.0;
+  return (samples ? stage / samples : 0.0) + penalty + w.effort * effort;
+}
+
+void Planner::plan(Simulation& sim) {
+  const PlannerParams& p = model_->params;
+  CorrectionPlan& plan = sim.progress_.plan;
+  const double now = sim.time();
+  const int dims = static_cast<int>(model_->dimensions.size());
+  const int n = p.knots;
+  const double knot_dt = n > 1 ? p.horizon_s / (n - 1) : p.horizon_s;
+  // the current plan, shifted to start now (warm start)
+  nominal_.resize(dims, n);
+  for (int j = 0; j < n; ++j) plan.evaluate(now + j * knot_dt, nominal_.col(j));
+  plan.next_plan = now + p.interval_s;
+  if (sim.progress_.fell || sim.progress_.diverged) {
+    // nothing left to save: hold the plan
+    plan.knots = nominal_;
+    plan.t0 = now;
+    plan.knot_dt = knot_dt;
+    return;
+  }
+  plan.knots = nominal_;
+  plan.t0 = now;
+  plan.knot_dt = knot_dt;
+  const auto wall0 = std::chrono::steady_clock::now();
+  if (workers_.empty())
+    for (int w = 0; w < pool_->size(); ++w)
+      workers_.push_back(std::make_unique<Simulation>(model_->rollout));
+  if (!start_) start_ = std::make_unique<SimulationState>();
+  sim.save(*start_);
+
+  const int k = p.samples;
+  const int rounds = p.method == "cem" ? p.iterations : 1;
+  mean_ = nominal_;
+  deviation_.setConstant(dims, n, p.noise);
+  best_ = nominal_;
+  double best_cost = std::numeric_limits<double>::infinity();
+  int best_round = -1, best_index = -1;
+  for (int round = 0; round < rounds; ++round) {
+    for (int i = 0; i < k; ++i) {
+      Eigen::MatrixXd& knots = candidates_[i].knots;
+      if (i == 0)
+        knots = round == 0 ? nominal_ : best_;  // the plan so far is always a candidate
+      else if (i == 1 && round == 0 && k > 2)
+        knots.setZero();  // so is no correction at all
+      else
+        draw(mean_, deviation_, plan.plans, round, i, knots);
+    }
+    pool_->run(k, [&](int worker, int i) {
+      candidates_[i].cost = rollout(*workers_[worker], candidates_[i]);
+    });
+    for (int i = 0; i < k; ++i) rollout_steps_ += candidates_[i].steps;
+    // the cheapest, the lower index on a tie: the same for any thread count
+    for (int i = 0; i < k; ++i)
+      if (candidates_[i].cost < best_cost) {
+        best_cost = candidates_[i].cost;
+        best_ = candidates_[i].knots;
+        best_round = round;
+        best_index = i;
+        best_path_.assign(candidates_[i].path.begin(), candidates_[i].path.end());
+      }
+    if (round + 1 == rounds) break;
+    // cem: refit the mean and deviation to the elites
+    std::iota(order_.begin(), order_.end(), 0);
+    std::stable_sort(order_.begin(), order_.end(),
+                     [&](int a, int b) { return candidates_[a].cost < candidates_[b].cost; });
+    const int elites = std::min(p.elites, k);
+    mean_.setZero();
+    for (int e = 0; e < elites; ++e) mean_ += candidates_[order_[e]].knots;
+    mean_ /= elites;
+    deviation_.setZero();
+    for (int e = 0; e < elites; ++e)
+      deviation_ += (candidates_[order_[e]].knots - mean_).cwiseAbs2();
+    deviation_ = (deviation_ / elites).cwiseSqrt().cwiseMax(0.1 * p.noise);
+  }
+  plan.knots = best_;
+  ++plan.plans;
+  plan.cost_sum += best_cost;
+  if (best_round == 0 && best_index <= 1) ++plan.kept_nominal;
+  plan_seconds_ += std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+}
+
+}  // namespace stance

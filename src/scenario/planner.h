@@ -1,0 +1,138 @@
+// The sampling planner (predictive sampling, Howell et al. 2022, with an optional cross-entropy
+// refinement). Every interval it draws candidate corrections as spline knots over a horizon,
+// rolls each out from the simulation's state on an engine of its own with the scenario's
+// controllers running inside, scores the rollouts and applies the cheapest. The current plan,
+// shifted in time, is always a candidate, and so is no correction at all.
+//
+// The correction is low-dimensional: offsets that controllers offer through
+// Controller::correction_dims() (a tracker's swing-hip, pelvis and ankle targets), else residual
+// torques on joint dofs. Candidate i of planning step k draws its noise from a stream seeded by
+// (scenario seed, k, i), so the plan is the same for any thread count.
+#pragma once
+
+#include <Eigen/Core>
+
+#include <condition_variable>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "scenario/planner_params.h"
+
+namespace stance {
+
+class Simulation;
+struct SimulationModel;
+struct SimulationState;
+
+// one dimension of the correction: an offset a controller applies, or a residual torque
+struct PlanDimension {
+  std::string name;     // "controllers[0].swing_hip_pitch", "residual.j_thigh_left_z"
+  int controller = -1;  // the controller applying it; -1: a residual torque
+  int dof = -1;         // the residual torque's dof
+  double scale = 0;     // what one unit of the plan means, in the dimension's unit
+};
+
+// the correction a run applies: a piecewise-linear spline in units of each dimension's scale.
+// Part of the run's state (it is saved, restored and written to the state file with it).
+struct CorrectionPlan {
+  Eigen::MatrixXd knots;  // dims x knots; empty: no correction
+  double t0 = 0;          // s, time of the first knot
+  double knot_dt = 0;     // s between knots
+  double next_plan = 0;   // s, when the planner plans again
+  long plans = 0;         // planning steps so far: the noise streams' index
+  double cost_sum = 0;    // the chosen candidates' costs, summed (a metric)
+  long kept_nominal = 0;  // planning steps whose choice was the shifted plan or no correction
+
+  // the correction at time t in plan units (dim knots.rows()); beyond the last knot it holds
+  void evaluate(double t, Eigen::Ref<Eigen::VectorXd> out) const;
+
+  template <class A>
+  void serialize(A& a) {
+    a(knots), a(t0), a(knot_dt), a(next_plan), a(plans), a(cost_sum), a(kept_nominal);
+  }
+};
+
+// what a scenario's planner resolves to once: the dimensions, and the model rollouts run on
+struct PlannerModel {
+  PlannerParams params;
+  std::vector<PlanDimension> dimensions;
+  std::vector<int> controller_first;  // per controller: its first dimension, or -1
+  int root_body = -1;                 // the first mobile body: its path and tilt
+  Eigen::Vector3d root_up_local = Eigen::Vector3d::UnitZ();  // `up` in the root's frame at start
+  // the model rollouts step (the scenario's, at the planner's timestep, planning off)
+  std::shared_ptr<const SimulationModel> rollout;
+};
+
+// a fixed set of threads that run batches of tasks; made once per planning simulation
+class WorkerPool {
+ public:
+  explicit WorkerPool(int threads);  // threads >= 1; the caller is worker 0
+  ~WorkerPool();
+  WorkerPool(const WorkerPool&) = delete;
+  WorkerPool& operator=(const WorkerPool&) = delete;
+  int size() const { return static_cast<int>(threads_.size()) + 1; }
+  // job(worker, task) for every task in [0, n), spread over the workers; returns when all are
+  // done and rethrows the first exception on the calling thread
+  void run(int n, const std::function<void(int worker, int task)>& job);
+
+ private:
+  void work(int worker);
+  std::vector<std::thread> threads_;
+  std::mutex mutex_;
+  std::condition_variable wake_, done_;
+  const std::function<void(int, int)>* job_ = nullptr;
+  int tasks_ = 0, next_ = 0, busy_ = 0;
+  long generation_ = 0;
+  bool stop_ = false;
+  std::exception_ptr error_;
+};
+
+// one run's planner: the worker pool, a rollout simulation per worker and the candidates
+class Planner {
+ public:
+  explicit Planner(std::shared_ptr<const PlannerModel> model);
+  ~Planner();
+  // choose the plan from the simulation's current state; sets its CorrectionPlan
+  void plan(Simulation& sim);
+  // the chosen rollout's root path in the world, for drawing (empty before the first plan)
+  const std::vector<Eigen::Vector3d>& best_path() const { return best_path_; }
+  const PlannerModel& model() const { return *model_; }
+  // what planning cost so far: rollout steps taken, and wall seconds in plan() (benchmarks)
+  long rollout_steps() const { return rollout_steps_; }
+  double plan_seconds() const { return plan_seconds_; }
+
+ private:
+  struct Candidate {
+    Eigen::MatrixXd knots;
+    double cost = 0;
+    long steps = 0;
+    std::vector<Eigen::Vector3d> path;
+  };
+  void draw(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& deviation, long plan, int round,
+            int index, Eigen::MatrixXd& knots) const;
+  double rollout(Simulation& sim, Candidate& c) const;
+
+  std::shared_ptr<const PlannerModel> model_;
+  std::unique_ptr<WorkerPool> pool_;
+  std::vector<std::unique_ptr<Simulation>> workers_;
+  std::unique_ptr<SimulationState> start_;
+  std::vector<Candidate> candidates_;
+  std::vector<int> order_;
+  Eigen::MatrixXd nominal_, mean_, deviation_, best_;
+  std::vector<Eigen::Vector3d> best_path_;
+  uint64_t seed_ = 0;
+  long rollout_steps_ = 0;
+  double plan_seconds_ = 0;
+};
+
+// resolve a scenario's planner on a simulation model built without one: the dimensions from the
+// controllers (or residual torques), the rollout model. Throws InputError naming planner.* keys.
+std::shared_ptr<const PlannerModel> make_planner_model(const PlannerParams& params,
+                                                       const SimulationModel& model,
+                                                       std::shared_ptr<const SimulationModel> rollout);
+
+}  // namespace stance

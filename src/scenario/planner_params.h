@@ -1,0 +1,85 @@
+// The sampling planner's parameters: the scenario's `planner:` block (docs/planner.md).
+#pragma once
+
+#include <string>
+#include <vector>
+
+namespace stance {
+
+// the rollout cost: a time average of weighted squared residuals, plus a fall penalty
+struct PlannerCostWeights {
+  // while a controller tracks a reference (Controller::tracking_error)
+  double joint = 4;       // per rad^2 of mean joint error
+  double root = 4;        // per m^2 of root position error
+  double body = 20;       // per m^2 of mean body position error
+  double root_tilt = 2;   // per rad^2 of root tilt against the reference
+  // while nothing is tracked: keep balance where the run started
+  double capture = 20;       // per m^2 of the capture point's horizontal offset from the start
+  double com_velocity = 1;   // per (m/s)^2 of horizontal COM velocity
+  double upright = 5;        // per rad^2 of the root's tilt from its start
+  double height = 50;        // per m^2 of COM height below its start
+  // always
+  double effort = 0.01;  // per squared unit of noise, mean over dimensions
+  double fall = 100;     // a fall in the horizon: this, times 1 + the share of the horizon left
+
+  template <class V>
+  void visit(V& v) {
+    v("joint", joint, {.unit = "1/rad^2", .min = 0, .help = "tracking: mean joint error"});
+    v("root", root, {.unit = "1/m^2", .min = 0, .help = "tracking: root position error"});
+    v("body", body, {.unit = "1/m^2", .min = 0, .help = "tracking: mean body position error"});
+    v("root_tilt", root_tilt, {.unit = "1/rad^2", .min = 0, .help = "tracking: root tilt"});
+    v("capture", capture,
+      {.unit = "1/m^2", .min = 0, .help = "no tracking: capture point's offset from the start"});
+    v("com_velocity", com_velocity,
+      {.unit = "s^2/m^2", .min = 0, .help = "no tracking: horizontal COM velocity"});
+    v("upright", upright, {.unit = "1/rad^2", .min = 0, .help = "no tracking: root tilt"});
+    v("height", height, {.unit = "1/m^2", .min = 0, .help = "no tracking: COM height lost"});
+    v("effort", effort, {.min = 0, .help = "squared correction, in noise units"});
+    v("fall", fall, {.min = 0, .help = "a fall within the horizon"});
+  }
+};
+
+struct PlannerParams {
+  bool enabled = false;
+  int samples = 12;           // candidates per planning step, the current plan included
+  double horizon_s = 0.35;    // s
+  double interval_s = 0.04;   // s between planning steps
+  int knots = 4;              // spline knots over the horizon (piecewise linear)
+  double noise = 1;           // standard deviation, in units of each dimension's scale
+  double limit = 3;           // knots are clamped to +-limit units
+  std::string method = "sampling";  // sampling (predictive sampling) or cem
+  int iterations = 2;               // cem: refits of the mean and deviation
+  int elites = 4;                   // cem: candidates the refit keeps
+  double timestep = 0;              // s, the rollouts' step; 0: the scenario's
+  double cost_interval_s = 0.01;    // s between cost samples in a rollout
+  int threads = 0;                  // rollout threads; 0: every core
+  // where no controller offers a correction: residual torques on these dofs (empty: every dof
+  // of a hinge, slide or ball joint), `residual_torque` N m per unit
+  std::vector<std::string> residual_dofs;
+  double residual_torque = 10;
+  PlannerCostWeights cost;
+
+  template <class V>
+  void visit(V& v) {
+    v("enabled", enabled, {.help = "plan corrections by sampling rollouts"});
+    v("samples", samples, {.min = 1, .max = 4096, .help = "candidates per planning step"});
+    v("horizon_s", horizon_s, {.unit = "s", .min = 0.001, .max = 10});
+    v("interval_s", interval_s,
+      {.unit = "s", .min = 0.0001, .max = 10, .help = "time between planning steps"});
+    v("knots", knots, {.min = 1, .max = 64, .help = "spline knots over the horizon"});
+    v("noise", noise, {.min = 0, .max = 100, .help = "sampling deviation, in scale units"});
+    v("limit", limit, {.min = 0, .max = 100, .help = "knot clamp, in scale units"});
+    v("method", method, {.help = "sampling or cem"});
+    v("iterations", iterations, {.min = 1, .max = 100, .help = "cem iterations"});
+    v("elites", elites, {.min = 1, .max = 4096, .help = "cem: candidates kept per refit"});
+    v("timestep", timestep, {.unit = "s", .min = 0, .max = 1, .help = "rollout step; 0: same"});
+    v("cost_interval_s", cost_interval_s, {.unit = "s", .min = 0, .max = 1});
+    v("threads", threads, {.min = 0, .max = 1024, .help = "rollout threads; 0: every core"});
+    v("residual_dofs", residual_dofs, {.help = "dofs of residual torques; empty: all joints"});
+    v("residual_torque", residual_torque,
+      {.unit = "N m", .min = 0, .max = 1e5, .help = "residual torque per unit of noise"});
+    v("cost", cost);
+  }
+};
+
+}  // namespace stance

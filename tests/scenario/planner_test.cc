@@ -1,0 +1,175 @@
+// The sampling planner: the spline, the dimensions it finds, thread-count determinism, branching
+// with a plan, and what it is for: a standing biped taking pushes its ankle strategy cannot.
+#include "scenario/planner.h"
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+#include "scenario/scenario.h"
+#include "scenario/simulation.h"
+#include "test_support.h"
+
+namespace stance {
+namespace {
+
+std::string scenario(const std::string& name) {
+  return test::source_dir() + "/scenarios/" + name;
+}
+
+RunOptions quiet() {
+  RunOptions o;
+  o.quiet = true;
+  return o;
+}
+
+TEST(CorrectionPlan, EvaluatesAPiecewiseLinearSplineAndHoldsItsEnds) {
+  CorrectionPlan plan;
+  plan.knots.resize(2, 3);
+  plan.knots << 0, 1, 3,  //
+      2, 2, -2;
+  plan.t0 = 1.0;
+  plan.knot_dt = 0.1;
+  Eigen::VectorXd x(2);
+  plan.evaluate(1.0, x);
+  EXPECT_DOUBLE_EQ(x[0], 0);
+  EXPECT_DOUBLE_EQ(x[1], 2);
+  plan.evaluate(1.05, x);
+  EXPECT_NEAR(x[0], 0.5, 1e-12);
+  EXPECT_NEAR(x[1], 2, 1e-12);
+  plan.evaluate(1.15, x);
+  EXPECT_NEAR(x[0], 2, 1e-12);
+  EXPECT_NEAR(x[1], 0, 1e-12);
+  plan.evaluate(0.5, x);  // before the first knot: the first
+  EXPECT_DOUBLE_EQ(x[0], 0);
+  plan.evaluate(7.0, x);  // after the last: the last
+  EXPECT_DOUBLE_EQ(x[0], 3);
+  EXPECT_DOUBLE_EQ(x[1], -2);
+  CorrectionPlan empty;
+  empty.evaluate(1.0, x);
+  EXPECT_EQ(x.squaredNorm(), 0);
+}
+
+TEST(WorkerPool, RunsEveryTaskOnceAndRethrowsOnTheCaller) {
+  WorkerPool pool(3);
+  EXPECT_EQ(pool.size(), 3);
+  for (int round = 0; round < 20; ++round) {
+    std::vector<int> hits(37, 0);
+    pool.run(37, [&](int worker, int task) {
+      EXPECT_GE(worker, 0);
+      EXPECT_LT(worker, 3);
+      ++hits[task];
+    });
+    for (int h : hits) ASSERT_EQ(h, 1);
+  }
+  EXPECT_THROW(pool.run(5,
+                        [&](int, int task) {
+                          if (task == 3) throw std::runtime_error("boom");
+                        }),
+               std::runtime_error);
+  int after = 0;
+  pool.run(4, [&](int, int) { __atomic_add_fetch(&after, 1, __ATOMIC_SEQ_CST); });
+  EXPECT_EQ(after, 4);
+}
+
+// a short planning run of biped_stand; its trace of positions
+std::vector<double> planned_trace(int threads, const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> sets = {"planner.enabled=true", "planner.samples=6",
+                                   "planner.horizon_s=0.2", "planner.interval_s=0.05",
+                                   "planner.threads=" + std::to_string(threads)};
+  sets.insert(sets.end(), extra.begin(), extra.end());
+  Simulation sim(load_scenario(scenario("biped_stand.yaml"), sets), quiet());
+  std::vector<double> out;
+  Eigen::VectorXd q(sim.engine().nq());
+  for (int k = 0; k < 300; ++k) {
+    EXPECT_TRUE(sim.step());
+    sim.engine().get_positions(q);
+    out.insert(out.end(), q.data(), q.data() + q.size());
+  }
+  EXPECT_GE(sim.progress().plan.plans, 6);
+  return out;
+}
+
+TEST(Planner, SamePlanForAnyThreadCount) {
+  const std::vector<std::string> push = {"perturbations=[{body: h_spine, force: [80, 0, 0], "
+                                         "start: 0.05, duration: 0.1}]"};
+  std::vector<double> one = planned_trace(1, push);
+  EXPECT_EQ(planned_trace(2, push), one);
+  EXPECT_EQ(planned_trace(3, push), one);
+  // and the planner does something: without it the run differs
+  std::vector<double> base = planned_trace(1, {"planner.samples=1", push[0]});
+  EXPECT_NE(base, one);
+}
+
+TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
+  Simulation sim(load_scenario(scenario("biped_stand.yaml"),
+                               {"planner.enabled=true", "planner.samples=2",
+                                "planner.residual_dofs=[j_shin_left, j_shin_right]"}),
+                 quiet());
+  ASSERT_TRUE(sim.model().planner);
+  const auto& dims = sim.model().planner->dimensions;
+  ASSERT_EQ(dims.size(), 2u);
+  EXPECT_EQ(dims[0].name, "residual.j_shin_left");
+  EXPECT_EQ(dims[0].dof, sim.engine().dof_index("j_shin_left"));
+  EXPECT_EQ(dims[0].controller, -1);
+  try {
+    Simulation bad(load_scenario(scenario("biped_stand.yaml"),
+                                 {"planner.enabled=true", "planner.residual_dofs=[j_shin_lft]"}),
+                   quiet());
+    FAIL() << "an unknown dof was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("planner.residual_dofs: unknown dof 'j_shin_lft'"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("j_shin_left"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(Simulation(load_scenario(scenario("biped_stand.yaml"),
+                                        {"planner.enabled=true", "planner.method=cmaes"}),
+                          quiet()),
+               InputError);
+}
+
+TEST(Planner, ARestoredRunPlansAsTheRunThatWentOn) {
+  const std::vector<std::string> sets = {"planner.enabled=true", "planner.samples=4",
+                                         "planner.horizon_s=0.15", "planner.interval_s=0.03",
+                                         "planner.threads=2"};
+  Simulation a(load_scenario(scenario("biped_stand.yaml"), sets), quiet());
+  for (int k = 0; k < 100; ++k) ASSERT_TRUE(a.step());
+  SimulationState mid;
+  a.save(mid);
+  for (int k = 0; k < 150; ++k) ASSERT_TRUE(a.step());
+  Simulation b(load_scenario(scenario("biped_stand.yaml"), sets), quiet());
+  b.restore(mid);
+  for (int k = 0; k < 150; ++k) ASSERT_TRUE(b.step());
+  Eigen::VectorXd qa(a.engine().nq()), qb(b.engine().nq());
+  a.engine().get_positions(qa);
+  b.engine().get_positions(qb);
+  EXPECT_EQ(qa, qb);
+  EXPECT_EQ(a.progress().plan.plans, b.progress().plan.plans);
+}
+
+// how long biped_stand_planner stays up after a 150 N forward push on the spine at 1 s (the
+// ankle strategy alone takes about 92 N), with or without the planner
+double stays_up_s(bool plan, const std::vector<std::string>& setting) {
+  std::vector<std::string> sets = {"perturbations.0.force=[150, 0, 0]", "duration=2.6",
+                                   "planner.threads=2",
+                                   std::string("planner.enabled=") + (plan ? "true" : "false")};
+  sets.insert(sets.end(), setting.begin(), setting.end());
+  RunResult r = Simulation(load_scenario(scenario("biped_stand_planner.yaml"), sets), quiet()).run();
+  return r.fell ? *r.fall_time : r.sim_time;
+}
+
+// Not a threshold at one tuned point: at the defaults, kp 0.8x and 1.2x and another seed, the
+// planned run stays up clearly longer than the same push without the planner (or does not fall)
+TEST(PlannerStanding, OutlastsTheAnkleStrategyAfterAPushItCannotTake) {
+  for (const std::vector<std::string>& setting :
+       std::vector<std::vector<std::string>>{{}, {"controllers.0.kp=320"},
+                                             {"controllers.0.kp=480"}, {"seed=2"}}) {
+    SCOPED_TRACE(setting.empty() ? "defaults" : setting[0]);
+    const double base = stays_up_s(false, setting);
+    EXPECT_LT(base, 2.2) << "the push should floor the unplanned biped";
+    EXPECT_GT(stays_up_s(true, setting), base + 0.15);
+  }
+}
+
+}  // namespace
+}  // namespace stance
