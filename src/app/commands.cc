@@ -13,7 +13,7 @@
 #include <numbers>
 
 #include "control/controller.h"
-#include "control/mocap_tracker.h"
+#include "control/mocap_clip.h"
 #include "control/retarget.h"
 #include "core/error.h"
 #include "engine/engine.h"
@@ -206,9 +206,9 @@ int bvh_retarget_command(const BvhRetargetCommand& cmd) {
   });
 }
 
-int bvh_synth_walk_command(const std::string& out_path) {
+int bvh_synth_command(const std::string& out_path, bool run) {
   return guarded([&] {
-    BvhClip clip = make_synthetic_walk_clip();
+    BvhClip clip = make_synthetic_walk_clip(run ? synthetic_run_options() : SyntheticWalkOptions{});
     write_bvh(clip, out_path);
     std::cout << fmt::format("wrote {}: {} frames at {:.6g} s\n", out_path, clip.frame_count,
                              clip.frame_time_s);
