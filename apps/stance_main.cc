@@ -70,6 +70,9 @@ int main(int argc, char** argv) {
   std::string synth_out;
   auto* bvh_synth_cmd = bvh_cmd->add_subcommand("synth-walk", "write the synthetic walking clip");
   bvh_synth_cmd->add_option("output", synth_out, "BVH file to write")->required();
+  auto* bvh_synth_run_cmd =
+      bvh_cmd->add_subcommand("synth-run", "write the synthetic running clip (a flight phase)");
+  bvh_synth_run_cmd->add_option("output", synth_out, "BVH file to write")->required();
 
   stance::BvhRetargetCommand retarget;
   auto* bvh_retarget_cmd =
@@ -223,7 +226,8 @@ int main(int argc, char** argv) {
   if (*convert_cmd) return stance::convert_command(convert_in, convert_out);
   if (*bvh_info_cmd) return stance::bvh_info_command(bvh_file, bvh_json);
   if (*bvh2mjcf_cmd) return stance::bvh2mjcf_command(bvh2mjcf);
-  if (*bvh_synth_cmd) return stance::bvh_synth_walk_command(synth_out);
+  if (*bvh_synth_cmd) return stance::bvh_synth_command(synth_out, false);
+  if (*bvh_synth_run_cmd) return stance::bvh_synth_command(synth_out, true);
   if (*bvh_retarget_cmd) return stance::bvh_retarget_command(retarget);
   if (*bvh_track_cmd) {
     int code = stance::bvh_track_command(track);

@@ -153,7 +153,7 @@ def tracked(name, tracker):
             f"of a {fmt(get(name, 'controlled_us'))} µs step; "
             f"{fmt(get(name, 'realtime_factor'))}x real time")
 if "BM_MocapFreeMujoco" in runs:
-    rows.append(("Mocap free mode (`mocap_track_free`, balance layer), MuJoCo, 2 ms step",
+    rows.append(("Mocap free mode (`mocap_track` in free mode, balance layer), MuJoCo, 2 ms step",
                  tracked("BM_MocapFreeMujoco", "mocap_tracker")))
 if "BM_MocapRetargetHumanoidMujoco" in runs:
     rows.append(("Mocap retargeting (`mocap_retarget`, humanoid.xml), MuJoCo, 2 ms step",

@@ -63,8 +63,9 @@ struct ControlledLoop {
 // Returns the controlled step time (us).
 inline double measure_step_share(benchmark::State& state, const std::string& scenario,
                                  const std::string& engine_name, int settle_steps,
-                                 bool restore_controlled = true) {
-  LoadedScenario loaded = load_scenario(scenario);
+                                 bool restore_controlled = true,
+                                 const std::vector<std::string>& sets = {}) {
+  LoadedScenario loaded = load_scenario(scenario, sets);
   RunOptions options;
   options.engine = engine_name;
   options.quiet = true;

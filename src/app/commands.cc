@@ -13,8 +13,8 @@
 #include <numbers>
 
 #include "control/controller.h"
+#include "control/mocap_clip.h"
 #include "control/mocap_retarget_tracker.h"
-#include "control/mocap_tracker.h"
 #include "control/retarget.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -285,9 +285,9 @@ int bvh_track_command(const BvhTrackCommand& cmd) {
   return run_command(bvh_track_run(cmd, scenario));
 }
 
-int bvh_synth_walk_command(const std::string& out_path) {
+int bvh_synth_command(const std::string& out_path, bool run) {
   return guarded([&] {
-    BvhClip clip = make_synthetic_walk_clip();
+    BvhClip clip = make_synthetic_walk_clip(run ? synthetic_run_options() : SyntheticWalkOptions{});
     write_bvh(clip, out_path);
     std::cout << fmt::format("wrote {}: {} frames at {:.6g} s\n", out_path, clip.frame_count,
                              clip.frame_time_s);

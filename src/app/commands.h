@@ -64,8 +64,8 @@ struct Bvh2MjcfCommand {
 };
 int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
 
-// `stance bvh synth-walk OUT.bvh`: the synthetic walking clip (motion/reference_motion.h)
-int bvh_synth_walk_command(const std::string& out_path);
+// `bvh synth-walk` / `bvh synth-run`: the synthetic clip (run: synthetic_run_options())
+int bvh_synth_command(const std::string& out_path, bool run);
 
 // `stance bvh retarget IN.bvh --map MAP.yaml --model MODEL OUT.csv`: the clip mapped onto a
 // model (control/retarget.h), written as a table of the model's positions and velocities at the

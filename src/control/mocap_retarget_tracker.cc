@@ -16,9 +16,26 @@ namespace {
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 }
 
+namespace {
+// the offsets the planner may make (correction_dims), in this order
+enum Correction {
+  kSwingHipPitch,
+  kSwingHipRoll,
+  kPelvisPitch,
+  kPelvisRoll,
+  kStanceAnklePitch,
+  kStanceAnkleRoll,
+  kCorrections
+};
+}  // namespace
+
 MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
-                                           const ControllerContext& ctx, const Engine& engine)
-    : params_(params), mode_(parse_mocap_root_mode(params.mode)), duration_s_(ctx.duration_s) {
+                                           const ControllerContext& ctx, const Engine& engine,
+                                           std::string_view type_name)
+    : type_name_(type_name),
+      params_(params),
+      mode_(parse_mocap_root_mode(params.mode)),
+      duration_s_(ctx.duration_s) {
   if (!ctx.scratch_engine)
     throw InputError("mocap_retarget: needs a scratch engine of the model to probe it");
   std::unique_ptr<Engine> probe = ctx.scratch_engine();
@@ -26,12 +43,18 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     throw InputError("mocap_retarget: the scratch engine is not the run's model");
   const std::string base_dir = mocap_base_dir(ctx);
   clip_ = load_mocap_clip(params, base_dir);
-  if (params.joint_map.empty()) throw InputError("joint_map: a joint map file is required");
-  std::filesystem::path map_path(params.joint_map);
-  if (map_path.is_relative() && !base_dir.empty())
-    map_path = std::filesystem::path(base_dir) / map_path;
-  JointMap map = read_joint_map(map_path.string());
+  JointMap map;
+  if (params.joint_map.empty()) {
+    map = bvh_character_joint_map(clip_.reference->skeleton(), engine);
+  } else {
+    std::filesystem::path map_path(params.joint_map);
+    if (map_path.is_relative() && !base_dir.empty())
+      map_path = std::filesystem::path(base_dir) / map_path;
+    map = read_joint_map(map_path.string());
+  }
   motion_ = std::make_shared<RetargetedMotion>(*clip_.reference, map, *probe, ctx.duration_s);
+  const Eigen::Vector3d g = engine.gravity();
+  up_ = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
 
   // the root: the free joint above the body the clip's root is mapped onto
   int top = -1;
@@ -46,35 +69,39 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     if (engine.joint(j).body == top && engine.joint(j).type == JointType::kFree)
       root_dof_ = engine.joint(j).dof_adr;
 
-  // free mode balance: the legs, as mapped bodies
-  if (mode_ == MocapRootMode::kFree && params.balance) {
+  // the legs, as mapped bodies: the balance layer's, the fall rule's feet and the foot skate's
+  const auto& bodies = motion_->bodies();
+  {
     const MotionSkeleton& sk = clip_.reference->skeleton();
     int hip_seg[2], foot_seg[2];
     find_mocap_legs(sk, {params.left_hip, params.right_hip, params.left_foot, params.right_foot},
                     hip_seg, foot_seg);
-    const auto& bodies = motion_->bodies();
     for (int side = 0; side < 2; ++side)
       for (size_t i = 0; i < bodies.size(); ++i) {
         if (bodies[i].segment == hip_seg[side]) hip_[side] = static_cast<int>(i);
         if (bodies[i].segment == foot_seg[side]) foot_[side] = static_cast<int>(i);
       }
-    if (hip_[0] < 0 || hip_[1] < 0 || foot_[0] < 0 || foot_[1] < 0 || hip_[0] == hip_[1])
-      throw InputError(
-          "free mode balance: map both thighs and both feet (or set left_hip, right_hip, "
-          "left_foot and right_foot to mapped clip joints)");
-    for (int side = 0; side < 2; ++side)
+    has_legs_ =
+        hip_[0] >= 0 && hip_[1] >= 0 && foot_[0] >= 0 && foot_[1] >= 0 && hip_[0] != hip_[1];
+  }
+  if (mode_ == MocapRootMode::kFree && params.balance && !has_legs_)
+    throw InputError(
+        "free mode balance: map both thighs and both feet (or set left_hip, right_hip, "
+        "left_foot and right_foot to mapped clip joints)");
+  is_foot_.assign(engine.nbody(), 0);
+  for (int side = 0; side < 2; ++side)
+    if (foot_[side] >= 0)
       for (int b = 0; b < engine.nbody(); ++b)
         for (int a = b; a >= 0; a = engine.body_parent(a))
           if (a == bodies[foot_[side]].body) {
             foot_bodies_[side].push_back(b);
+            is_foot_[b] = 1;
             break;
           }
+  if (mode_ == MocapRootMode::kFree && params.balance) {
     // the walking direction in the root body's frame: the mean horizontal root velocity
     std::vector<Eigen::Quaterniond> world(bodies.size()), local(bodies.size());
     std::vector<Eigen::Vector3d> a(bodies.size()), b(bodies.size());
-    const Eigen::Vector3d g = engine.gravity();
-    const Eigen::Vector3d up =
-        g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
     Eigen::Vector3d fwd = Eigen::Vector3d::Zero();
     const double h = motion_->frame_time_s();
     for (double t = 0; t + h <= clip_.reference->duration_s(); t += h) {
@@ -82,18 +109,57 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
       motion_->sample_bodies(t + h, local, b);
       motion_->sample_world(t, world);
       Eigen::Vector3d vel = b[root_mapped_] - a[root_mapped_];
-      vel -= vel.dot(up) * up;
+      vel -= vel.dot(up_) * up_;
       fwd += world[root_mapped_].conjugate() * vel;
     }
     if (fwd.norm() > 1e-9) forward_in_root_ = fwd.normalized();
   }
 
-  // gains: every dof but the root's; the root's in assisted mode
+  // the fall rule: every body moves with its nearest mapped ancestor (the joints between are not
+  // driven and stay at zero), so its reference COM and origin are fixed in that body's frame;
+  // the probe stands at the table's first frame
+  std::vector<int> mapped_of_body(engine.nbody(), -1);
+  for (size_t i = 0; i < bodies.size(); ++i) mapped_of_body[bodies[i].body] = static_cast<int>(i);
+  body_names_ = engine.body_names();
+  anchor_.assign(engine.nbody(), -1);
+  anchor_com_.assign(engine.nbody(), Eigen::Vector3d::Zero());
+  anchor_origin_.assign(engine.nbody(), Eigen::Vector3d::Zero());
+  for (int b = 0; b < engine.nbody(); ++b) {
+    int a = b;
+    while (a >= 0 && mapped_of_body[a] < 0) a = engine.body_parent(a);
+    if (a < 0) continue;
+    anchor_[b] = mapped_of_body[a];
+    const BodyPose base = probe->body_pose(a);
+    anchor_com_[b] = base.quat.conjugate() * (probe->body_com(b) - base.pos);
+    anchor_origin_[b] = base.quat.conjugate() * (probe->body_pose(b).pos - base.pos);
+    anchored_mass_ += engine.body_mass(b);
+  }
+  sole_level_ = 1e300;
+  for (int f = 0; f < motion_->frame_count(); ++f)
+    for (size_t i = 0; i < bodies.size(); ++i)
+      sole_level_ = std::min(
+          sole_level_, up_.dot(motion_->sample_body_pose(f * motion_->frame_time_s(), i).pos));
+
+  // gains: every dof but the root's; the root's in assisted mode. A name is a dof, or a joint
+  // for all its dofs.
   const int nv = engine.nv();
   kp_ = Eigen::VectorXd::Constant(nv, params.kp);
   kd_ = Eigen::VectorXd::Constant(nv, params.kd);
-  for (const auto& [name, value] : params.kp_joints) kp_[engine.require_dof(name)] = value;
-  for (const auto& [name, value] : params.kd_joints) kd_[engine.require_dof(name)] = value;
+  auto set_gain = [&](Eigen::VectorXd& gains, const std::string& name, double value,
+                      const char* what) {
+    if (engine.dof_index(name) >= 0) {
+      gains[engine.dof_index(name)] = value;
+    } else if (const int j = engine.joint_index(name); j >= 0) {
+      gains.segment(engine.joint(j).dof_adr, engine.joint(j).nv).setConstant(value);
+    } else {
+      std::vector<std::string> names = engine.dof_names();
+      for (int k = 0; k < engine.njoint(); ++k) names.push_back(engine.joint(k).name);
+      throw InputError(fmt::format("{}: the model has no dof or joint '{}'{}", what, name,
+                                   did_you_mean(name, names)));
+    }
+  };
+  for (const auto& [name, value] : params.kp_joints) set_gain(kp_, name, value, "kp_joints");
+  for (const auto& [name, value] : params.kd_joints) set_gain(kd_, name, value, "kd_joints");
   for (int i = root_dof_; i < root_dof_ + 6; ++i) {
     const bool translation = engine.dof_name(i).find("_pos_") != std::string::npos;
     root_translation_[i - root_dof_] = translation;
@@ -101,6 +167,90 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     kp_[i] = assisted ? (translation ? params.root_kp : params.root_kp_rot) : 0;
     kd_[i] = assisted ? (translation ? params.root_kd : params.root_kd_rot) : 0;
   }
+}
+
+void MocapRetargetTracker::correction_dims(std::vector<CorrectionDim>& dims) const {
+  if (mode_ != MocapRootMode::kFree || !params_.balance) return;
+  dims.push_back({"swing_hip_pitch", 0.15, "rad"});
+  dims.push_back({"swing_hip_roll", 0.15, "rad"});
+  dims.push_back({"pelvis_pitch", 0.1, "rad"});
+  dims.push_back({"pelvis_roll", 0.1, "rad"});
+  dims.push_back({"stance_ankle_pitch", 0.1, "rad"});
+  dims.push_back({"stance_ankle_roll", 0.1, "rad"});
+}
+
+bool MocapRetargetTracker::state_tracking_error(const State&, const Engine& engine,
+                                                TrackingError& error) const {
+  const double t = engine.time();
+  const auto& bodies = motion_->bodies();
+  double joints = 0, positions = 0;
+  for (size_t i = 0; i < bodies.size(); ++i) {
+    const int b = bodies[i].body;
+    const BodyPose pose = engine.body_pose(b);
+    const BodyPose ref = motion_->sample_body_pose(t, static_cast<int>(i));
+    const double e = (pose.pos - ref.pos).norm();
+    positions += e;
+    if (static_cast<int>(i) == root_mapped_) {
+      error.root_m = e;
+      // the angle between the up axis as the two roots see it: tilt, not heading
+      const Eigen::Vector3d a = pose.quat.conjugate() * up_, r = ref.quat.conjugate() * up_;
+      error.root_tilt_rad = std::atan2(a.cross(r).norm(), a.dot(r));
+      continue;
+    }
+    const int p = engine.body_parent(b);
+    const Eigen::Quaterniond local =
+        p >= 0 ? Eigen::Quaterniond(engine.body_pose(p).quat.conjugate() * pose.quat) : pose.quat;
+    joints += geodesic_angle(local, motion_->sample_body_local(t, static_cast<int>(i)));
+  }
+  error.joint_rad = bodies.size() > 1 ? joints / (bodies.size() - 1) : 0.0;
+  error.body_m = positions / bodies.size();
+  return true;
+}
+
+MocapFallCause MocapRetargetTracker::judge_fall(const Engine& engine, int& body, double& com_height,
+                                                double& ref_height) const {
+  const double t = engine.time();
+  // the reference's COM from its body poses and the model's masses
+  Eigen::Vector3d com = Eigen::Vector3d::Zero();
+  for (int b = 0; b < engine.nbody(); ++b) {
+    if (anchor_[b] < 0) continue;
+    const BodyPose ref = motion_->sample_body_pose(t, anchor_[b]);
+    com += engine.body_mass(b) * (ref.pos + ref.quat * anchor_com_[b]);
+  }
+  ref_height = up_.dot(com) / anchored_mass_ - sole_level_;
+  com_height = up_.dot(engine.com()) - sole_level_;
+  if (com_height < kComFraction * ref_height) return MocapFallCause::kComLow;
+  // a body outside the feet on the ground, where the reference's is not
+  for (int i = 0, n = engine.num_contacts(); i < n; ++i) {
+    const Contact c = engine.contact(i);
+    const int b = c.body1 < 0 ? c.body2 : (c.body2 < 0 ? c.body1 : -1);
+    if (b < 0 || is_foot_[b] || anchor_[b] < 0) continue;
+    const BodyPose ref = motion_->sample_body_pose(t, anchor_[b]);
+    if (up_.dot(ref.pos + ref.quat * anchor_origin_[b]) - sole_level_ > kTouchHeight) {
+      body = b;
+      return MocapFallCause::kBodyTouches;
+    }
+  }
+  return MocapFallCause::kNone;
+}
+
+FallVerdict MocapRetargetTracker::state_fall_verdict(const State&, const Engine& engine,
+                                                     std::string& reason) const {
+  int body = -1;
+  double h = 0, h_ref = 0;
+  switch (judge_fall(engine, body, h, h_ref)) {
+    case MocapFallCause::kNone:
+      return FallVerdict::kUp;
+    case MocapFallCause::kComLow:
+      reason = fmt::format("the COM is {:.3f} m high, below {:.0f}% of the reference's {:.3f} m", h,
+                           100 * kComFraction, h_ref);
+      return FallVerdict::kFell;
+    case MocapFallCause::kBodyTouches:
+      reason = fmt::format("body '{}' touches the ground and the reference's does not",
+                           engine.body_name(body));
+      return FallVerdict::kFell;
+  }
+  return FallVerdict::kNoOpinion;
 }
 
 bool MocapRetargetTracker::initial_state(const Engine& engine, Eigen::VectorXd& qpos,
@@ -137,9 +287,15 @@ void MocapRetargetTracker::reset_state(State& s, const Engine& engine) const {
   s.error_samples = 0;
   s.root_error_sum = s.root_error_max = s.last_root_error = 0;
   s.end_error_sum = s.end_error_max = 0;
+  s.body_error_sum = s.body_error_max = s.last_body_error = 0;
+  s.skate_sum = 0;
+  s.skate_samples = 0;
   s.steps = 0;
   s.helper_impulse = s.helper_angular_impulse = 0;
   s.fall_time = -1;
+  s.ref_fall_time = -1;
+  s.fall_cause = static_cast<int>(MocapFallCause::kNone);
+  s.fall_body = -1;
   s.recorded_rotations.clear();
   s.recorded_roots.clear();
   s.next_record_t = 0;
@@ -169,9 +325,10 @@ void MocapRetargetTracker::accumulate_metrics(State& s, const Engine& engine) co
   // model's floor may be anywhere (fullbody1's is at y = -0.895)
   double lowest = 1e300;
   for (size_t i = 0; i < bodies.size(); ++i) lowest = std::min(lowest, s.up.dot(s.ref_position[i]));
-  double sum = 0;
+  double sum = 0, positions = 0;
   for (size_t i = 0; i < bodies.size(); ++i) {
     const int b = bodies[i].body;
+    positions += (engine.body_pose(b).pos - s.ref_position[i]).norm();
     const int p = engine.body_parent(b);
     Eigen::Quaterniond local = engine.body_pose(b).quat;
     if (p >= 0) local = engine.body_pose(p).quat.conjugate() * local;
@@ -201,6 +358,31 @@ void MocapRetargetTracker::accumulate_metrics(State& s, const Engine& engine) co
     s.end_error_max = std::max(s.end_error_max, e);
   }
   if (!motion_->end_bodies().empty()) s.end_error_sum += ends / motion_->end_bodies().size();
+  // PHC's G-MPJPE: the mean world position error of the mapped bodies, per step
+  s.last_body_error = positions / bodies.size();
+  s.body_error_sum += s.last_body_error;
+  s.body_error_max = std::max(s.body_error_max, s.last_body_error);
+  // foot skate: the horizontal speed of a foot (its mapped body's origin) while it touches
+  for (int side = 0; side < 2; ++side) {
+    if (foot_[side] < 0) continue;
+    bool touch = false;
+    for (int b : foot_bodies_[side]) touch = touch || engine.body_touches_ground(b);
+    if (!touch) continue;
+    Eigen::Vector3d v = engine.body_velocity(bodies[foot_[side]].body).tail<3>();
+    s.skate_sum += (v - v.dot(s.up) * s.up).norm();
+    ++s.skate_samples;
+  }
+  // the fall rule, as fall_verdict() gives it
+  if (s.ref_fall_time < 0) {
+    int body = -1;
+    double h = 0, h_ref = 0;
+    const MocapFallCause cause = judge_fall(engine, body, h, h_ref);
+    if (cause != MocapFallCause::kNone) {
+      s.ref_fall_time = t;
+      s.fall_cause = static_cast<int>(cause);
+      s.fall_body = body;
+    }
+  }
 }
 
 void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
@@ -219,7 +401,8 @@ void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlO
   if (mode_ == MocapRootMode::kKinematic) {
     add_deadbeat_torques(engine, s.q, s.v, s.q_ref, s.work, s.tau);
   } else {
-    if (mode_ == MocapRootMode::kFree && params_.balance) balance(s, engine, engine.time() + dt);
+    if (mode_ == MocapRootMode::kFree && params_.balance)
+      balance(s, engine, engine.time() + dt, out.correction);
     add_stable_pd_torques(engine, s.q, s.v, s.q_ref, s.v_ref, kp_, kd_, params_.max_torque,
                           root_dof_, root_dof_ + 6, s.work, s.tau);
     if (mode_ == MocapRootMode::kFree) s.tau.segment<6>(root_dof_).setZero();
@@ -235,10 +418,15 @@ void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlO
   ++s.steps;
 }
 
-// mocap_tracker's balance layer on the model's bodies: world-frame targets for the swing thigh
-// and foot and the stance thigh (the pelvis servo), fitted to joint coordinates in s.q_ref, and a
-// virtual COM force carried by the stance leg(s) as joint torques in s.tau
-void MocapRetargetTracker::balance(State& s, const Engine& engine, double t) const {
+// the balance layer on the model's bodies: world-frame targets for the swing thigh and foot and
+// the stance thigh (the pelvis servo), fitted to joint coordinates in s.q_ref, and a virtual COM
+// force carried by the stance leg(s) as joint torques in s.tau. `correction` (the planner's,
+// correction_dims() order; null: none) offsets the swing thigh's feedback angles, tilts the
+// pelvis target and tilts the stance foot.
+void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
+                                   const double* correction) const {
+  static constexpr double kNoCorrection[kCorrections] = {};
+  const double* c = correction ? correction : kNoCorrection;
   const auto& bodies = motion_->bodies();
   const MocapRetargetParams& p = params_;
   const double h = 0.01;  // s: the reference root velocity by a forward difference
@@ -281,8 +469,10 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t) con
   const double th_cor = std::clamp(p.cd_coronal * (d.dot(lat) - d_ref.dot(lat_ref)) +
                                        p.cv_coronal * (vel.dot(lat) - vel_ref.dot(lat_ref)),
                                    -0.5, 0.5);
-  const Eigen::Quaterniond delta = Eigen::Quaterniond(Eigen::AngleAxisd(th_sag, -lat)) *
-                                   Eigen::Quaterniond(Eigen::AngleAxisd(th_cor, fwd));
+  // the planner's offsets act after the clamps: it may go where the feedback alone may not
+  const Eigen::Quaterniond delta =
+      Eigen::Quaterniond(Eigen::AngleAxisd(th_sag + c[kSwingHipPitch], -lat)) *
+      Eigen::Quaterniond(Eigen::AngleAxisd(th_cor + c[kSwingHipRoll], fwd));
   // a world rotation for mapped body i, as its joint rotation under the parent as it is
   auto set_world = [&](int i, const Eigen::Quaterniond& world) {
     const int parent = engine.body_parent(bodies[i].body);
@@ -296,11 +486,26 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t) con
   // it is, blended with the reference's own
   const int hip = hip_[s.stance];
   if (engine.body_parent(bodies[hip].body) == root_body) {
-    const Eigen::Quaterniond pelvis = yaw_fix * s.bal_world[root_mapped_];
+    const Eigen::Quaterniond tilt = Eigen::Quaterniond(Eigen::AngleAxisd(c[kPelvisPitch], -lat)) *
+                                    Eigen::Quaterniond(Eigen::AngleAxisd(c[kPelvisRoll], fwd));
+    const Eigen::Quaterniond pelvis = tilt * yaw_fix * s.bal_world[root_mapped_];
     const Eigen::Quaterniond servo =
         ((pelvis * motion_->rest_local(hip)).conjugate() * engine.body_pose(bodies[hip].body).quat)
             .normalized();
     motion_->set_body_local(hip, s.bal_local[hip].slerp(p.stance_hip_world_weight, servo), s.q_ref);
+  }
+  // the stance foot tilted in the world about its target, pressing the centre of pressure
+  // towards a side
+  if (c[kStanceAnklePitch] != 0 || c[kStanceAnkleRoll] != 0) {
+    const int foot = foot_[s.stance];
+    const Eigen::Quaterniond tilt =
+        Eigen::Quaterniond(Eigen::AngleAxisd(c[kStanceAnklePitch], -lat)) *
+        Eigen::Quaterniond(Eigen::AngleAxisd(c[kStanceAnkleRoll], fwd));
+    const int parent = engine.body_parent(bodies[foot].body);
+    Eigen::Quaterniond base = motion_->rest_local(foot);
+    if (parent >= 0) base = engine.body_pose(parent).quat * base;
+    motion_->set_body_local(foot, (base.conjugate() * tilt * base * s.bal_local[foot]).normalized(),
+                            s.q_ref);
   }
   // the virtual force at the COM, reacted by the supporting feet (Coros et al. 2010)
   const double weight = engine.total_mass() * engine.gravity().norm();
@@ -355,6 +560,20 @@ void MocapRetargetTracker::state_metrics(const State& s, nlohmann::json& metrics
   j["helper_angular_impulse_Nms"] = s.helper_angular_impulse;
   j["root_fall_time_s"] = s.fall_time >= 0 ? nlohmann::json(s.fall_time) : nlohmann::json(nullptr);
   j["clip_duration_s"] = clip_.reference->duration_s();
+  j["clip_frames"] = clip_.reference->frame_count();
+  // the field's metrics (PHC): body positions against the reference's, success, foot skate
+  j["mean_body_position_error_m"] = s.body_error_sum / steps;
+  j["max_body_position_error_m"] = s.body_error_max;
+  j["foot_skate_m_per_s"] = s.skate_samples ? s.skate_sum / s.skate_samples : 0.0;
+  j["fall_time_s"] =
+      s.ref_fall_time >= 0 ? nlohmann::json(s.ref_fall_time) : nlohmann::json(nullptr);
+  const auto cause = static_cast<MocapFallCause>(s.fall_cause);
+  j["fall_cause"] = cause == MocapFallCause::kComLow        ? "com_low"
+                    : cause == MocapFallCause::kBodyTouches ? "body_touches_ground"
+                                                            : "";
+  if (cause == MocapFallCause::kBodyTouches && s.fall_body >= 0)
+    j["fall_body"] = body_names_[s.fall_body];
+  j["success"] = s.steps > 0 && s.ref_fall_time < 0 && s.body_error_max <= kSuccessBodyError;
   metrics["mocap"] = j;
 }
 

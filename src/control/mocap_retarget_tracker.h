@@ -1,22 +1,29 @@
-// Motion-capture tracking on an existing model: a BVH clip mapped onto the model's bodies by a
-// YAML joint-name map (control/retarget.h), then tracked by stable PD with target velocities on
-// every dof, on MuJoCo or DART. The run starts on the clip's first mapped frame.
+// Motion-capture tracking, the one tracker of stance: a BVH clip mapped onto the model's bodies
+// (control/retarget.h), then tracked by stable PD with target velocities on every dof, on MuJoCo
+// or DART. The run starts on the clip's first mapped frame.
 //
-// Root modes as in mocap_tracker: kinematic (deadbeat inverse dynamics on every dof: the error
-// of the table's interpolation alone), assisted (root gains inside the SPD solve; the root's
-// share is the helper force, integrated into an impulse) and free (no root help). Free mode has
-// mocap_tracker's balance layer in model terms: the stance side from the feet's contacts, the
-// swing thigh servoed in the world with SIMBICON feedback, the pelvis servoed through the stance
-// hip, the swing foot at its world orientation, and a virtual COM force carried by the stance
-// leg; world targets become joint coordinates by the map's own hinge fit.
+// The map: a YAML joint-name map (joint_map) for any model with a free root; without one, the
+// model must be the clip's own `stance bvh2mjcf` character (bodies named after the clip's
+// segments, free joint "root") and the map is the identity (bvh_character_joint_map): the table
+// is then the reference itself, to 1e-9. The registry's `mocap_tracker` is an alias of this
+// tracker for old scenarios (control/registry.cc).
 //
-// Metrics: joint error (geodesic angle between each mapped body's rotation relative to its
-// parent body and the table's, deg), root position error, end error (mapped bodies with no
-// mapped body below them: feet, hands, head), the map's fit error (what the model's joints
-// cannot express), helper impulse and the time of fall (the root more than half its reference
-// height above the lowest mapped body below where it should be). With export_bvh set, the
-// simulated motion is mapped back onto the clip's skeleton (the inverse of the map; joints not
-// mapped keep the clip's rotations) and written at the clip's frame rate.
+// Root modes: kinematic (deadbeat inverse dynamics on every dof: the error of the table's
+// interpolation alone), assisted (root gains inside the SPD solve; the root's share is the helper
+// force, integrated into an impulse) and free (no root help). Free mode has a SIMBICON-style
+// balance layer in model terms: the stance side from the feet's contacts, the swing thigh
+// servoed in the world with SIMBICON feedback, the pelvis servoed through the stance hip, the
+// swing foot at its world orientation, and a Coros virtual COM force carried by the stance
+// leg; world targets become joint coordinates by the map's own hinge fit. The balance layer is
+// the planner's hook: correction_dims() lists offsets of its targets (docs/mocap.md).
+//
+// Metrics (metrics.mocap): joint error (geodesic angle between each mapped body's rotation
+// relative to its parent body and the table's, deg), root position error, the mean world
+// position error of the mapped bodies (PHC's G-MPJPE), end error (mapped bodies with no mapped
+// body below them), foot skate, success (no fall by fall_verdict() and the body error never
+// above 0.5 m), the map's fit error, helper impulse and the fall times. With export_bvh set,
+// the simulated motion is mapped back onto the clip's skeleton (the inverse of the map; joints
+// not mapped keep the clip's rotations) and written at the clip's frame rate.
 #pragma once
 
 #include <array>
@@ -26,7 +33,7 @@
 #include <vector>
 
 #include "control/controller.h"
-#include "control/mocap_tracker.h"
+#include "control/mocap_clip.h"
 #include "control/pose_tracking.h"
 #include "control/retarget.h"
 
@@ -34,23 +41,24 @@ namespace stance {
 
 struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalanceParams {
   MocapRetargetParams() { swing_foot_world = true; }
-  std::string joint_map;          // YAML map file; relative paths start at the scenario's folder
+  std::string joint_map;          // YAML map file (relative: to the scenario); empty: the identity
   std::string mode = "assisted";  // kinematic, assisted or free
   double kp = 300;                // N m/rad on every joint dof
   double kd = 30;                 // N m s/rad
-  NamedValues kp_joints;          // per-dof kp (dof name)
+  NamedValues kp_joints;          // per-dof kp (a dof name, or a joint name for all its dofs)
   NamedValues kd_joints;
   double max_torque = 0;  // N m clamp on joint torques; 0: none
 
   template <class V>
   void visit(V& v) {
     MocapClipParams::visit(v);
-    v("joint_map", joint_map, {.help = "YAML map: clip joint -> model body"});
+    v("joint_map", joint_map,
+      {.help = "YAML map: clip joint -> model body; empty: the clip's bvh2mjcf character"});
     v("mode", mode, {.help = "kinematic, assisted or free"});
     v("kp", kp, {.unit = "N m/rad", .min = 0, .max = 1e7});
     v("kd", kd, {.unit = "N m s/rad", .min = 0, .max = 1e6});
-    v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-dof kp"});
-    v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-dof kd"});
+    v("kp_joints", kp_joints, {.unit = "N m/rad", .help = "per-dof or per-joint kp"});
+    v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-dof or per-joint kd"});
     MocapHelperParams::visit(v);
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
     MocapBalanceParams::visit(v);
@@ -68,9 +76,15 @@ struct MocapRetargetState {
   long error_samples = 0;
   double root_error_sum = 0, root_error_max = 0, last_root_error = 0;
   double end_error_sum = 0, end_error_max = 0;
+  double body_error_sum = 0, body_error_max = 0, last_body_error = 0;  // per step: mean over bodies
+  double skate_sum = 0;  // m/s, summed over steps and touching feet
+  long skate_samples = 0;
   long steps = 0;
   double helper_impulse = 0, helper_angular_impulse = 0;
-  double fall_time = -1;
+  double fall_time = -1;      // the root below half its reference height (the old rule)
+  double ref_fall_time = -1;  // fall_verdict()'s first fall
+  int fall_cause = 0;         // of that fall: MocapFallCause
+  int fall_body = -1;         // the body that touched the ground
   // export: per recorded frame (the clip's rate), the mapped bodies' world rotations and the
   // root-mapped body's position
   std::vector<Eigen::Quaterniond> recorded_rotations;
@@ -98,26 +112,44 @@ struct MocapRetargetState {
     a(error_sum_deg), a(max_error_deg), a(last_error_deg), a(error_samples);
     a(root_error_sum), a(root_error_max), a(last_root_error), a(end_error_sum), a(end_error_max),
         a(steps), a(helper_impulse), a(helper_angular_impulse), a(fall_time);
+    a(body_error_sum), a(body_error_max), a(last_body_error), a(skate_sum), a(skate_samples);
+    a(ref_fall_time), a(fall_cause), a(fall_body);
     a(recorded_rotations), a(recorded_roots), a(next_record_t);
     a(bal_world), a(bal_local), a(bal_pos), a(bal_pos_ahead), a(jac_a), a(jac_b), a(stance),
         a(stance_share), a(up);
   }
 };
 
+// why fall_verdict() judged a fall
+enum class MocapFallCause { kNone, kComLow, kBodyTouches };
+
 class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
  public:
   // the table is built once here on ctx.scratch_engine (overwritten while it is probed), long
   // enough for ctx.duration_s (looping clips); relative bvh and joint_map paths start at the
   // folder of ctx.source.file
+  // type_name: the registry name it is built under (the alias mocap_tracker keeps its own, so a
+  // saved scenario loads as it was written)
   MocapRetargetTracker(const MocapRetargetParams& params, const ControllerContext& ctx,
-                       const Engine& engine);
-  std::string_view type() const override { return "mocap_retarget"; }
+                       const Engine& engine, std::string_view type_name = "mocap_retarget");
+  std::string_view type() const override { return type_name_; }
   void signal_names(std::vector<std::string>& names) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
   bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
                      Eigen::VectorXd& qvel) const override;
   // a State goes on under other gains, not under another clip, map (its sizes) or mode
   bool keeps_state_of(const Controller& previous) const override;
+  // free mode with the balance layer: offsets of its targets (docs/mocap.md, "The planner's
+  // hook"); none in the other modes
+  void correction_dims(std::vector<CorrectionDim>& dims) const override;
+
+  // the fall rule of fall_verdict(): the COM below this fraction of the reference's COM height,
+  // or a body outside the feet on the ground where the reference's origin is higher than
+  // kTouchHeight above the reference's sole level (heights from that level: the lowest mapped
+  // body origin of the reference over the table)
+  static constexpr double kComFraction = 0.6;
+  static constexpr double kTouchHeight = 0.15;      // m
+  static constexpr double kSuccessBodyError = 0.5;  // m: PHC's bound on the per-frame mean
 
   const MocapRetargetParams& params() const { return params_; }
   const RetargetedMotion& motion() const { return *motion_; }
@@ -134,12 +166,20 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
   void state_outputs(const State& s, const std::string& out_dir) const override;
   bool state_reference_qpos(const State& s, const Engine& engine,
                             Eigen::VectorXd& qpos) const override;
+  bool state_tracking_error(const State& s, const Engine& engine,
+                            TrackingError& error) const override;
+  FallVerdict state_fall_verdict(const State& s, const Engine& engine,
+                                 std::string& reason) const override;
 
  private:
   void accumulate_metrics(State& s, const Engine& engine) const;
-  void balance(State& s, const Engine& engine, double t) const;
+  void balance(State& s, const Engine& engine, double t, const double* correction) const;
+  // the fall rule at the engine's time: the cause and the body that touched (allocates nothing)
+  MocapFallCause judge_fall(const Engine& engine, int& body, double& com_height,
+                            double& ref_height) const;
 
   // the model: fixed after construction
+  std::string type_name_;
   MocapRetargetParams params_;
   MocapRootMode mode_ = MocapRootMode::kAssisted;
   double duration_s_ = 0;  // the run's length (the recording's reserve); 0: unknown
@@ -155,6 +195,17 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
   int hip_[2] = {-1, -1}, foot_[2] = {-1, -1};
   std::vector<int> foot_bodies_[2];
   Eigen::Vector3d forward_in_root_ = Eigen::Vector3d::UnitX();
+  bool has_legs_ = false;
+  // the fall rule: per engine body, the mapped body it moves with (-1: none), its COM and origin
+  // in that body's frame, whether it belongs to a foot; the mass of the anchored bodies and the
+  // reference's sole level along up
+  std::vector<int> anchor_;
+  std::vector<Eigen::Vector3d> anchor_com_, anchor_origin_;
+  std::vector<char> is_foot_;
+  double anchored_mass_ = 0;
+  double sole_level_ = 0;
+  std::vector<std::string> body_names_;  // the engine's, for the metrics
+  Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
 };
 
 }  // namespace stance

@@ -1,5 +1,9 @@
 // The controller registry: adding a controller means one folder/file pair and one line here.
 #include <fmt/format.h>
+#include <fmt/ranges.h>
+
+#include <atomic>
+#include <iostream>
 
 #include "control/ankle_strategy.h"
 #include "control/control_noise.h"
@@ -7,7 +11,6 @@
 #include "control/hold_pose_pd.h"
 #include "control/lqr.h"
 #include "control/mocap_retarget_tracker.h"
-#include "control/mocap_tracker.h"
 #include "control/simbicon.h"
 #include "control/skateboard_drive.h"
 #include "control/slope_walker.h"
@@ -23,6 +26,32 @@ ControllerFactory factory_of() {
   return [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
     return std::shared_ptr<const Controller>(
         std::make_shared<const C>(read_params<P>(node, ctx), ctx, engine));
+  };
+}
+// `mocap_tracker`, the old bvh2mjcf-only tracker, is now a name for mocap_retarget (without a
+// joint_map: the identity map of the clip's own character). Its keys are mocap_retarget's but
+// for the free mode's extra tuning terms, which went with it: those are accepted and ignored,
+// with one warning per process, so that old scenarios still load.
+ControllerFactory mocap_tracker_alias() {
+  return [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
+    static const std::vector<std::string> kRemoved = {
+        "stance_hip_world", "torso_kp",          "torso_kd",          "contact_stance",
+        "com_feedback",     "root_force_kp_z",   "heading_gain",      "swing_heading_gain",
+        "path_gain",        "ankle_cd_sagittal", "ankle_cv_sagittal", "ankle_cd_coronal",
+        "ankle_cv_coronal"};
+    std::vector<std::string> skip = {"type"}, ignored;
+    for (const auto& key : kRemoved) {
+      skip.push_back(key);
+      if (node.IsMap() && node[key]) ignored.push_back(key);
+    }
+    static std::atomic<bool> warned{false};
+    if (!ignored.empty() && !warned.exchange(true))
+      std::cerr << fmt::format(
+          "warning: {}: {}: mocap_tracker is now mocap_retarget; ignored its removed free-mode "
+          "keys: {}\n",
+          ctx.source.file, ctx.path, fmt::join(ignored, ", "));
+    return std::shared_ptr<const Controller>(std::make_shared<const MocapRetargetTracker>(
+        read_params<MocapRetargetParams>(node, ctx, skip), ctx, engine, "mocap_tracker"));
   };
 }
 }  // namespace
@@ -45,10 +74,11 @@ const std::vector<ControllerType>& controller_registry() {
        factory_of<SlopeWalker, SlopeWalkerParams>()},
       {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
        factory_of<Lqr, LqrParams>()},
-      {"mocap_tracker", "BVH tracking with SPD: kinematic, assisted or free root",
-       factory_of<MocapTracker, MocapTrackerParams>()},
-      {"mocap_retarget", "BVH tracking on any model through a YAML joint map (retargeting)",
+      {"mocap_retarget",
+       "BVH tracking with SPD: kinematic, assisted or free root; a joint map, or the identity "
+       "on a bvh2mjcf character",
        factory_of<MocapRetargetTracker, MocapRetargetParams>()},
+      {"mocap_tracker", "alias of mocap_retarget, for old scenarios", mocap_tracker_alias()},
       {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
        factory_of<ControlNoise, ControlNoiseParams>()},
   };

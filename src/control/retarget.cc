@@ -610,6 +610,25 @@ void RetargetedMotion::sample(const Engine& engine, double t, Eigen::Ref<Eigen::
   v = (1 - alpha) * v0 + alpha * v1;
 }
 
+BodyPose RetargetedMotion::sample_body_pose(double t, int i) const {
+  int f;
+  double alpha;
+  locate(t, f, alpha);
+  const size_t a = static_cast<size_t>(f) * bodies_.size() + i, b = a + bodies_.size();
+  BodyPose out;
+  out.pos = (1 - alpha) * position_[a] + alpha * position_[b];
+  out.quat = slerp(world_[a], world_[b], alpha);
+  return out;
+}
+
+Eigen::Quaterniond RetargetedMotion::sample_body_local(double t, int i) const {
+  int f;
+  double alpha;
+  locate(t, f, alpha);
+  const size_t a = static_cast<size_t>(f) * bodies_.size() + i;
+  return slerp(local_[a], local_[a + bodies_.size()], alpha);
+}
+
 void RetargetedMotion::sample_bodies(double t, std::vector<Eigen::Quaterniond>& local,
                                      std::vector<Eigen::Vector3d>& position) const {
   int f;

@@ -86,6 +86,10 @@ class RetargetedMotion {
   // the reference world rotation of each mapped body at time t; sized bodies().size().
   // Allocates nothing.
   void sample_world(double t, std::vector<Eigen::Quaterniond>& world) const;
+  // mapped body i's reference world pose at time t, and its local rotation (as sample_bodies'):
+  // one body without work vectors, for queries on a const run (the planner's cost)
+  BodyPose sample_body_pose(double t, int i) const;
+  Eigen::Quaterniond sample_body_local(double t, int i) const;
   // mapped body i's rest rotation relative to its engine parent body (the joints at zero):
   // its world rotation is parent * rest_local * (joint rotation)
   const Eigen::Quaterniond& rest_local(int i) const { return rest_local_[i]; }

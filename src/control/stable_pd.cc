@@ -59,7 +59,8 @@ void StablePdState::resize(int nq, int nv) {
   q_planned.resize(nq);
   q.resize(nq);
   q_pred.resize(nq);
-  for (Eigen::VectorXd* x : {&v, &err, &p, &d, &c, &f, &rhs, &kd_dt}) x->setZero(nv);
+  for (Eigen::VectorXd* x : {&v, &err, &tau}) x->setZero(nv);
+  solve.resize(nv);
 }
 
 namespace {
@@ -91,27 +92,13 @@ void add_clamped(const JointPdModel& model, const Eigen::VectorXd& tau, ControlO
 
 void compute_stable_pd(const JointPdModel& model, StablePdState& s, const Engine& engine,
                        ControlOutput& out) {
-  const double dt = engine.timestep();
   engine.get_positions(s.q);
   engine.get_velocities(s.v);
-  // p = -Kp (q + v dt - q_target), on the configuration manifold
-  predicted_error(model, s, engine, dt);
-  s.p.noalias() = -model.kp.cwiseProduct(s.err);
-  s.d.noalias() = -model.kd.cwiseProduct(s.v);
-  // (M + Kd dt) v' = -C + p + d + tau_c, solved with the engine's own factorisation when it has
-  // one that takes a shifted diagonal (MuJoCo's sparse tree LDL)
-  engine.bias_forces(s.c);
-  s.rhs = s.p + s.d - s.c;
-  if (model.params.constraint_forces) {
-    engine.constraint_forces(s.f);
-    s.rhs += s.f;
-  }
-  s.kd_dt = model.kd * dt;
-  engine.solve_mass_shifted(s.kd_dt, s.rhs);
-  // tau = p + d - Kd v' dt  (s.rhs now holds v')
-  s.p += s.d;
-  s.p.noalias() -= (model.kd * dt).cwiseProduct(s.rhs);
-  add_clamped(model, s.p, out);
+  // err = q + v dt - q_target, on the configuration manifold; the target velocity is zero
+  predicted_error(model, s, engine, engine.timestep());
+  stable_pd_torque(engine, model.kp, model.kd, s.err, s.v, nullptr, model.params.constraint_forces,
+                   s.solve, s.tau);
+  add_clamped(model, s.tau, out);
 }
 
 void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine& engine,
@@ -119,9 +106,9 @@ void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine&
   engine.get_positions(s.q);
   engine.get_velocities(s.v);
   predicted_error(model, s, engine, 0);
-  s.p.noalias() = -model.kp.cwiseProduct(s.err);
-  s.p.noalias() -= model.kd.cwiseProduct(s.v);
-  add_clamped(model, s.p, out);
+  s.tau.noalias() = -model.kp.cwiseProduct(s.err);
+  s.tau.noalias() -= model.kd.cwiseProduct(s.v);
+  add_clamped(model, s.tau, out);
 }
 
 template <bool kStable>

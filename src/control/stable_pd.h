@@ -8,12 +8,14 @@
 // Root (free-joint) dofs get zero gains. Positions are differenced by the engine, so ball and
 // free joints are handled; when only hinges and slides have gains the error is taken per dof. M +
 // Kd dt is solved by Engine::solve_mass_shifted (MuJoCo: its sparse factorisation; otherwise a
-// dense Cholesky whose storage is made once): no allocation per step.
+// dense Cholesky whose storage is made once): no allocation per step. The solve is
+// stable_pd_torque (control/pose_tracking.h), the one the motion-capture tracker uses.
 #pragma once
 
 #include <Eigen/Cholesky>
 
 #include "control/controller.h"
+#include "control/pose_tracking.h"
 #include "engine/engine.h"
 
 namespace stance {
@@ -63,8 +65,9 @@ JointPdModel make_joint_pd_model(const JointPdParams& params, const Engine& engi
 
 // the per-run data: the target pose captured at reset, work vectors, the error statistics
 struct StablePdState {
-  Eigen::VectorXd q_target, q, v, q_pred, err, p, d, c, f, rhs, kd_dt;  // nq or nv
+  Eigen::VectorXd q_target, q, v, q_pred, err, tau;  // nq or nv
   Eigen::VectorXd q_planned;  // nq: the target with the planner's offsets, while computing
+  StablePdWork solve;
   double last_error_norm = 0;  // rad, RMS over the controlled dofs
   double error_sq_sum = 0;     // rad^2, sum over steps of the mean squared error
   long error_samples = 0;
@@ -72,8 +75,8 @@ struct StablePdState {
   void resize(int nq, int nv);
   template <class A>
   void serialize(A& a) {
-    a(q_target), a(q), a(v), a(q_pred), a(err), a(p), a(d), a(c), a(f), a(rhs), a(kd_dt);
-    a(q_planned), a(last_error_norm), a(error_sq_sum), a(error_samples);
+    a(q_target), a(q), a(v), a(q_pred), a(err), a(tau), a(q_planned);
+    a(last_error_norm), a(error_sq_sum), a(error_samples);
   }
 };
 

@@ -189,6 +189,38 @@ ReferenceMotion::ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton,
   Eigen::Vector3d p0 = root_positions_.front(), p1 = root_positions_.back();
   p0.z() = p1.z() = 0;
   cycle_shift_ = p1 - cycle_yaw_ * p0;
+  if (options.loop && options.loop_blend_s > 0) blend_seam(options.loop_blend_s);
+}
+
+void ReferenceMotion::blend_seam(double blend_s) {
+  // the seam's jump: per rotation, what turns the last frame into the pose the next pass starts
+  // with (frame 0, its root turned by the loop's yaw), and the root's height change. The tail
+  // takes a growing share of it, smoothly from 0 to all of it at the last frame, so a cut that
+  // is no cycle ends where the next pass begins; a cycle's jump is nothing and nothing changes.
+  const int last = frame_count_ - 1;
+  const int n = std::min(static_cast<int>(std::lround(blend_s / frame_time_)), last / 2);
+  if (n < 1) return;
+  const Eigen::Quaterniond* first = &rotations_[0];
+  const Eigen::Quaterniond* end = &rotations_[static_cast<size_t>(last) * segments_];
+  std::vector<Eigen::Quaterniond> jump(segments_);
+  for (int j = 0; j < segments_; ++j) {
+    const Eigen::Quaterniond target = j == 0 ? Eigen::Quaterniond(cycle_yaw_ * first[0]) : first[j];
+    jump[j] = (target * end[j].conjugate()).normalized();
+    if (jump[j].w() < 0) jump[j].coeffs() = -jump[j].coeffs();  // the short way
+  }
+  const double rise = root_positions_[0].z() - root_positions_[last].z();
+  for (int k = 1; k <= n; ++k) {
+    const int f = last - n + k;
+    const double u = static_cast<double>(k) / n, w = u * u * (3 - 2 * u);
+    Eigen::Quaterniond* r = &rotations_[static_cast<size_t>(f) * segments_];
+    for (int j = 0; j < segments_; ++j) {
+      r[j] = (slerp(Eigen::Quaterniond::Identity(), jump[j], w) * r[j]).normalized();
+      // the hemisphere continuity the table keeps
+      if (r[j].coeffs().dot(rotations_[static_cast<size_t>(f - 1) * segments_ + j].coeffs()) < 0)
+        r[j].coeffs() = -r[j].coeffs();
+    }
+    root_positions_[f].z() += w * rise;
+  }
 }
 
 ReferencePose ReferenceMotion::make_pose() const {
@@ -307,16 +339,58 @@ BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
   // per step the stance hip swings from +A to -A, the hip moves 2 L sin(A) forward
   const double leg = 44 + 42 + 7, pi = std::numbers::pi;
   const double a_hip = o.hip_amplitude_deg * pi / 180;
-  const double stride = 2 * 2 * leg * std::sin(a_hip);  // cm per cycle
+  const double stride = o.stride_scale * 2 * 2 * leg * std::sin(a_hip);  // cm per cycle
   const double stand = 6 + leg;
+  // a leg's angles (deg) at its own phase ph: hip flexion is a negative X rotation (the leg
+  // swings towards +Z); the knee bends in swing (peaking after mid-swing) and at mid-stance
+  auto leg_angles = [&](double ph, double& hip, double& knee, double& ankle) {
+    hip = -o.hip_amplitude_deg * std::sin(ph);
+    // a walk's swing bend peaks after mid-swing; a run's peaks at mid-swing (the other leg's
+    // mid-stance) and spans the whole, longer swing, still bent at landing
+    const double half = pi * (1.1 - o.stance_fraction);  // the run's bend: half its span
+    double swing = o.stance_fraction > 0
+                       ? std::max(0.0, std::cos(std::remainder(ph, 2 * pi) * (pi / 2) / half))
+                       : std::max(0.0, std::sin(ph + 0.6));
+    double stance = std::max(0.0, -std::cos(ph));  // 1 at mid-stance
+    knee = 5 + o.knee_swing_deg * swing * swing + o.stance_knee_deg * stance * stance;
+    ankle = -0.3 * hip - 0.35 * knee + 3;
+  };
+  auto root_pitch = [&](double phase) { return 2.0 * std::sin(2 * phase); };
+  // the lowest bone point of leg s's foot (ankle or toe) below the root, cm along Y, at the
+  // cycle's phase (the root's yaw, a few degrees, is left out)
+  auto foot_low = [&](int s, double phase) {
+    double hip, knee, ankle;
+    leg_angles(phase + (s == 0 ? 0 : pi), hip, knee, ankle);
+    const double a1 = (root_pitch(phase) + hip) * pi / 180, a2 = a1 + knee * pi / 180,
+                 a3 = a2 + ankle * pi / 180;
+    const double ankle_y = -6 - 44 * std::cos(a1) - 42 * std::cos(a2);
+    return std::min(ankle_y, ankle_y - 7 * std::cos(a3) - 16 * std::sin(a3));
+  };
+  // a run's root height: the stance foot on the floor (mid-stances every pi of phase, the right
+  // leg's at 0), and ballistic flight between take-off and landing
+  auto run_height = [&](double phase) {
+    const double w = pi * o.stance_fraction;  // half a stance, in phase
+    const long k = std::lround(phase / pi);
+    const double d = phase - k * pi;
+    auto standing = [&](long m) { return m % 2 == 0 ? 1 : 0; };  // right at even multiples
+    if (std::abs(d) <= w) return -foot_low(standing(k), phase);
+    const long from = d > 0 ? k : k - 1;
+    const double b0 = from * pi + w, b1 = (from + 1) * pi - w;
+    const double h0 = -foot_low(standing(from), b0), h1 = -foot_low(standing(from + 1), b1);
+    const double flight_s = (b1 - b0) / (2 * pi) * o.period_s, u = (phase - b0) / (b1 - b0);
+    const double apex = 981 * flight_s * flight_s / 8;  // cm: g T^2 / 8
+    return (1 - u) * h0 + u * h1 + 4 * apex * u * (1 - u);
+  };
   for (int f = 0; f < frames; ++f) {
     double phase = 2 * pi * f / (frames - 1);
     std::string row;
     double z = stride * f / (frames - 1);
-    double y = stand * std::cos(a_hip * 0.7) + 1.2 * std::cos(2 * phase);
-    row += fmt::format("0 {:.6f} {:.6f} 0 {:.6f} {:.6f}", y, z, 2.0 * std::sin(2 * phase),
+    double y = o.stance_fraction > 0
+                   ? run_height(phase)
+                   : stand * std::cos(a_hip * 0.7) + o.bounce_cm * std::cos(2 * phase);
+    row += fmt::format("0 {:.6f} {:.6f} 0 {:.6f} {:.6f}", y, z, root_pitch(phase),
                        4.0 * std::sin(phase));
-    row += fmt::format(" 0 {:.6f} 0", 3.0);                               // spine: slight lean
+    row += fmt::format(" 0 {:.6f} 0", o.lean_deg);                        // spine: lean
     row += fmt::format(" 0 {:.6f} {:.6f}", 2.0, -6.0 * std::sin(phase));  // chest counter-twist
     row += " 0 -5 0";                                                     // head
     for (int s = 0; s < 2; ++s) {
@@ -324,20 +398,32 @@ BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
       double ph = phase + (s == 0 ? 0 : pi);
       double sign = s == 0 ? 1 : -1;
       row += fmt::format(" {:.6f} {:.6f} 0", sign * 8.0, o.arm_amplitude_deg * std::sin(ph));
-      row += fmt::format(" 0 {:.6f} 0", -15.0 - 10 * std::max(0.0, -std::sin(ph)));
+      row += fmt::format(" 0 {:.6f} 0",
+                         -o.elbow_deg - (2.0 / 3) * o.elbow_deg * std::max(0.0, -std::sin(ph)));
     }
     for (int s = 0; s < 2; ++s) {
-      double ph = phase + (s == 0 ? 0 : pi);
-      // hip flexion is a negative X rotation (the leg swings towards +Z)
-      double hip = -o.hip_amplitude_deg * std::sin(ph);
-      double swing = std::max(0.0, std::sin(ph + 0.6));  // swing half, peaks after mid-swing
-      double knee = 5 + o.knee_swing_deg * swing * swing;
-      double ankle = -0.3 * hip - 0.35 * knee + 3;
+      double hip, knee, ankle;
+      leg_angles(phase + (s == 0 ? 0 : pi), hip, knee, ankle);
       row += fmt::format(" 0 {:.6f} 0 0 {:.6f} 0 0 {:.6f} 0", hip, knee, ankle);
     }
     text += row + "\n";
   }
-  return parse_bvh(text, "synthetic_walk.bvh");
+  return parse_bvh(text, o.name);
+}
+
+SyntheticWalkOptions synthetic_run_options() {
+  SyntheticWalkOptions o;
+  o.name = "synthetic_run.bvh";
+  o.period_s = 0.7;
+  o.hip_amplitude_deg = 30;
+  o.knee_swing_deg = 90;
+  o.stance_knee_deg = 25;
+  o.arm_amplitude_deg = 25;
+  o.elbow_deg = 60;
+  o.lean_deg = 8;
+  o.stance_fraction = 0.25;
+  o.stride_scale = 1.3;
+  return o;
 }
 
 }  // namespace stance

@@ -36,10 +36,18 @@ fi
 # every command's boundary: a bug is exit 70 and one line starting 'internal error:'
 for cmd in "run scenarios/pd_hold.yaml --quiet" "info models/arm3.xml" "list" \
   "sweep scenarios/pd_hold.yaml --param duration --values 1 --quiet" \
-  "bvh synth-walk $tmp/walk.bvh"; do
+  "bvh synth-walk $tmp/walk.bvh" "bvh synth-run $tmp/run.bvh"; do
   # shellcheck disable=SC2086
   expect 70 "internal error: " -- env STANCE_TEST_INTERNAL_ERROR=1 "$stance" $cmd
 done
+
+# the synthetic run: written, and a clip `bvh info` reads (43 frames at 60 fps)
+"$stance" bvh synth-run "$tmp/run.bvh" >/dev/null
+rc=$?
+if [ "$rc" -ne 0 ] || ! "$stance" bvh info "$tmp/run.bvh" | grep -q "43"; then
+  echo "FAIL: bvh synth-run -> rc=$rc, or bvh info does not read 43 frames"
+  fails=$((fails + 1))
+fi
 
 # bad input that yaml-cpp or the file system would otherwise report as an exception
 model=$(pwd)/models/arm3.xml

@@ -145,7 +145,16 @@ TEST(ControllerAllocations, NoneAfterTheFirstCompute) {
         continue;
       }
       for (const auto& node : l.controllers)
-        if (node["type"].Scalar() == type.name) hosts.push_back({f, YAML::Clone(node)});
+        if (node["type"].Scalar() == type.name) {
+          hosts.push_back({f, YAML::Clone(node)});
+          // the trackers' free mode (the balance layer, the planner's correction) has no
+          // shipped scenario of its own: checked on the same hosts
+          if (node["mode"] && node["mode"].Scalar() == "assisted") {
+            YAML::Node free = YAML::Clone(node);
+            free["mode"] = "free";
+            hosts.push_back({f, free});
+          }
+        }
       YAML::Node defaults(YAML::NodeType::Map);
       defaults["type"] = type.name;
       fallbacks.push_back({f, defaults});
@@ -175,11 +184,20 @@ TEST(ControllerAllocations, NoneAfterTheFirstCompute) {
       SCOPED_TRACE(type.name + " on " + host.scenario);
       ControlOutput out;
       out.resize(engine->nv(), engine->nu());
+      // a correction on every dimension the controller offers the planner
+      std::vector<CorrectionDim> dims;
+      controller->correction_dims(dims);
+      const std::vector<double> correction(dims.size(), 0.05);
+      out.correction = dims.empty() ? nullptr : correction.data();
+      TrackingError error;
       state = controller->make_state(*engine);
       auto step = [&](bool counted) {
         engine->forward();
         out.clear();
-        Counts c = count_allocations([&] { controller->compute(*state, *engine, out); });
+        Counts c = count_allocations([&] {
+          controller->compute(*state, *engine, out);
+          controller->tracking_error(*state, *engine, error);
+        });
         if (counted) {
           EXPECT_EQ(c.news, 0) << "operator new calls in compute()";
           EXPECT_EQ(c.mallocs, 0) << "malloc calls in compute()";

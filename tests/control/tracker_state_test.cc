@@ -8,7 +8,6 @@
 
 #include "control/lqr.h"
 #include "control/mocap_retarget_tracker.h"
-#include "control/mocap_tracker.h"
 #include "scenario/live_tuning.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
@@ -73,10 +72,7 @@ void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t
   run.signals(sc);
   EXPECT_EQ(sa, sb);
   EXPECT_EQ(deterministic_metrics(restored), deterministic_metrics(resumed));
-  if constexpr (std::is_same_v<S, MocapTrackerState>) {
-    EXPECT_GT(resumed.state_as<S>(0).recorded_frames, 0);
-    EXPECT_EQ(resumed.state_as<S>(0).recorded, restored.state_as<S>(0).recorded);
-  } else if constexpr (std::is_same_v<S, MocapRetargetState>) {
+  if constexpr (std::is_same_v<S, MocapRetargetState>) {
     EXPECT_GT(resumed.state_as<S>(0).recorded_roots.size(), 0u);
     EXPECT_EQ(resumed.state_as<S>(0).recorded_roots, restored.state_as<S>(0).recorded_roots);
   }
@@ -95,19 +91,17 @@ TEST(TrackerStateFile, LqrBalancing) {
       0.6);
 }
 
+// the bvh2mjcf character (the identity map) and the humanoid through its map, assisted and in
+// free mode with the balance layer
 TEST(TrackerStateFile, MocapTrackerAssistedAndFree) {
-  for (const char* name : {"mocap_track.yaml", "mocap_track_free.yaml"}) {
-    SCOPED_TRACE(name);
-    expect_state_file_resumes<MocapTrackerState>(
-        load_scenario(scenario_path(name), {"controllers.0.export_bvh=out.bvh"}), 0.5, 1.0);
-  }
-}
-
-TEST(TrackerStateFile, MocapRetargetFree) {
-  expect_state_file_resumes<MocapRetargetState>(
-      load_scenario(scenario_path("mocap_retarget_free.yaml"),
-                    {"controllers.0.export_bvh=out.bvh"}),
-      0.5, 1.0);
+  for (const char* name : {"mocap_track.yaml", "mocap_retarget.yaml"})
+    for (const char* mode : {"assisted", "free"}) {
+      SCOPED_TRACE(std::string(name) + " " + mode);
+      expect_state_file_resumes<MocapRetargetState>(
+          load_scenario(scenario_path(name), {"controllers.0.export_bvh=out.bvh",
+                                              std::string("controllers.0.mode=") + mode}),
+          0.5, 1.0);
+    }
 }
 
 // the design is redone for a cost edit; the State (metrics so far) goes on
@@ -133,17 +127,17 @@ TEST(TrackerLiveEdit, MocapTrackerKeepsItsStateUnlessTheClipChanges) {
       load_scenario(scenario_path("mocap_track.yaml"), {"controllers.0.export_bvh=out.bvh"});
   Simulation run(loaded, quiet());
   step_to(run, 0.3);
-  const auto* before = &run.state_as<MocapTrackerState>(0);
+  const auto* before = &run.state_as<MocapRetargetState>(0);
   const long steps = before->steps;
-  const int frames = before->recorded_frames;
-  ASSERT_GT(frames, 0);
+  const size_t frames = before->recorded_roots.size();
+  ASSERT_GT(frames, 0u);
   retune_controller(run, loaded, 0, "kp", 900);
-  EXPECT_EQ(&run.state_as<MocapTrackerState>(0), before);
+  EXPECT_EQ(&run.state_as<MocapRetargetState>(0), before);
   EXPECT_EQ(before->steps, steps);
-  EXPECT_EQ(before->recorded_frames, frames);
+  EXPECT_EQ(before->recorded_roots.size(), frames);
   retune_controller(run, loaded, 0, "first_frame", 10);
-  EXPECT_EQ(run.state_as<MocapTrackerState>(0).steps, 0);
-  EXPECT_EQ(run.state_as<MocapTrackerState>(0).recorded_frames, 0);
+  EXPECT_EQ(run.state_as<MocapRetargetState>(0).steps, 0);
+  EXPECT_EQ(run.state_as<MocapRetargetState>(0).recorded_roots.size(), 0u);
   ASSERT_TRUE(run.step());
 }
 

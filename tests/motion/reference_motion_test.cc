@@ -1,5 +1,6 @@
 // Reference motion: skeleton reduction, units and axes, resampling with slerp, target
-// velocities, looping, clip ranges and ground alignment.
+// velocities, looping (and the seam blend of a cut that is no cycle), clip ranges, ground
+// alignment, and the synthetic run's flight phase.
 #include "motion/reference_motion.h"
 
 #include <gtest/gtest.h>
@@ -199,6 +200,126 @@ TEST(MotionSkeleton, CmuMergesZeroLengthHelpers) {
   // LeftHip sits at the LHipJoint bone's end: 1.24777 cm-ish CMU units from the hips
   EXPECT_NEAR(sk.segments[hip].offset.norm(),
               sk.scale_to_meters * Eigen::Vector3d(1.24777, -1.64261, 0.71711).norm(), 1e-9);
+}
+
+// the lowest point of each foot (its segment and bone ends) in a pose, m above the floor
+void foot_heights(const ReferenceMotion& ref, const ReferencePose& pose, double out[2]) {
+  const MotionSkeleton& sk = ref.skeleton();
+  std::vector<Eigen::Vector3d> pos;
+  std::vector<Eigen::Quaterniond> rot;
+  ref.forward_kinematics(pose, pos, rot);
+  for (int side = 0; side < 2; ++side) {
+    const int k = sk.find_segment(side == 0 ? "LeftFoot" : "RightFoot");
+    out[side] = pos[k].z();
+    for (const auto& e : sk.segments[k].bone_ends)
+      out[side] = std::min(out[side], (pos[k] + rot[k] * e).z());
+  }
+}
+
+// the mean change of the joint rotations (rad) and the change of the root position (m) between
+// two samples
+void pose_jump(const ReferencePose& a, const ReferencePose& b, double& rot, double& pos) {
+  rot = 0;
+  for (size_t k = 0; k < a.rotations.size(); ++k)
+    rot += geodesic_angle(a.rotations[k], b.rotations[k]) / a.rotations.size();
+  pos = (a.root_position - b.root_position).norm();
+}
+
+TEST(SyntheticRun, HasAFlightPhaseAndLoopsSeamlessly) {
+  BvhClip clip = make_synthetic_walk_clip(synthetic_run_options());
+  EXPECT_EQ(clip.source, "synthetic_run.bvh");
+  ReferenceOptions ro;
+  ro.loop = true;
+  ro.align_whole_clip = true;  // the floor under the lowest point of the cycle
+  ReferenceMotion ref(clip, make_motion_skeleton(clip, {}), ro);
+  ReferencePose pose = ref.make_pose();
+  // both feet clear of the floor in some frames (flight), one on it in others (stance)
+  int flight = 0, stance = 0;
+  for (int f = 0; f < ref.frame_count(); ++f) {
+    ref.frame_pose(f, pose);
+    double h[2];
+    foot_heights(ref, pose, h);
+    if (std::min(h[0], h[1]) > 0.01) ++flight;
+    if (std::min(h[0], h[1]) < 0.005) ++stance;
+  }
+  std::cout << "synthetic run: " << ref.frame_count() << " frames, " << flight << " in flight, "
+            << stance << " in stance\n";
+  EXPECT_GE(flight, 4);
+  EXPECT_GE(stance, 4);
+  // the loop: across the seam the pose changes no more than between two frames inside the clip
+  double inside_rot = 0, inside_pos = 0;
+  ReferencePose a = ref.make_pose(), b = ref.make_pose();
+  const double dt = ref.frame_time_s(), T = ref.duration_s();
+  for (int f = 0; f + 1 < ref.frame_count(); ++f) {
+    ref.frame_pose(f, a);
+    ref.frame_pose(f + 1, b);
+    double r, p;
+    pose_jump(a, b, r, p);
+    inside_rot = std::max(inside_rot, r);
+    inside_pos = std::max(inside_pos, p);
+  }
+  ref.sample(T - dt, a);
+  ref.sample(T + dt, b);  // two frame intervals across the seam
+  double r, p;
+  pose_jump(a, b, r, p);
+  EXPECT_LT(r, 2 * inside_rot + 1e-9);
+  EXPECT_LT(p, 2 * inside_pos + 1e-9);
+  // a cycle: the last frame is the first one a stride on (the blend has nothing to do)
+  ref.sample(T - 1e-9, a);
+  ref.sample(T + 1e-9, b);
+  pose_jump(a, b, r, p);
+  EXPECT_LT(r, 1e-5);
+  EXPECT_LT(p, 1e-5);
+}
+
+// a cut of a real clip that is no cycle: looped as it is, the pose jumps at the seam; with the
+// blend the last 0.2 s fade onto the first frame and the seam is as smooth as the clip
+TEST(ReferenceMotion, LoopBlendJoinsACutThatIsNoCycle) {
+  const std::string path = shared_bvh("cmu_131_01.bvh");
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
+  BvhClip clip = read_bvh(path);
+  ReferenceOptions ro;
+  ro.loop = true;
+  ro.first_frame = 200;
+  ro.last_frame = 380;  // 1.5 s of walking at 120 Hz: no whole number of steps
+  double jump_rot[2], jump_pos[2], inside_rot = 0;
+  for (int blend = 0; blend < 2; ++blend) {
+    ro.loop_blend_s = blend ? 0.2 : 0;
+    ReferenceMotion ref(clip, make_motion_skeleton(clip, {}), ro);
+    const double dt = ref.frame_time_s(), T = ref.duration_s();
+    ReferencePose a = ref.make_pose(), b = ref.make_pose();
+    ref.sample(T - 0.5 * dt, a);
+    ref.sample(T + 0.5 * dt, b);
+    pose_jump(a, b, jump_rot[blend], jump_pos[blend]);
+    if (blend) {
+      for (int f = 0; f + 1 < ref.frame_count(); ++f) {
+        ref.frame_pose(f, a);
+        ref.frame_pose(f + 1, b);
+        double r, p;
+        pose_jump(a, b, r, p);
+        inside_rot = std::max(inside_rot, r);
+      }
+      // the blend leaves the first 1.3 s alone
+      ReferenceOptions plain = ro;
+      plain.loop_blend_s = 0;
+      ReferenceMotion unblended(clip, make_motion_skeleton(clip, {}), plain);
+      ReferencePose c = unblended.make_pose();
+      for (double t : {0.0, 0.5, 1.2}) {
+        ref.sample(t, a);
+        unblended.sample(t, c);
+        double r, p;
+        pose_jump(a, c, r, p);
+        EXPECT_LT(r, 1e-12);
+        EXPECT_LT(p, 1e-12);
+      }
+    }
+  }
+  std::cout << "cmu cut seam: " << jump_rot[0] << " rad, " << jump_pos[0] << " m unblended; "
+            << jump_rot[1] << " rad, " << jump_pos[1] << " m blended; largest step inside "
+            << inside_rot << " rad\n";
+  EXPECT_GT(jump_rot[0], 5 * inside_rot);
+  EXPECT_LT(jump_rot[1], 2 * inside_rot);
+  EXPECT_LT(jump_pos[1], 0.01);
 }
 
 }  // namespace

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "control/marker.h"
-#include "control/mocap_tracker.h"
+#include "control/mocap_retarget_tracker.h"
 #include "control/simbicon.h"
 #include "motion/reference_motion.h"
 #include "scenario/scenario.h"
@@ -71,22 +71,23 @@ TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
 TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
   Simulation run(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), quiet());
   Engine& e = run.engine();
-  const auto* tracker = dynamic_cast<const MocapTracker*>(run.controllers().at(0).get());
+  const auto* tracker = dynamic_cast<const MocapRetargetTracker*>(run.controllers().at(0).get());
   ASSERT_NE(tracker, nullptr);
   while (e.time() < 0.7) ASSERT_TRUE(run.step());
   Eigen::VectorXd q;
   ASSERT_TRUE(tracker->reference_qpos(run.controller_state(0), e, q));
   ASSERT_EQ(q.size(), e.nq());
-  const MocapTrackerModel& m = tracker->model();
-  ReferencePose pose = m.reference->make_pose();
-  m.reference->sample(e.time(), pose);
-  EXPECT_LT((q.segment<3>(m.qpos_adr[0]) - pose.root_position).norm(), 1e-12);
-  for (size_t k = 0; k < m.body.size(); ++k) {
-    Eigen::Vector4d expect(pose.rotations[k].w(), pose.rotations[k].x(), pose.rotations[k].y(),
-                           pose.rotations[k].z());
-    int adr = k == 0 ? m.qpos_adr[0] + 3 : m.qpos_adr[k];
-    EXPECT_LT((q.segment<4>(adr) - expect).norm(), 1e-12) << "segment " << k;
-  }
+  // the identity map's table is the reference: each body where the clip's segment is
+  const RetargetedMotion& motion = tracker->motion();
+  std::vector<Eigen::Quaterniond> local(motion.bodies().size());
+  std::vector<Eigen::Vector3d> pos(motion.bodies().size());
+  motion.sample_bodies(e.time(), local, pos);
+  auto probe = run.model().make_engine();
+  probe->set_positions(q);
+  probe->forward();
+  for (size_t i = 0; i < motion.bodies().size(); ++i)
+    EXPECT_LT((probe->body_pose(motion.bodies()[i].body).pos - pos[i]).norm(), 1e-9)
+        << motion.bodies()[i].name;
   // the reference moves on with time: a later sample is another pose
   while (e.time() < 1.0) ASSERT_TRUE(run.step());
   Eigen::VectorXd later;
