@@ -27,7 +27,8 @@ set(stance_label_patterns
   physics "^EveryType/Registry\\."
   physics "^SimulationBranching\\."
   physics "^SimulationLoop\\.StopsOneSecondAfterAFall"
-  physics "^PlannerStanding\\.")
+  physics "^PlannerStanding\\."
+  physics "^PlannerTracking\\.")
 
 foreach(target IN LISTS STANCE_GTEST_TARGETS)
   foreach(test IN LISTS ${target}_TESTS)

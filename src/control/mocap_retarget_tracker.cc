@@ -134,6 +134,14 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     anchor_origin_[b] = base.quat.conjugate() * (probe->body_pose(b).pos - base.pos);
     anchored_mass_ += engine.body_mass(b);
   }
+  child_first_.assign(engine.nbody() + 1, 0);
+  children_.clear();
+  for (int b = 0; b < engine.nbody(); ++b) {
+    child_first_[b] = static_cast<int>(children_.size());
+    for (int c = 0; c < engine.nbody(); ++c)
+      if (engine.body_parent(c) == b && anchor_[c] >= 0) children_.push_back(c);
+  }
+  child_first_[engine.nbody()] = static_cast<int>(children_.size());
   sole_level_ = 1e300;
   for (int f = 0; f < motion_->frame_count(); ++f)
     for (size_t i = 0; i < bodies.size(); ++i)
@@ -225,8 +233,15 @@ MocapFallCause MocapRetargetTracker::judge_fall(const Engine& engine, int& body,
     const Contact c = engine.contact(i);
     const int b = c.body1 < 0 ? c.body2 : (c.body2 < 0 ? c.body1 : -1);
     if (b < 0 || is_foot_[b] || anchor_[b] < 0) continue;
+    // the lowest point of the body's bone in the reference: its origin or a child's
     const BodyPose ref = motion_->sample_body_pose(t, anchor_[b]);
-    if (up_.dot(ref.pos + ref.quat * anchor_origin_[b]) - sole_level_ > kTouchHeight) {
+    double low = up_.dot(ref.pos + ref.quat * anchor_origin_[b]);
+    for (int k = child_first_[b]; k < child_first_[b + 1]; ++k) {
+      const int c = children_[k];
+      const BodyPose rc = motion_->sample_body_pose(t, anchor_[c]);
+      low = std::min(low, up_.dot(rc.pos + rc.quat * anchor_origin_[c]));
+    }
+    if (low - sole_level_ > kTouchHeight) {
       body = b;
       return MocapFallCause::kBodyTouches;
     }

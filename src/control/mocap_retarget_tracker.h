@@ -43,8 +43,8 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
   MocapRetargetParams() { swing_foot_world = true; }
   std::string joint_map;          // YAML map file (relative: to the scenario); empty: the identity
   std::string mode = "assisted";  // kinematic, assisted or free
-  double kp = 300;                // N m/rad on every joint dof
-  double kd = 30;                 // N m s/rad
+  double kp = 2000;               // N m/rad on every joint dof (shared by every clip and model)
+  double kd = 175;                // N m s/rad
   NamedValues kp_joints;          // per-dof kp (a dof name, or a joint name for all its dofs)
   NamedValues kd_joints;
   double max_torque = 0;  // N m clamp on joint torques; 0: none
@@ -202,6 +202,9 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
   std::vector<int> anchor_;
   std::vector<Eigen::Vector3d> anchor_com_, anchor_origin_;
   std::vector<char> is_foot_;
+  // per engine body, its child bodies (children_[child_first_[b] .. child_first_[b + 1])): a
+  // body's bone reaches down to them, so its reference height is the lowest of those origins
+  std::vector<int> child_first_, children_;
   double anchored_mass_ = 0;
   double sole_level_ = 0;
   std::vector<std::string> body_names_;  // the engine's, for the metrics

@@ -461,6 +461,19 @@ void Simulation::detect_fall() {
   double h = model_->up.dot(e.com()) - fall.ground_height;
   s.min_com_height = std::min(s.min_com_height, h);
   if (!fall.enabled || s.fell) return;
+  // a controller that tracks a reference judges the fall against it (a crouch in a clip is no
+  // fall); the scenario's criterion applies when no controller has an opinion
+  bool judged = false;
+  for (size_t i = 0; i < controllers_.size() && !s.fell; ++i) {
+    const FallVerdict v = controllers_[i]->fall_verdict(*states_[i], e, s.fall_reason);
+    if (v == FallVerdict::kNoOpinion) continue;
+    judged = true;
+    if (v == FallVerdict::kFell) {
+      s.fell = true;
+      s.fall_time = e.time();
+    }
+  }
+  if (judged) return;
   if (h < fall.com_height_fraction * s.com_height0) {
     s.fell = true;
     s.fall_time = e.time();

@@ -1,0 +1,87 @@
+// The planner over the one tracker in free mode, on the shared defaults (no per-clip gains):
+// clips tracked for 3 s without a fall and with PHC's success, at the defaults and at another
+// seed; the same walk falls without the planner; the plan is the same for any thread count.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+
+#include "app/commands.h"
+#include "scenario/scenario.h"
+#include "scenario/simulation.h"
+#include "test_support.h"
+
+namespace stance {
+namespace {
+
+// the scenario `stance bvh track` writes for a clip (in a private folder)
+std::string track_scenario(const std::string& bvh, const std::string& name) {
+  BvhTrackCommand cmd;
+  cmd.bvh = bvh;
+  cmd.loop = true;
+  cmd.duration = 3.0;
+  cmd.out_dir = (std::filesystem::temp_directory_path() / "stance_tests" /
+                 (name + "_" + std::to_string(::getpid())))
+                    .string();
+  return write_bvh_track_scenario(cmd);
+}
+
+std::string synthetic_walk() {
+  return test::source_dir() + "/models/synthetic_walk.bvh";
+}
+
+RunResult track(const std::string& scenario, const std::vector<std::string>& sets) {
+  RunOptions o;
+  o.quiet = true;
+  std::vector<std::string> all = {"planner.threads=2"};
+  all.insert(all.end(), sets.begin(), sets.end());
+  return Simulation(load_scenario(scenario, all), o).run();
+}
+
+void expect_tracked(const RunResult& r, bool success = true) {
+  EXPECT_FALSE(r.fell) << r.fall_reason << " at " << r.fall_time.value_or(-1);
+  const nlohmann::json& m = r.metrics["mocap"];
+  if (success) EXPECT_TRUE(m["success"].get<bool>()) << m.dump();
+  EXPECT_LT(m["mean_root_error_m"].get<double>(), 0.3) << m.dump();
+  EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 8.0) << m.dump();
+}
+
+TEST(PlannerTracking, SyntheticWalkAtTheDefaultsAndAnotherSeed) {
+  const std::string s = track_scenario(synthetic_walk(), "track_walk");
+  for (const char* seed : {"seed=1", "seed=2"}) {
+    SCOPED_TRACE(seed);
+    expect_tracked(track(s, {seed}));
+  }
+}
+
+TEST(PlannerTracking, MassWalkStaysUpAtTheDefaultsAndAnotherSeed) {
+  const std::string bvh = test::shared_dir() + "/data/bvh/mass_walk.bvh";
+  if (!std::filesystem::exists(bvh)) GTEST_SKIP() << bvh << " is absent";
+  const std::string s = track_scenario(bvh, "track_mass");
+  for (const char* seed : {"seed=1", "seed=2"}) {
+    SCOPED_TRACE(seed);
+    // up and close to the clip; PHC's success (no frame's mean body error above 0.5 m) does not
+    // hold at every seed yet (docs/planner.md, "Status")
+    expect_tracked(track(s, {seed}), false);
+  }
+}
+
+// the cross-check: the base policy alone (the same tracker, no planner) falls
+TEST(PlannerTracking, TheSameWalkFallsWithoutThePlanner) {
+  RunResult r = track(track_scenario(synthetic_walk(), "track_walk_bare"),
+                      {"planner.enabled=false"});
+  EXPECT_TRUE(r.fell);
+}
+
+TEST(PlannerTracking, SamePlanForAnyThreadCount) {
+  const std::string s = track_scenario(synthetic_walk(), "track_walk_threads");
+  auto run = [&](int threads) {
+    RunResult r = track(s, {"duration=0.3", "planner.threads=" + std::to_string(threads)});
+    return without_wall_clock(r.metrics).dump();
+  };
+  const std::string one = run(1);
+  EXPECT_EQ(run(2), one);
+  EXPECT_EQ(run(3), one);
+}
+
+}  // namespace
+}  // namespace stance
