@@ -29,6 +29,9 @@ using tinyxml2::XMLElement;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr int kCollisionBits = 31;  // contype bits used, keeping the masks positive ints
+// MuJoCo 2.2.2 reads XML at most 100 elements deep: <mujoco><worldbody>, the bodies, and the
+// innermost body's <geom> leave 96 nested bodies
+constexpr int kMaxMujocoBodyDepth = 96;
 
 // ---------------------------------------------------------------------------------------------
 // parsed SKEL content
@@ -855,20 +858,28 @@ class SkeletonEmitter {
       std::string body;
       XMLElement* parent_el;         // null = top level
       Isometry3d parent_init_world;  // DART's initial pose of the parent, for immobile ones
+      int depth;                     // of the body element: 1 at the top level
     };
     std::vector<Pending> stack;
     for (auto it = roots.rbegin(); it != roots.rend(); ++it) {
-      stack.push_back({*it, nullptr, Isometry3d::Identity()});
+      stack.push_back({*it, nullptr, Isometry3d::Identity(), 1});
     }
     while (!stack.empty()) {
       Pending p = std::move(stack.back());
       stack.pop_back();
+      if (p.depth > kMaxMujocoBodyDepth) {
+        fail(body(p.body).line,
+             fmt::format("body '{}' is nested {} bodies deep: MuJoCo reads at most {} (DART loads "
+                         "it: --engine dart)",
+                         p.body, p.depth, kMaxMujocoBodyDepth));
+      }
       Isometry3d world_init;
       XMLElement* el = emit_body(p.body, p.parent_el, p.parent_init_world, world_init);
       auto cit = child_joints_.find(p.body);
       if (cit == child_joints_.end()) continue;
       for (auto ji = cit->second.rbegin(); ji != cit->second.rend(); ++ji) {
-        stack.push_back({s_.joints[*ji].child, s_.mobile ? el : nullptr, world_init});
+        stack.push_back({s_.joints[*ji].child, s_.mobile ? el : nullptr, world_init,
+                         s_.mobile ? p.depth + 1 : 1});
       }
     }
   }

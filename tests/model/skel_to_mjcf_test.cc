@@ -811,25 +811,30 @@ std::string weld_chain(int bodies) {
   return text + "</skeleton></world></skel>\n";
 }
 
-TEST_F(SkelTest, DeepChainTranslatesUpToTheBodyLimit) {
-  // as deep as the limit allows: translated without recursion, and no pair list
-  std::string deepest = write("deepest.skel", weld_chain(kMaxSkelBodies));
-  SkelTranslation t = skel_to_mjcf({SkelInput{deepest}});
-  EXPECT_EQ(t.mjcf.find("<exclude"), std::string::npos);
-  size_t bodies = 0;
-  for (size_t at = t.mjcf.find("<body "); at != std::string::npos;
-       at = t.mjcf.find("<body ", at + 1)) {
-    ++bodies;
-  }
-  EXPECT_EQ(bodies, kMaxSkelBodies);
-
-  std::string too_many = write("too_many.skel", weld_chain(kMaxSkelBodies + 1));
+TEST_F(SkelTest, DeepChainsStopAtTheBodyLimitAndAtMujocosNesting) {
+  // as many bodies as the limit allows pass the checks of the DART path
+  std::string deepest = write("deepest.skel", weld_chain(static_cast<int>(kMaxSkelBodies)));
+  EXPECT_NO_THROW(check_skel_for_dart(deepest));
+  std::string too_many = write("too_many.skel", weld_chain(static_cast<int>(kMaxSkelBodies) + 1));
   std::string message = dart_check_error(too_many);
   EXPECT_NE(message.find(fmt::format("too_many.skel:{}: more than {} bodies in one file",
                                      kMaxSkelBodies + 3, kMaxSkelBodies)),
             std::string::npos)
       << message;
   EXPECT_EQ(error_of(too_many), message);
+
+  // MuJoCo reads 96 nested bodies: translated (without recursion, no pair list) and loaded
+  SkelTranslation t = skel_to_mjcf({SkelInput{write("chain96.skel", weld_chain(96))}});
+  EXPECT_EQ(t.mjcf.find("<exclude"), std::string::npos);
+  ModelPtr m = load(t.mjcf);
+  ASSERT_NE(m, nullptr);
+  EXPECT_EQ(m->nbody, 97);
+  // the 97th is refused where it is in the .skel file, not in the translated text
+  message = error_of(write("chain97.skel", weld_chain(97)));
+  EXPECT_NE(message.find("chain97.skel:99: body 'b96' is nested 97 bodies deep: MuJoCo reads at "
+                         "most 96"),
+            std::string::npos)
+      << message;
 }
 
 TEST_F(SkelTest, WhatOnlyDartSimulatesPassesDartChecksAndNotTheMujocoTranslation) {
