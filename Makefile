@@ -3,12 +3,20 @@
 #   make test   install dependencies if missing, build, run ctest (every test)
 #   make test-fast   the unit and cli tests only (labels: unit, physics, cli, viz)
 #   make install     headers, libraries, the stance binary and find_package(stance) into PREFIX
+#   make test-sanitize   clang ASan+UBSan tree (build-sanitize/): the unit and cli tests, then
+#                        each fuzzer FUZZ_SECONDS (30) seconds
+#   make fuzz SECONDS=N  each fuzzer N seconds (default 60) in the same tree
 BUILD ?= build
 JOBS ?= $(shell nproc)
 STANCE = $(BUILD)/stance
 PREFIX ?= /usr/local
 
-.PHONY: demo test test-fast build install deps bench clean format eval-track
+SANITIZE_BUILD ?= build-sanitize
+FUZZ_SECONDS ?= 30
+SECONDS ?= 60
+
+.PHONY: demo test test-fast build install deps bench clean format eval-track sanitize-build \
+  test-sanitize fuzz
 
 deps:
 	@bash scripts/install-deps.sh
@@ -24,6 +32,25 @@ test: build
 
 test-fast: build
 	cd $(BUILD) && ctest --output-on-failure -j$(JOBS) -L '^(unit|cli)$$'
+
+$(SANITIZE_BUILD)/CMakeCache.txt:
+	CC=clang-14 CXX=clang++-14 cmake -S . -B $(SANITIZE_BUILD) -DCMAKE_BUILD_TYPE=Release \
+	  -DSTANCE_SANITIZE=ON -DSTANCE_BUILD_BENCH=OFF -DSTANCE_WITH_VIEWER=OFF
+
+sanitize-build: deps $(SANITIZE_BUILD)/CMakeCache.txt
+	cmake --build $(SANITIZE_BUILD) -j$(JOBS)
+
+# the fast subset under ASan+UBSan (the install-and-find_package test links outside the tree's
+# sanitizer flags, so it stays in `make test`), then the fuzzers
+test-sanitize: sanitize-build
+	cd $(SANITIZE_BUILD) && \
+	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/fuzz/lsan.supp:print_suppressions=0 \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest --output-on-failure -j$(JOBS) -L '^(unit|cli)$$' -E '^cli\.find_package$$'
+	bash tests/fuzz/run.sh $(SANITIZE_BUILD) $(FUZZ_SECONDS)
+
+fuzz: sanitize-build
+	bash tests/fuzz/run.sh $(SANITIZE_BUILD) $(SECONDS)
 
 install: build
 	cmake --install $(BUILD) --prefix $(PREFIX)
@@ -44,4 +71,4 @@ format:
 	clang-format -i $$(git ls-files '*.cc' '*.h')
 
 clean:
-	rm -rf $(BUILD)
+	rm -rf $(BUILD) $(SANITIZE_BUILD)

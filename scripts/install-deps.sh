@@ -12,6 +12,7 @@ packages=(
   gnuplot-nox ffmpeg xvfb xauth
   python3-dartpy
   libslicot-dev libtinyxml2-dev
+  clang-14 libclang-rt-14-dev
 )
 
 missing=()

@@ -35,5 +35,8 @@ struct BackendWorld {
 // the backends; throw InputError for files they cannot load
 std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world);
 std::unique_ptr<Engine> open_dart_engine(const BackendWorld& world);
+// compiles a model file with MuJoCo's compiler and throws its error, located; MJCF meant for
+// DART goes through it first, as DART's MJCF parser asserts on values MuJoCo rejects
+void check_mujoco_compiles(const BackendModel& model);
 
 }  // namespace stance

@@ -55,7 +55,11 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
   BackendWorld world = world_options(spec);
   for (const auto& mf : spec.models) {
     const std::string path = resolve_model_path(mf.path);
-    world.models.push_back({mf.path, path, "", model_format(path), mf.offset});
+    BackendModel model{mf.path, path, "", model_format(path), mf.offset};
+    // DART's parsers assert or crash on bad values: stance's own checks go first, located
+    if (model.format == ModelFormat::kSkel) check_skel_for_dart(path);
+    if (model.format == ModelFormat::kMjcf) check_mujoco_compiles(model);
+    world.models.push_back(std::move(model));
   }
   return open_dart_engine(world);
 #else

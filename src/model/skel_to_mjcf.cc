@@ -28,14 +28,33 @@ using Eigen::Vector4d;
 using tinyxml2::XMLElement;
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr int kCollisionBits = 31;  // contype bits used, keeping the masks positive ints
+// MuJoCo 2.2.2 reads XML at most 100 elements deep: <mujoco><worldbody>, the bodies, and the
+// innermost body's <geom> leave 96 nested bodies
+constexpr int kMaxMujocoBodyDepth = 96;
 
 // ---------------------------------------------------------------------------------------------
 // parsed SKEL content
 
-enum class ShapeKind { kSphere, kBox, kEllipsoid, kCylinder, kCapsule, kPlane };
+// every shape DART's SkelParser reads; the MuJoCo translation rejects cone, pyramid,
+// multi_sphere and mesh
+enum class ShapeKind {
+  kSphere,
+  kBox,
+  kEllipsoid,
+  kCylinder,
+  kCapsule,
+  kPlane,
+  kCone,
+  kPyramid,
+  kMultiSphere,
+  kMesh
+};
 
 struct Shape {
   ShapeKind kind = ShapeKind::kBox;
+  std::string tag;                           // the geometry element's name, for messages
+  int line = 0;                              // of the geometry element
   bool collision = false;                    // collision_shape (else visualization_shape)
   bool collidable = true;                    // <collidable> of a collision shape
   Isometry3d pose = Isometry3d::Identity();  // relative to the body
@@ -57,6 +76,7 @@ struct Body {
   bool has_inertia = false;
   bool has_moment = false;
   bool gravity = true;
+  int soft_line = 0;          // of <soft_shape>: a DART soft body (not translated to MuJoCo)
   std::vector<Shape> shapes;  // visualization shapes first, as DART creates them
 };
 
@@ -157,6 +177,32 @@ class Reader {
 
   double number(const XMLElement* el) const { return numbers(el, 1)[0]; }
 
+  // DART asserts on sizes, masses and counts that are not positive
+  double positive(const XMLElement* el) const {
+    double v = number(el);
+    if (!(v > 0)) fail(el, fmt::format("<{}> must be positive, found {}", el->Name(), text(el)));
+    return v;
+  }
+
+  Vector3d positive_vector3(const XMLElement* el) const {
+    Vector3d v = vector3(el);
+    if (!(v.array() > 0).all()) {
+      fail(el,
+           fmt::format("<{}>: every number must be positive, found '{}'", el->Name(), text(el)));
+    }
+    return v;
+  }
+
+  // `count` whole numbers in [low, high] (DART reads these as unsigned or int)
+  void integers(const XMLElement* el, int count, int low, int high) const {
+    for (double v : numbers(el, count)) {
+      if (v != std::floor(v) || v < low || v > high) {
+        fail(el, fmt::format("<{}>: expected whole numbers in [{}, {}], found '{}'", el->Name(),
+                             low, high, text(el)));
+      }
+    }
+  }
+
   Vector3d vector3(const XMLElement* el) const {
     std::vector<double> v = numbers(el, 3);
     return Vector3d(v[0], v[1], v[2]);
@@ -192,29 +238,44 @@ class Reader {
   std::string file_;
 };
 
+// a shape as DART's readShape reads it (the first known geometry wins, in DART's order)
 Shape read_shape(const Reader& r, const XMLElement* el, bool collision) {
   Shape s;
   s.collision = collision;
   if (const XMLElement* t = el->FirstChildElement("transformation")) s.pose = r.transform(t);
   const XMLElement* geometry = r.need(el, "geometry");
-  if (const XMLElement* g = geometry->FirstChildElement("sphere")) {
+  const XMLElement* g = nullptr;
+  for (const char* tag : {"sphere", "box", "ellipsoid", "cylinder", "capsule", "cone", "pyramid",
+                          "plane", "multi_sphere", "mesh"}) {
+    if ((g = geometry->FirstChildElement(tag)) != nullptr) break;
+  }
+  if (g == nullptr) {
+    const XMLElement* first = geometry->FirstChildElement();
+    if (first == nullptr) r.fail(geometry, "<geometry> is empty");
+    r.fail(first, fmt::format("unknown shape <{}> (DART reads sphere, box, ellipsoid, cylinder, "
+                              "capsule, cone, pyramid, plane, multi_sphere, mesh)",
+                              first->Name()));
+  }
+  s.tag = g->Name();
+  s.line = g->GetLineNum();
+  if (s.tag == "sphere") {
     s.kind = ShapeKind::kSphere;
-    s.radius = r.number(r.need(g, "radius"));
-  } else if (const XMLElement* g = geometry->FirstChildElement("box")) {
-    s.kind = ShapeKind::kBox;
-    s.size = r.vector3(r.need(g, "size"));
-  } else if (const XMLElement* g = geometry->FirstChildElement("ellipsoid")) {
-    s.kind = ShapeKind::kEllipsoid;
-    s.size = r.vector3(r.need(g, "size"));
-  } else if (const XMLElement* g = geometry->FirstChildElement("cylinder")) {
-    s.kind = ShapeKind::kCylinder;
-    s.radius = r.number(r.need(g, "radius"));
-    s.height = r.number(r.need(g, "height"));
-  } else if (const XMLElement* g = geometry->FirstChildElement("capsule")) {
-    s.kind = ShapeKind::kCapsule;
-    s.radius = r.number(r.need(g, "radius"));
-    s.height = r.number(r.need(g, "height"));
-  } else if (const XMLElement* g = geometry->FirstChildElement("plane")) {
+    s.radius = r.positive(r.need(g, "radius"));
+  } else if (s.tag == "box" || s.tag == "ellipsoid") {
+    s.kind = s.tag == "box" ? ShapeKind::kBox : ShapeKind::kEllipsoid;
+    s.size = r.positive_vector3(r.need(g, "size"));
+  } else if (s.tag == "cylinder" || s.tag == "capsule" || s.tag == "cone") {
+    s.kind = s.tag == "cylinder"  ? ShapeKind::kCylinder
+             : s.tag == "capsule" ? ShapeKind::kCapsule
+                                  : ShapeKind::kCone;
+    s.radius = r.positive(r.need(g, "radius"));
+    s.height = r.positive(r.need(g, "height"));
+  } else if (s.tag == "pyramid") {
+    s.kind = ShapeKind::kPyramid;
+    r.positive(r.need(g, "base_width"));
+    r.positive(r.need(g, "base_depth"));
+    s.height = r.positive(r.need(g, "height"));
+  } else if (s.tag == "plane") {
     s.kind = ShapeKind::kPlane;
     s.normal = r.vector3(r.need(g, "normal"));
     if (s.normal.norm() == 0) r.fail(g, "<plane>: the normal is zero");
@@ -224,17 +285,31 @@ Shape read_shape(const Reader& r, const XMLElement* el, bool collision) {
       // DART's PlaneShape(normal, point): offset = normal . point, normal normalized first
       s.offset = s.normal.normalized().dot(r.vector3(p));
     }
+  } else if (s.tag == "multi_sphere") {
+    s.kind = ShapeKind::kMultiSphere;
+    const XMLElement* sphere = r.need(g, "sphere");
+    for (; sphere != nullptr; sphere = sphere->NextSiblingElement("sphere")) {
+      r.positive(r.need(sphere, "radius"));
+      r.vector3(r.need(sphere, "position"));
+    }
   } else {
-    const XMLElement* first = geometry->FirstChildElement();
-    if (first == nullptr) r.fail(geometry, "<geometry> is empty");
-    r.fail(first, fmt::format("unsupported shape <{}> (supported: sphere, box, ellipsoid, "
-                              "cylinder, capsule, plane)",
-                              first->Name()));
+    s.kind = ShapeKind::kMesh;
+    const XMLElement* file = r.need(g, "file_name");
+    std::string name = r.text(file);
+    name.erase(0, name.find_first_not_of(" \t\r\n"));
+    name.erase(name.find_last_not_of(" \t\r\n") + 1);
+    if (name.empty()) r.fail(file, "<mesh>: <file_name> is empty");
+    r.vector3(r.need(g, "scale"));
+    // DART resolves the name against the .skel file; a missing file leaves it a null shape
+    if (name.find("://") == std::string::npos) {
+      namespace fs = std::filesystem;
+      fs::path mesh = fs::path(r.file()).parent_path() / name;
+      std::error_code ec;
+      if (!fs::is_regular_file(mesh, ec)) {
+        r.fail(file, fmt::format("<mesh>: no such file '{}'", mesh.string()));
+      }
+    }
   }
-  for (double v : {s.size.x(), s.size.y(), s.size.z()}) {
-    if (v < 0) r.fail(geometry, "negative shape size");
-  }
-  if (s.radius < 0 || s.height < 0) r.fail(geometry, "negative shape size");
   if (!collision) {
     if (const XMLElement* c = el->FirstChildElement("color")) {
       std::vector<double> v = r.numbers(c, -1);
@@ -246,6 +321,41 @@ Shape read_shape(const Reader& r, const XMLElement* el, bool collision) {
     s.collidable = r.number(c) != 0;
   }
   return s;
+}
+
+// <soft_shape> as DART's readSoftBodyNode reads it: counts are bounded, as DART allocates
+// the point masses they ask for
+void check_soft_shape(const Reader& r, const XMLElement* el) {
+  r.positive(r.need(el, "total_mass"));
+  if (const XMLElement* t = el->FirstChildElement("transformation")) r.transform(t);
+  const XMLElement* geometry = r.need(el, "geometry");
+  if (const XMLElement* g = geometry->FirstChildElement("sphere")) {
+    r.positive(r.need(g, "radius"));
+    r.integers(r.need(g, "num_slices"), 1, 2, 100);
+    r.integers(r.need(g, "num_stacks"), 1, 2, 100);
+  } else if (const XMLElement* g = geometry->FirstChildElement("box")) {
+    r.positive_vector3(r.need(g, "size"));
+    r.integers(r.need(g, "frags"), 3, 2, 100);
+  } else if (const XMLElement* g = geometry->FirstChildElement("ellipsoid")) {
+    r.positive_vector3(r.need(g, "size"));
+    r.integers(r.need(g, "num_slices"), 1, 2, 100);
+    r.integers(r.need(g, "num_stacks"), 1, 2, 100);
+  } else if (const XMLElement* g = geometry->FirstChildElement("cylinder")) {
+    r.positive(r.need(g, "radius"));
+    r.positive(r.need(g, "height"));
+    r.integers(r.need(g, "num_slices"), 1, 2, 100);
+    r.integers(r.need(g, "num_stacks"), 1, 2, 100);
+    r.integers(r.need(g, "num_rings"), 1, 2, 100);
+  } else {
+    const XMLElement* first = geometry->FirstChildElement();
+    r.fail(first != nullptr ? first : geometry,
+           "<soft_shape> needs a sphere, box, ellipsoid or cylinder geometry");
+  }
+  for (const char* tag : {"kv", "ke", "damp"}) {
+    if (const XMLElement* e = el->FirstChildElement(tag)) {
+      if (r.number(e) < 0) r.fail(e, fmt::format("<{}> must not be negative", tag));
+    }
+  }
 }
 
 // the moment DART's Shape::computeInertia(mass) gives, about the shape's own origin
@@ -289,6 +399,11 @@ Matrix3d shape_inertia(const Shape& s, double mass) {
     }
     case ShapeKind::kPlane:
       break;  // DART's PlaneShape::computeInertia is zero
+    case ShapeKind::kCone:
+    case ShapeKind::kPyramid:
+    case ShapeKind::kMultiSphere:
+    case ShapeKind::kMesh:
+      break;  // not translated (emit_geoms rejects them)
   }
   return i;
 }
@@ -297,9 +412,14 @@ Body read_body(const Reader& r, const XMLElement* el, const Isometry3d& skeleton
   Body b;
   b.name = r.attribute(el, "name");
   b.line = el->GetLineNum();
-  if (el->FirstChildElement("soft_shape") != nullptr) {
-    r.fail(el->FirstChildElement("soft_shape"),
-           fmt::format("body '{}': soft bodies are not supported", b.name));
+  if (const XMLElement* soft = el->FirstChildElement("soft_shape")) {
+    check_soft_shape(r, soft);
+    b.soft_line = soft->GetLineNum();
+  }
+  for (const XMLElement* m = el->FirstChildElement("marker"); m != nullptr;
+       m = m->NextSiblingElement("marker")) {
+    r.attribute(m, "name");
+    if (const XMLElement* o = m->FirstChildElement("offset")) r.vector3(o);
   }
   if (const XMLElement* g = el->FirstChildElement("gravity")) b.gravity = r.boolean(g);
   b.world = skeleton_frame;
@@ -308,7 +428,7 @@ Body read_body(const Reader& r, const XMLElement* el, const Isometry3d& skeleton
   }
   if (const XMLElement* in = el->FirstChildElement("inertia")) {
     b.has_inertia = true;
-    b.mass = r.number(r.need(in, "mass"));
+    b.mass = r.positive(r.need(in, "mass"));
     if (const XMLElement* m = in->FirstChildElement("moment_of_inertia")) {
       b.has_moment = true;
       double ixx = r.number(r.need(m, "ixx"));
@@ -318,6 +438,9 @@ Body read_body(const Reader& r, const XMLElement* el, const Isometry3d& skeleton
       double ixz = r.number(r.need(m, "ixz"));
       double iyz = r.number(r.need(m, "iyz"));
       b.moment << ixx, ixy, ixz, ixy, iyy, iyz, ixz, iyz, izz;
+      if (!(ixx > 0 && iyy > 0 && izz > 0)) {
+        r.fail(m, fmt::format("body '{}': <moment_of_inertia> needs ixx, iyy and izz > 0", b.name));
+      }
     }
     if (const XMLElement* o = in->FirstChildElement("offset")) b.com = r.vector3(o);
   }
@@ -448,10 +571,24 @@ Joint read_joint(const Reader& r, const XMLElement* el) {
     suffixes = {"_x", "_y", "_z"};
   } else if (j.type == "free") {
     suffixes = {"_rot_x", "_rot_y", "_rot_z", "_pos_x", "_pos_y", "_pos_z"};
+  } else if (j.type == "planar") {
+    // DART only: the MuJoCo translation rejects it
+    if (const XMLElement* plane = el->FirstChildElement("plane")) {
+      std::string type = r.attribute(plane, "type");
+      if (type == "arbitrary") {
+        r.vector3(r.need(r.need(plane, "translation_axis1"), "xyz"));
+        r.vector3(r.need(r.need(plane, "translation_axis2"), "xyz"));
+      } else if (type != "xy" && type != "yz" && type != "zx") {
+        r.fail(plane, fmt::format("planar joint '{}': plane type '{}' is not one of xy, yz, zx, "
+                                  "arbitrary",
+                                  j.name, type));
+      }
+    }
+    suffixes = {"_1", "_2", "_3"};
   } else if (j.type == "weld") {
   } else {
     r.fail(el, fmt::format("joint '{}': unsupported joint type '{}' (supported: weld, revolute, "
-                           "prismatic, universal, euler, ball, translational, free)",
+                           "prismatic, universal, euler, ball, translational, planar, free)",
                            j.name, j.type));
   }
   const int n = static_cast<int>(suffixes.size());
@@ -484,7 +621,33 @@ Joint read_joint(const Reader& r, const XMLElement* el) {
   return j;
 }
 
-Skeleton read_skeleton(const Reader& r, const XMLElement* el, const Vector3d& offset) {
+// fails on a joint cycle, which DART's assembly loop would follow for ever; linear in the bodies
+void check_no_cycle(const Reader& r, const Skeleton& s) {
+  std::map<std::string, std::string> parent_of;  // child body -> parent body ("" = world)
+  for (const Joint& j : s.joints) parent_of[j.child] = j.parent;
+  enum { kUnseen, kOnPath, kDone };
+  std::map<std::string, int> state;
+  for (const Body& b : s.bodies) {
+    std::vector<std::string> path;
+    for (std::string body = b.name;;) {
+      int& st = state[body];
+      if (st == kDone) break;
+      if (st == kOnPath) {
+        throw InputError(
+            located(r.file(), b.line, fmt::format("body '{}' is in a joint cycle", b.name)));
+      }
+      st = kOnPath;
+      path.push_back(body);
+      auto it = parent_of.find(body);
+      if (it == parent_of.end() || it->second.empty()) break;
+      body = it->second;
+    }
+    for (const std::string& body : path) state[body] = kDone;
+  }
+}
+
+Skeleton read_skeleton(const Reader& r, const XMLElement* el, const Vector3d& offset,
+                       size_t& bodies_in_file) {
   Skeleton s;
   s.name = r.attribute(el, "name");
   s.file = r.file();
@@ -497,6 +660,11 @@ Skeleton read_skeleton(const Reader& r, const XMLElement* el, const Vector3d& of
   std::set<std::string> body_names;
   for (const XMLElement* b = el->FirstChildElement("body"); b != nullptr;
        b = b->NextSiblingElement("body")) {
+    if (++bodies_in_file > kMaxSkelBodies) {
+      r.fail(b, fmt::format("more than {} bodies in one file (a limit that keeps loading time "
+                            "and memory bounded)",
+                            kMaxSkelBodies));
+    }
     Body body = read_body(r, b, frame);
     if (!body_names.insert(body.name).second) {
       r.fail(b, fmt::format("skeleton '{}' has two bodies named '{}'", s.name, body.name));
@@ -526,6 +694,9 @@ Skeleton read_skeleton(const Reader& r, const XMLElement* el, const Vector3d& of
     }
     s.joints.push_back(std::move(j));
   }
+  // DART's SkelParser starts assembling at the first joint, which must exist
+  if (s.joints.empty()) r.fail(el, fmt::format("skeleton '{}' has no joint", s.name));
+  check_no_cycle(r, s);
   return s;
 }
 
@@ -558,9 +729,10 @@ SkelFile read_skel_file(const SkelInput& input) {
     }
     if (const XMLElement* g = physics->FirstChildElement("gravity")) f.gravity = r.vector3(g);
   }
+  size_t bodies_in_file = 0;
   for (const XMLElement* s = world->FirstChildElement("skeleton"); s != nullptr;
        s = s->NextSiblingElement("skeleton")) {
-    f.skeletons.push_back(read_skeleton(r, s, input.offset));
+    f.skeletons.push_back(read_skeleton(r, s, input.offset, bodies_in_file));
   }
   return f;
 }
@@ -652,7 +824,7 @@ class MjcfWriter {
   std::vector<double> key_qvel_;
   std::set<std::string> body_names_;
   std::set<std::string> joint_names_;
-  std::vector<std::pair<std::string, std::string>> excludes_;
+  int next_collision_bit_ = 0;  // the next mobile skeleton's contype bit
 };
 
 class SkeletonEmitter {
@@ -679,24 +851,35 @@ class SkeletonEmitter {
         fail(b.line, fmt::format("body '{}' is not connected to any joint", b.name));
       }
     }
-    // world poses at DART's initial configuration, for immobile skeletons
-    std::map<std::string, Isometry3d> init_world;
-    size_t reached = 0;
-    for (const std::string& root : roots) {
-      reached += visit(root, nullptr, Isometry3d::Identity(), init_world, 0);
+    choose_collision_mask();
+    // depth first, children in file order, on a stack of its own: the file sets the depth
+    // (the reader has rejected joint cycles, so every body is reached once)
+    struct Pending {
+      std::string body;
+      XMLElement* parent_el;         // null = top level
+      Isometry3d parent_init_world;  // DART's initial pose of the parent, for immobile ones
+      int depth;                     // of the body element: 1 at the top level
+    };
+    std::vector<Pending> stack;
+    for (auto it = roots.rbegin(); it != roots.rend(); ++it) {
+      stack.push_back({*it, nullptr, Isometry3d::Identity(), 1});
     }
-    if (reached != s_.bodies.size()) {
-      for (const Body& b : s_.bodies) {
-        if (init_world.count(b.name) == 0) {
-          fail(b.line, fmt::format("body '{}' is in a joint cycle", b.name));
-        }
+    while (!stack.empty()) {
+      Pending p = std::move(stack.back());
+      stack.pop_back();
+      if (p.depth > kMaxMujocoBodyDepth) {
+        fail(body(p.body).line,
+             fmt::format("body '{}' is nested {} bodies deep: MuJoCo reads at most {} (DART loads "
+                         "it: --engine dart)",
+                         p.body, p.depth, kMaxMujocoBodyDepth));
       }
-    }
-    if (s_.mobile) {
-      for (size_t a = 0; a < s_.bodies.size(); ++a) {
-        for (size_t b = a + 1; b < s_.bodies.size(); ++b) {
-          w_.excludes_.emplace_back(s_.bodies[a].name, s_.bodies[b].name);
-        }
+      Isometry3d world_init;
+      XMLElement* el = emit_body(p.body, p.parent_el, p.parent_init_world, world_init);
+      auto cit = child_joints_.find(p.body);
+      if (cit == child_joints_.end()) continue;
+      for (auto ji = cit->second.rbegin(); ji != cit->second.rend(); ++ji) {
+        stack.push_back({s_.joints[*ji].child, s_.mobile ? el : nullptr, world_init,
+                         s_.mobile ? p.depth + 1 : 1});
       }
     }
   }
@@ -708,11 +891,37 @@ class SkeletonEmitter {
 
   const Body& body(const std::string& name) const { return s_.bodies[body_index_.at(name)]; }
 
-  // emits `name` and its subtree; `parent_el` null = top level; returns the bodies reached
-  size_t visit(const std::string& name, XMLElement* parent_el, const Isometry3d& parent_init_world,
-               std::map<std::string, Isometry3d>& init_world, int depth) {
-    if (depth > static_cast<int>(s_.bodies.size())) fail(s_.line, "joint cycle in skeleton");
+  // DART never collides a skeleton with itself: a mobile skeleton with two or more colliding
+  // bodies gets a contype bit of its own and collides with every bit but it (linear in the
+  // bodies, where an <exclude> per body pair was quadratic)
+  void choose_collision_mask() {
+    if (!s_.mobile) return;
+    int colliding = 0;
+    for (const Body& b : s_.bodies) {
+      bool collides = false;
+      for (const Shape& sh : b.shapes) collides = collides || (sh.collision && sh.collidable);
+      colliding += collides ? 1 : 0;
+    }
+    if (colliding < 2) return;
+    if (w_.next_collision_bit_ >= kCollisionBits) {
+      fail(s_.line, fmt::format("more than {} mobile skeletons with colliding bodies: the MuJoCo "
+                                "translation keeps one contype bit per skeleton",
+                                kCollisionBits));
+    }
+    const int bit = 1 << w_.next_collision_bit_++;
+    contype_ = bit;
+    conaffinity_ = static_cast<int>((1u << kCollisionBits) - 1u) & ~bit;
+  }
+
+  // emits one body under parent_el (null = top level); world_init: its initial world pose
+  XMLElement* emit_body(const std::string& name, XMLElement* parent_el,
+                        const Isometry3d& parent_init_world, Isometry3d& world_init) {
     const Body& b = body(name);
+    if (b.soft_line != 0) {
+      fail(b.soft_line, fmt::format("body '{}': soft bodies are not supported by the MuJoCo "
+                                    "translation (DART loads them: --engine dart)",
+                                    b.name));
+    }
     auto jit = joint_of_child_.find(name);
     const Joint* j = jit != joint_of_child_.end() ? &s_.joints[jit->second] : nullptr;
     const Isometry3d parent_world0 =
@@ -725,8 +934,7 @@ class SkeletonEmitter {
     }
     // a body that parents joints but has none: DART's implicit free joint "root"
     const bool implicit_root = j == nullptr;
-    const Isometry3d world_init = parent_init_world * rel0 * motion;
-    init_world[name] = world_init;
+    world_init = parent_init_world * rel0 * motion;
 
     if (!w_.body_names_.insert(name).second) {
       fail(b.line, fmt::format("body name '{}' is used twice (MuJoCo body names must be unique "
@@ -755,16 +963,7 @@ class SkeletonEmitter {
     }
     emit_inertial(el, b);
     emit_geoms(el, b);
-
-    size_t reached = 1;
-    auto cit = child_joints_.find(name);
-    if (cit != child_joints_.end()) {
-      for (size_t ji : cit->second) {
-        XMLElement* child_parent = s_.mobile ? el : nullptr;
-        reached += visit(s_.joints[ji].child, child_parent, world_init, init_world, depth + 1);
-      }
-    }
-    return reached;
+    return el;
   }
 
   void add_joint_name(const std::string& name, int line) {
@@ -816,6 +1015,11 @@ class SkeletonEmitter {
     const Isometry3d& t_cj = j.child_to_joint;
     const Vector3d anchor = t_cj.translation();
     if (j.type == "weld") return;
+    if (j.type == "planar") {
+      fail(j.line, fmt::format("joint '{}': planar joints are not supported by the MuJoCo "
+                               "translation (DART loads them: --engine dart)",
+                               j.name));
+    }
     if (j.type == "free") {
       if (!j.parent.empty()) {
         fail(j.line, fmt::format("free joint '{}' has parent body '{}': MuJoCo allows free joints "
@@ -898,6 +1102,13 @@ class SkeletonEmitter {
     int n_visual = 0;
     int n_collision = 0;
     for (const Shape& s : b.shapes) {
+      if (s.kind == ShapeKind::kCone || s.kind == ShapeKind::kPyramid ||
+          s.kind == ShapeKind::kMultiSphere || s.kind == ShapeKind::kMesh) {
+        fail(s.line, fmt::format("body '{}': shape <{}> is not supported by the MuJoCo "
+                                 "translation (supported: sphere, box, ellipsoid, cylinder, "
+                                 "capsule, plane; DART loads it: --engine dart)",
+                                 b.name, s.tag));
+      }
       XMLElement* el = w_.add(body_el, "geom");
       int& counter = s.collision ? n_collision : n_visual;
       el->SetAttribute(
@@ -939,12 +1150,17 @@ class SkeletonEmitter {
           pose = pose * local;
           break;
         }
+        case ShapeKind::kCone:
+        case ShapeKind::kPyramid:
+        case ShapeKind::kMultiSphere:
+        case ShapeKind::kMesh:
+          break;  // rejected above
       }
       set_pose(el, pose);
       el->SetAttribute("mass", "0");
       if (s.collision) {
-        el->SetAttribute("contype", s.collidable ? 1 : 0);
-        el->SetAttribute("conaffinity", s.collidable ? 1 : 0);
+        el->SetAttribute("contype", s.collidable ? contype_ : 0);
+        el->SetAttribute("conaffinity", s.collidable ? conaffinity_ : 0);
         el->SetAttribute("group", 3);
         el->SetAttribute("rgba", "0.5 0.5 0.5 0.3");
       } else {
@@ -966,6 +1182,8 @@ class SkeletonEmitter {
   std::map<std::string, size_t> body_index_;
   std::map<std::string, size_t> joint_of_child_;
   std::map<std::string, std::vector<size_t>> child_joints_;
+  int contype_ = 1;  // of this skeleton's colliding geoms (choose_collision_mask)
+  int conaffinity_ = 1;
 };
 
 std::string join_numbers(const std::vector<double>& v) {
@@ -978,6 +1196,10 @@ std::string join_numbers(const std::vector<double>& v) {
 }
 
 }  // namespace
+
+void check_skel_for_dart(const std::string& path) {
+  read_skel_file(SkelInput{path});
+}
 
 SkelTranslation skel_to_mjcf(const std::vector<SkelInput>& files) {
   if (files.empty()) throw InputError("skel_to_mjcf: no .skel files given");
@@ -1016,14 +1238,6 @@ SkelTranslation skel_to_mjcf(const std::vector<SkelInput>& files) {
     for (const Skeleton& s : f.skeletons) {
       if (!s.mobile) out.immobile_skeletons.push_back(s.name);
       SkeletonEmitter(w, s).emit();
-    }
-  }
-  if (!w.excludes_.empty()) {
-    XMLElement* contact = w.add(w.root_, "contact");
-    for (const auto& [a, b] : w.excludes_) {
-      XMLElement* ex = w.add(contact, "exclude");
-      ex->SetAttribute("body1", a.c_str());
-      ex->SetAttribute("body2", b.c_str());
     }
   }
   if (!w.key_qpos_.empty()) {

@@ -22,8 +22,10 @@
 //  - <init_pos>/<init_vel> (and <dof><position initial=..>) are the state after loading, not
 //    the reference configuration: the MJCF keeps q = 0 as reference and stores DART's initial
 //    state in <keyframe><key name="init">.
-//  - skeletons never self-collide (self-collision check is off by default); <friction_coeff> is
-//    not read by DART 6.12, so every shape has DART's default friction 1 (= MuJoCo's default).
+//  - skeletons never self-collide (self-collision check is off by default): each mobile
+//    skeleton with two or more colliding bodies gets a contype bit of its own (31 at most);
+//    <friction_coeff> is not read by DART 6.12, so every shape has DART's default friction 1 (=
+//    MuJoCo's default).
 #pragma once
 
 #include <Eigen/Core>
@@ -44,9 +46,21 @@ struct SkelTranslation {
   std::vector<std::string> immobile_skeletons;             // <mobile>false</mobile> ones
 };
 
+// the most bodies one .skel file may hold: a bound on loading time and memory on both engines
+constexpr size_t kMaxSkelBodies = 1000;
+
+// Reads a .skel file as DART 6.12's SkelParser would and checks it before DART sees it:
+// well-formed XML, counts of numbers, finite values, sizes, masses and inertias > 0, known joint
+// and shape types, booleans, dof indices, init_pos/init_vel sizes, mesh files, soft-shape
+// counts, the time step, joint cycles and the body count. What only DART can simulate (soft
+// bodies, meshes, cones, pyramids, planar joints, gravity off) passes. Throws InputError
+// "file:line: ..".
+void check_skel_for_dart(const std::string& path);
+
 // Composes the files into one MuJoCo world. The SKEL world frame is kept as is (no
 // rotation). Body and joint names are the SKEL names; they must be unique across all files.
-// Throws InputError "file:line: message" for malformed or unsupported input.
+// Throws InputError "file:line: message" for malformed input (check_skel_for_dart's checks) and
+// for what MuJoCo cannot represent.
 SkelTranslation skel_to_mjcf(const std::vector<SkelInput>& files);
 
 // `stance convert`: translates one .skel file and writes the MJCF text to out_path.

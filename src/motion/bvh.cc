@@ -23,6 +23,9 @@ namespace {
 constexpr double kDegToRad = std::numbers::pi / 180.0;
 constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
+// at most this many poses (frames x joints) are held: 1 GB of quaternions
+constexpr size_t kMaxBvhPoses = size_t{1} << 25;
+
 constexpr std::array<std::string_view, 6> kChannelNames = {"Xposition", "Yposition", "Zposition",
                                                            "Xrotation", "Yrotation", "Zrotation"};
 
@@ -266,6 +269,39 @@ void parse_channels(Scanner& in, BvhJoint& joint, const std::vector<std::string>
   joint.order = *rotation_order_from_axes(axes[0], axes[1], axes[2]);
 }
 
+// length of the UTF-8 sequence starting at s[i], or 0 when it is not valid UTF-8
+size_t utf8_length(std::string_view s, size_t i) {
+  const auto c = static_cast<unsigned char>(s[i]);
+  size_t n = c < 0x80 ? 1 : (c >> 5) == 0x6 ? 2 : (c >> 4) == 0xE ? 3 : (c >> 3) == 0x1E ? 4 : 0;
+  if (n == 0 || i + n > s.size()) return 0;
+  for (size_t k = 1; k < n; ++k) {
+    if ((static_cast<unsigned char>(s[i + k]) >> 6) != 0x2) return 0;
+  }
+  return n;
+}
+
+// a joint name must be valid UTF-8 (it goes into JSON and MJCF) and must read back the same
+// from a written file: no braces, no control characters
+void check_joint_name(const Scanner& in, int line, std::string_view name) {
+  for (size_t i = 0; i < name.size();) {
+    size_t n = utf8_length(name, i);
+    if (n == 0) {
+      in.fail(line, fmt::format("joint name has a byte that is not UTF-8 (0x{:02x}) at column "
+                                "{} of the name",
+                                static_cast<unsigned char>(name[i]), i + 1));
+    }
+    const char c = name[i];
+    if (n == 1 && (c == '{' || c == '}' || static_cast<unsigned char>(c) < 0x20 || c == 0x7f)) {
+      std::string shown;
+      for (char x : name) shown += static_cast<unsigned char>(x) < 0x20 ? '?' : x;
+      in.fail(line, fmt::format("joint name '{}' has a character BVH cannot write back ({})",
+                                shown.substr(0, 40),
+                                c == '{' || c == '}' ? "a brace" : "a control character"));
+    }
+    i += n;
+  }
+}
+
 void parse_hierarchy(Scanner& in, BvhClip& clip) {
   const std::vector<std::string> channel_names(kChannelNames.begin(), kChannelNames.end());
   std::string_view first = in.token();
@@ -289,6 +325,17 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
     bool root = iequals(t, "ROOT");
     if (root || iequals(t, "JOINT")) {
       if (root && !open.empty()) in.fail(line, "ROOT inside another joint's block");
+      if (root && !clip.joints.empty()) {
+        in.fail(line, fmt::format("a second ROOT: stance reads one skeleton per BVH file (the "
+                                  "first ROOT '{}' is at line {})",
+                                  clip.joints.front().name, clip.joints.front().line));
+      }
+      if (static_cast<int>(open.size()) >= kMaxBvhDepth) {
+        in.fail(line, fmt::format("joints nested more than {} deep", kMaxBvhDepth));
+      }
+      if (clip.joint_count() >= kMaxBvhJoints) {
+        in.fail(line, fmt::format("more than {} joints", kMaxBvhJoints));
+      }
       if (!root && open.empty()) in.fail(line, "JOINT outside any ROOT block");
       if (!open.empty() && open.back().end_site) in.fail(line, "JOINT inside an End Site block");
       std::string_view name = in.rest_of_line();
@@ -298,6 +345,7 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
         while (!name.empty() && is_hspace(name.back())) name.remove_suffix(1);
       }
       if (name.empty()) in.fail(line, fmt::format("{} without a name", t));
+      check_joint_name(in, line, name);
       BvhJoint j;
       j.name = std::string(name);
       j.parent = open.empty() ? -1 : open.back().joint;
@@ -377,10 +425,17 @@ void parse_motion(Scanner& in, BvhClip& clip) {
   clip.frame_count = frames;
   clip.frame_time_s = dt;
 
-  // rows: parsed row-major into one buffer, then stored
+  // the frame count is a claim: the buffer grows with the rows actually read, and the poses
+  // built from them are bounded
   const int cols = clip.channel_count;
-  std::vector<double> rows(static_cast<size_t>(frames) * cols);
+  if (static_cast<size_t>(frames) * clip.joints.size() > kMaxBvhPoses) {
+    in.fail(frames_line, fmt::format("'Frames: {}' x {} joints is more than the {} joint poses "
+                                     "stance holds in memory",
+                                     frames, clip.joints.size(), kMaxBvhPoses));
+  }
+  std::vector<double> rows;
   for (int f = 0; f < frames; ++f) {
+    rows.resize(rows.size() + cols);
     in.skip_space();
     if (in.at_end()) {
       in.fail(fmt::format("truncated data: 'Frames: {}' (line {}) but only {} motion rows", frames,

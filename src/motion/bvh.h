@@ -80,7 +80,13 @@ struct BvhClip {
   int find_joint(std::string_view name) const;
 };
 
-// reads and parses a BVH file (the whole file is read into memory first)
+// limits of the reader, each rejected with a located message: joints (ROOT + JOINT entries) and
+// how deep they nest (within the 96 nested bodies MuJoCo reads, for bvh2mjcf's character)
+constexpr int kMaxBvhJoints = 1000;
+constexpr int kMaxBvhDepth = 90;
+
+// reads and parses a BVH file (the whole file is read into memory first). One ROOT per file.
+// Joint names are UTF-8 without braces or control characters, so that they write back.
 BvhClip read_bvh(const std::string& path);
 
 // parses BVH text; name_for_errors prefixes error messages ("name:line: ...")

@@ -77,26 +77,22 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   }
   for (int j = 1; j < n; ++j) {
     const BvhJoint& jt = clip.joints[j];
-    if (role[j] == Role::kSegment && jt.offset.norm() * s < options.zero_length_m)
+    if (role[j] == Role::kSegment && jt.parent >= 0 && jt.offset.norm() * s < options.zero_length_m)
       role[j] = Role::kMerged;
   }
 
-  // owner[j]: the segment a joint's frame belongs to; chain[j]: helpers merged above j
+  // owner[j]: the segment a joint's frame belongs to. The helpers merged above a joint are
+  // found by walking up the merged parents (no chain is copied from joint to joint).
   sk.segment_of_joint.assign(n, -1);
   for (const BvhJoint& j : clip.joints) sk.joint_names.push_back(j.name);
   std::vector<int> owner(n, -1);
-  std::vector<std::vector<int>> pending_chain(n);  // merged helpers between parent segment and j
   std::vector<Eigen::Vector3d> pending_offset(n, Eigen::Vector3d::Zero());  // file units
   for (int j = 0; j < n; ++j) {
     const BvhJoint& jt = clip.joints[j];
     if (role[j] == Role::kSkipped) continue;
-    std::vector<int> chain;
     Eigen::Vector3d offset = jt.offset;
-    if (jt.parent >= 0 && role[jt.parent] == Role::kMerged) {
-      chain = pending_chain[jt.parent];
-      chain.push_back(jt.parent);
-      offset += pending_offset[jt.parent];
-    }
+    const bool below_merged = jt.parent >= 0 && role[jt.parent] == Role::kMerged;
+    if (below_merged) offset += pending_offset[jt.parent];
     int parent_segment = jt.parent >= 0 ? owner[jt.parent] : -1;
     if (role[j] == Role::kEndPoint) {
       sk.segments[parent_segment].bone_ends.push_back(convert(offset));
@@ -104,7 +100,6 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
     }
     if (role[j] == Role::kMerged) {
       owner[j] = parent_segment;
-      pending_chain[j] = chain;
       pending_offset[j] = offset;
       if (end_site_kept(jt))
         sk.segments[parent_segment].bone_ends.push_back(convert(offset + jt.end_site_offset));
@@ -114,7 +109,12 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
     seg.name = jt.name;
     seg.bvh_joint = j;
     seg.parent = parent_segment;
-    seg.rotation_chain = chain;
+    // the merged helpers between the parent segment and j, top down, then j
+    for (int m = below_merged ? jt.parent : -1; m >= 0 && role[m] == Role::kMerged;
+         m = clip.joints[m].parent) {
+      seg.rotation_chain.push_back(m);
+    }
+    std::reverse(seg.rotation_chain.begin(), seg.rotation_chain.end());
     seg.rotation_chain.push_back(j);
     seg.offset = jt.parent >= 0 ? convert(offset) : Eigen::Vector3d::Zero();
     if (end_site_kept(jt)) seg.bone_ends.push_back(convert(jt.end_site_offset));

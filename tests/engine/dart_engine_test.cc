@@ -603,5 +603,78 @@ TEST(DartEngine, BadInputsThrowInputErrorNamingTheFile) {
   EXPECT_THROW(make_dart_engine(WorldSpec{}), InputError);
 }
 
+// the message of the InputError make_dart_engine throws for one model file
+std::string dart_load_error(const std::string& path) {
+  WorldSpec spec;
+  spec.models.push_back({path, {}});
+  try {
+    make_dart_engine(spec);
+  } catch (const InputError& err) {
+    return err.what();
+  }
+  ADD_FAILURE() << "no error for " << path;
+  return "";
+}
+
+// each of these aborted, crashed or loaded on DART before stance's checks ran first
+TEST(DartEngine, ModelsDartWouldCrashOnAreRejectedWithFileAndLine) {
+  std::string neg = write_temp("neg.skel", R"(<skel><world>
+<skeleton name="s">
+<body name="a">
+<inertia><mass>-2</mass></inertia>
+</body>
+<joint type="free" name="j"><parent>world</parent><child>a</child></joint>
+</skeleton></world></skel>
+)");
+  std::string message = dart_load_error(neg);
+  EXPECT_NE(message.find("neg.skel:4: <mass> must be positive, found -2"), std::string::npos)
+      << message;
+
+  std::string mesh = write_temp("mesh.skel", R"(<skel><world>
+<skeleton name="s">
+<body name="a">
+<visualization_shape><geometry><mesh/></geometry></visualization_shape>
+</body>
+<joint type="free" name="j"><parent>world</parent><child>a</child></joint>
+</skeleton></world></skel>
+)");
+  message = dart_load_error(mesh);
+  EXPECT_NE(message.find("mesh.skel:4: <mesh> is missing <file_name>"), std::string::npos)
+      << message;
+
+  // MJCF: MuJoCo's compiler sees it before DART's parser (whose SphereShape asserts)
+  std::string sphere = write_temp("sphere.xml", R"(<mujoco>
+<worldbody>
+<body>
+<freejoint/>
+<geom type="sphere" size="-1"/>
+</body>
+</worldbody>
+</mujoco>
+)");
+  message = dart_load_error(sphere);
+  EXPECT_NE(message.find("sphere.xml:5: "), std::string::npos) << message;
+  EXPECT_NE(message.find("size"), std::string::npos) << message;
+}
+
+// dart-doc's soft-body and mesh worlds load as they did before the checks
+TEST(DartEngine, DartDocSoftBodyMeshAndShapeWorldsLoad) {
+  if (!std::filesystem::exists("/usr/share/doc/dart/data/skel/softBodies.skel"))
+    GTEST_SKIP() << "dart-doc not installed";
+  for (const char* file :
+       {"softBodies.skel", "soft_cubes.skel", "mesh_collision.skel", "shapes.skel"}) {
+    WorldSpec spec;
+    spec.models.push_back({std::string("dart://sample/skel/") + file, {}});
+    std::unique_ptr<Engine> e;
+    EXPECT_NO_THROW(e = make_dart_engine(spec)) << file;
+    if (!e) continue;
+    EXPECT_GT(e->nv(), 0) << file;
+    e->step();
+    Eigen::VectorXd q(e->nq());
+    e->get_positions(q);
+    EXPECT_TRUE(q.allFinite()) << file;
+  }
+}
+
 }  // namespace
 }  // namespace stance

@@ -533,5 +533,63 @@ TEST(BvhErrors, MissingFileIsAnInputError) {
   }
 }
 
+// the second-ROOT file, one token per line: it crashed bvh2mjcf and bvh retarget
+// the second-ROOT file: it crashed bvh2mjcf and bvh retarget (second ROOT: line 7)
+constexpr const char* kTwoRoots =
+    "HIERARCHY\nROOT a\n{\nOFFSET 0 0 0\nCHANNELS 0\n}\nROOT c\n{\nOFFSET 0 0 0\n"
+    "CHANNELS 0\nEnd Site\n{\nOFFSET 0 -0.1 0\n}\n}\nMOTION\nFrames: 0\nFrame Time: 1\n";
+
+// a chain of `depth` joints below the root (each nested in the previous), `frames` claimed
+std::string nested_bvh(int depth, const std::string& frames = "1") {
+  std::string text = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 1 Xrotation\n";
+  for (int i = 0; i < depth; ++i) text += fmt::format("JOINT j{}\n{{\nOFFSET 0 1 0\n", i);
+  for (int i = 0; i < depth; ++i) text += "}\n";
+  return text + "}\nMOTION\nFrames: " + frames + "\nFrame Time: 0.01\n0\n";
+}
+
+TEST(BvhErrors, BoundsAndNamesTheWriterCouldNotWriteBack) {
+  std::string many = "HIERARCHY\nROOT r\n{\nOFFSET 0 0 0\nCHANNELS 0\n";
+  for (int i = 0; i < kMaxBvhJoints; ++i)
+    many += fmt::format("JOINT j{}\n{{\nOFFSET 0 1 0\n}}\n", i);
+  many += "}\nMOTION\nFrames: 0\nFrame Time: 1\n";
+  struct Case {
+    const char* what;
+    std::string text;
+    std::string expected;
+  };
+  const std::vector<Case> cases = {
+      {"second ROOT", kTwoRoots,
+       "test.bvh:7: a second ROOT: stance reads one skeleton per BVH file (the first ROOT 'a' is "
+       "at line 2)"},
+      {"nesting depth", nested_bvh(kMaxBvhDepth),
+       fmt::format("test.bvh:{}: joints nested more than {} deep", 6 + 3 * (kMaxBvhDepth - 1),
+                   kMaxBvhDepth)},
+      {"joint count", many,
+       fmt::format("test.bvh:{}: more than {} joints", 6 + 4 * (kMaxBvhJoints - 1), kMaxBvhJoints)},
+      {"non-UTF-8 name", replace_once(synthetic_bvh("ZXY", kRows), "LeftUpLeg", "Left\xff"),
+       "test.bvh:6: joint name has a byte that is not UTF-8 (0xff) at column 5 of the name"},
+      {"brace in a name",
+       replace_once(synthetic_bvh("ZXY", kRows), "JOINT LeftUpLeg\n", "JOINT a{ {\n"),
+       "test.bvh:6: joint name 'a{' has a character BVH cannot write back (a brace)"},
+  };
+  for (const Case& c : cases) {
+    std::string msg = parse_error(c.text);
+    EXPECT_NE(msg.find(c.expected), std::string::npos)
+        << c.what << "\n  got:      " << msg << "\n  expected: " << c.expected;
+  }
+  // a frame count the data cannot hold: bounded poses, else the rows actually present
+  std::string msg = parse_error(nested_bvh(1, "40000000"));
+  EXPECT_NE(msg.find("test.bvh:12: 'Frames: 40000000' x 2 joints is more than the 33554432 joint "
+                     "poses stance holds in memory"),
+            std::string::npos)
+      << msg;
+  msg = parse_error(nested_bvh(1, "10000000"));
+  EXPECT_NE(msg.find("truncated data: 'Frames: 10000000' (line 12) but only 1 motion rows"),
+            std::string::npos)
+      << msg;
+  // at the limits themselves the files read
+  EXPECT_EQ(parse_bvh(nested_bvh(kMaxBvhDepth - 1), "test.bvh").joint_count(), kMaxBvhDepth);
+}
+
 }  // namespace
 }  // namespace stance

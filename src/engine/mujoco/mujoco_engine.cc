@@ -89,6 +89,13 @@ mjModel* load_mujoco_model(const BackendWorld& world) {
   return m;
 }
 
+void check_mujoco_compiles(const BackendModel& model) {
+  BackendWorld world;
+  world.models.push_back(model);
+  world.models.back().offset.setZero();
+  mj_deleteModel(load_mujoco_model(world));
+}
+
 std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world) {
   mjModel* m = load_mujoco_model(world);
   auto engine = std::make_unique<MujocoEngine>(m, world.models.front().name);

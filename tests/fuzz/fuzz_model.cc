@@ -1,0 +1,25 @@
+// model loading through stance's own path (make_engine), on both engines. Input: byte 0 picks
+// the engine (even: mujoco, odd: dart), byte 1 the format (even: MJCF .xml, odd: SKEL .skel),
+// the rest is the file.
+#include <cstdint>
+#include <string>
+
+#include "core/error.h"
+#include "engine/engine.h"
+#include "engine/world_spec.h"
+#include "fuzz_support.h"
+
+extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
+  using namespace stance;
+  if (size < 2) return 0;
+  const std::string engine = (data[0] & 1) != 0 ? "dart" : "mujoco";
+  const std::string name = (data[1] & 1) != 0 ? "fuzz.skel" : "fuzz.xml";
+  WorldSpec spec;
+  spec.models.push_back({fuzz::write_scratch(name, fuzz::as_text(data + 2, size - 2)), {}});
+  try {
+    std::unique_ptr<Engine> e = make_engine(engine, spec);
+    e->step();
+  } catch (const InputError&) {
+  }
+  return 0;
+}

@@ -1,0 +1,74 @@
+#!/usr/bin/env bash
+# run.sh BUILD SECONDS [TARGET...]: runs each libFuzzer target of a STANCE_SANITIZE tree.
+#   SECONDS > 0: mutate for that long from the seeds (a working corpus in BUILD/fuzz/corpus/);
+#   SECONDS = 0: run the seeds once (the ctest fuzz.<target>.seeds tests).
+# Seeds: the files under tests/fuzz/corpus/<target>/ (the inputs that crashed stance before)
+# plus the shipped files: models, scenarios, joint maps and dart-doc's .skel worlds.
+# Fails on the first crash, leak or sanitizer report; prints executions per target.
+set -euo pipefail
+build=$(cd "$1" && pwd)
+seconds=$2
+shift 2
+targets=("$@")
+[ ${#targets[@]} -eq 0 ] && targets=(bvh scenario skel joint_map model)
+src=$(cd "$(dirname "$0")/../.." && pwd)
+dart_skel=/usr/share/doc/dart/data/skel
+
+export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=1}
+export LSAN_OPTIONS=${LSAN_OPTIONS:-suppressions=$src/tests/fuzz/lsan.supp:print_suppressions=0}
+export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
+
+# seeds of one target into a fresh folder
+make_seeds() {
+  local target=$1 out=$2 f
+  rm -rf "$out"
+  mkdir -p "$out"
+  cp "$src/tests/fuzz/corpus/$target/"* "$out/" 2>/dev/null || true
+  case $target in
+    bvh) cp "$src"/models/*.bvh "$out/" ;;
+    scenario) cp "$src"/scenarios/*.yaml "$out/" ;;
+    joint_map) cp "$src"/models/maps/*.yaml "$out/" ;;
+    skel) [ -d "$dart_skel" ] && cp "$dart_skel"/*.skel "$out/" ;;
+    model)
+      # byte 0: engine (0 mujoco, 1 dart); byte 1: format (0 MJCF, 1 SKEL)
+      for f in "$src"/models/*.xml; do
+        { printf '\0\0'; cat "$f"; } >"$out/mujoco_$(basename "$f")"
+        { printf '\1\0'; cat "$f"; } >"$out/dart_$(basename "$f")"
+      done
+      for f in cube.skel sphere.skel chain.skel skateboard.skel; do
+        [ -f "$dart_skel/$f" ] || continue
+        { printf '\0\1'; cat "$dart_skel/$f"; } >"$out/mujoco_$f"
+        { printf '\1\1'; cat "$dart_skel/$f"; } >"$out/dart_$f"
+      done
+      ;;
+  esac
+  return 0
+}
+
+cd "$build/fuzz"
+mkdir -p crashes
+for target in "${targets[@]}"; do
+  seeds=$build/fuzz/seeds/$target
+  make_seeds "$target" "$seeds"
+  log=$build/fuzz/$target.log
+  if [ "$seconds" -eq 0 ]; then
+    ./fuzz_"$target" -runs=0 -artifact_prefix=crashes/"$target"- "$seeds" >"$log" 2>&1 || {
+      tail -40 "$log"
+      echo "fuzz $target: FAILED on its seeds"
+      exit 1
+    }
+    echo "fuzz $target: $(ls "$seeds" | wc -l) seeds ran clean"
+    continue
+  fi
+  work=$build/fuzz/corpus/$target
+  mkdir -p "$work"
+  start=$(date +%s)
+  ./fuzz_"$target" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=3072 -print_final_stats=1 \
+    -artifact_prefix=crashes/"$target"- "$work" "$seeds" >"$log" 2>&1 || {
+    tail -60 "$log"
+    echo "fuzz $target: CRASHED (artifact in $build/fuzz/crashes/)"
+    exit 1
+  }
+  runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo '?')
+  echo "fuzz $target: $runs executions in $(($(date +%s) - start)) s, 0 crashes"
+done
