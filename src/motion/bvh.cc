@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace stance {
@@ -743,14 +744,7 @@ std::string format_bvh(const BvhClip& clip) {
 
 void write_bvh(const BvhClip& clip, const std::string& path) {
   std::string text = format_bvh(clip);
-  std::ofstream file(path, std::ios::binary);
-  if (!file) {
-    throw InputError(
-        located(path, 0, fmt::format("cannot write BVH file ({})", std::strerror(errno))));
-  }
-  file.write(text.data(), static_cast<std::streamsize>(text.size()));
-  file.close();
-  if (!file) throw InputError(located(path, 0, "cannot write BVH file"));
+  write_file_atomically(path, text);
 }
 
 double detect_bvh_scale_to_meters(const BvhClip& clip) {
