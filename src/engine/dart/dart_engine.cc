@@ -829,8 +829,17 @@ class DartEngine final : public Engine {
                " s: " + (bad_v ? "velocity " : "position ") + number_text(bad_v ? v : q, "%g") +
                " on dof '" + dof_name(b.dof_start + i) + "'";
       }
-    return "DART instability at t=" + number_text(step_start_time_) +
-           " s: a rotation too large to build transforms";
+    // all finite, but the squared positions overflow: name the largest
+    int worst = 0;
+    double value = 0;
+    for (const SkeletonBlock& b : blocks_)
+      for (int i = 0; i < b.ndof; ++i)
+        if (std::abs(b.skeleton->getPosition(i)) > std::abs(value)) {
+          value = b.skeleton->getPosition(i);
+          worst = b.dof_start + i;
+        }
+    return "DART instability at t=" + number_text(step_start_time_) + " s: position " +
+           number_text(value, "%g") + " on dof '" + dof_name(worst) + "'";
   }
 
  private:
