@@ -178,6 +178,7 @@ class StrictYamlCheck final : public YAML::EventHandler {
   void OnDocumentEnd() override {}
   void OnNull(const YAML::Mark& mark, YAML::anchor_t anchor) override {
     begin_node(mark, "nothing", nullptr);
+    name_anchor(mark, anchor, false);
   }
   void OnAlias(const YAML::Mark& mark, YAML::anchor_t anchor) override {
     auto it = anchors_.find(anchor);

@@ -199,6 +199,9 @@ TEST(StrictYaml, AliasesAreRejectedAndRecursiveOnesNamed) {
             "s.yaml:1: recursive alias '*r' inside its own anchor '&r' (line 1)");
   EXPECT_EQ(strict_error("a: &r\n  b: *r\n"),
             "s.yaml:2: recursive alias '*r' inside its own anchor '&r' (line 1)");
+  EXPECT_EQ(strict_error("a: &n\nb: *n\n"),
+            "s.yaml:2: YAML aliases are not supported ('*n' repeats '&n' of line 1): write the "
+            "value out");
   // an anchor alone is harmless; an undefined alias is yaml-cpp's own syntax error
   EXPECT_EQ(strict_error("a: &g 1\n"), "");
   EXPECT_NE(strict_error("a: *nowhere\n").find("s.yaml:1:4: malformed YAML"), std::string::npos)
