@@ -826,8 +826,8 @@ class DartEngine final : public Engine {
         if (std::isfinite(q) && std::isfinite(v)) continue;
         const bool bad_v = !std::isfinite(v);
         return std::string("DART instability at t=") + number_text(step_start_time_) +
-               " s: " + (bad_v ? "velocity " : "position ") + number_text(bad_v ? v : q, "%g") +
-               " on dof '" + dof_name(b.dof_start + i) + "'";
+               " s: " + (bad_v ? "non-finite velocity " : "non-finite position ") +
+               number_text(bad_v ? v : q, "%g") + " on dof '" + dof_name(b.dof_start + i) + "'";
       }
     // all finite, but the squared positions overflow: name the largest
     int worst = 0;
@@ -838,7 +838,7 @@ class DartEngine final : public Engine {
           value = b.skeleton->getPosition(i);
           worst = b.dof_start + i;
         }
-    return "DART instability at t=" + number_text(step_start_time_) + " s: position " +
+    return "DART instability at t=" + number_text(step_start_time_) + " s: position too large " +
            number_text(value, "%g") + " on dof '" + dof_name(worst) + "'";
   }
 
