@@ -1,10 +1,12 @@
 // stance: the command-line front end. Argument parsing only; the work is in the library.
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 
 #include "app/commands.h"
+#include "core/error.h"
 #ifdef STANCE_HAVE_VIEWER
 #include "viz/viz_commands.h"
 #endif
@@ -198,8 +200,19 @@ int main(int argc, char** argv) {
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    int code = app.exit(e);
-    return code == 0 ? 0 : stance::kExitBadInput;
+    // --help and --version print and exit 0; every other parse error is one line, exit 2
+    if (e.get_exit_code() == 0) return app.exit(e);
+    std::vector<std::string> commands;
+    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
+      commands.push_back(sub->get_name());
+    const std::string first = argc > 1 ? argv[1] : "";
+    if (!first.empty() && first[0] != '-' &&
+        std::find(commands.begin(), commands.end(), first) == commands.end())
+      std::cerr << "error: unknown command '" << first << "'"
+                << stance::did_you_mean(first, commands) << " (stance --help lists them)\n";
+    else
+      std::cerr << "error: " << e.what() << " (see --help)\n";
+    return stance::kExitBadInput;
   }
   if (*run_cmd && (!run.record.empty() || !run.screenshot.empty())) {
 #ifdef STANCE_HAVE_VIEWER

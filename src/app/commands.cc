@@ -4,7 +4,10 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <signal.h>
+
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -32,6 +35,38 @@
 
 namespace stance {
 
+namespace {
+std::atomic<bool> g_interrupt{false};
+
+extern "C" void request_interrupt(int) {
+  g_interrupt.store(true);
+}
+
+// while a run writes its outputs, SIGINT and SIGTERM end it cleanly: the log is flushed and
+// summary.json says "interrupted": true. The handler is reset on its first call, so a second
+// Ctrl-C kills at once.
+class InterruptHandler {
+ public:
+  InterruptHandler() {
+    g_interrupt.store(false);
+    struct sigaction sa {};
+    sa.sa_handler = request_interrupt;
+    sigemptyset(&sa.sa_mask);
+    sa.sa_flags = SA_RESETHAND;
+    sigaction(SIGINT, &sa, &old_int_);
+    sigaction(SIGTERM, &sa, &old_term_);
+  }
+  ~InterruptHandler() {
+    sigaction(SIGINT, &old_int_, nullptr);
+    sigaction(SIGTERM, &old_term_, nullptr);
+  }
+
+ private:
+  struct sigaction old_int_ {
+  }, old_term_{};
+};
+}  // namespace
+
 int run_command(const RunCommand& cmd) {
   return guarded([&] {
     LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
@@ -45,7 +80,9 @@ int run_command(const RunCommand& cmd) {
     opt.progress = !cmd.quiet;
     if (cmd.past_fall) opt.stop_after_fall_s = -1;
     for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
+    opt.interrupt = &g_interrupt;
     Simulation run(loaded, opt);
+    InterruptHandler interrupt_handler;
     RunResult r = run.run();
     if (!cmd.quiet) {
       std::cout << fmt::format(
@@ -67,6 +104,11 @@ int run_command(const RunCommand& cmd) {
     if (r.diverged) {
       std::cerr << "error: simulation diverged: " << r.divergence << "\n";
       return kExitDiverged;
+    }
+    if (r.interrupted) {
+      std::cerr << fmt::format("interrupted at t={:.6f} s{}\n", r.sim_time,
+                               cmd.out_dir.empty() ? "" : "; summary.json and log.csv written");
+      return kExitInterrupted;
     }
     return kExitOk;
   });
@@ -126,8 +168,7 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
     o.reference.first_frame = cmd.first_frame;
     BvhClip clip = read_bvh(cmd.bvh);
     BvhCharacter ch = make_bvh_character(clip, o);
-    std::ofstream f(cmd.mjcf, std::ios::binary);
-    if (!f || !(f << ch.mjcf)) throw InputError(cmd.mjcf + ": cannot write");
+    write_file_atomically(cmd.mjcf, ch.mjcf);
     std::cout << fmt::format("wrote {}: {} bodies, {:.6g} kg, {:.6g} m per file unit\n", cmd.mjcf,
                              ch.skeleton.segment_count(), cmd.mass_kg, ch.skeleton.scale_to_meters);
     return kExitOk;
@@ -171,10 +212,9 @@ int bvh_retarget_command(const BvhRetargetCommand& cmd) {
                            : std::min(motion.frame_count(),
                                       static_cast<int>(cmd.duration_s / motion.frame_time_s()) + 1);
     // written beside the target and renamed into place: a failed run leaves the old file whole
-    const std::string tmp = cmd.out + ".tmp";
     {
-      std::ofstream f(tmp, std::ios::binary);
-      if (!f) throw InputError(cmd.out + ": cannot write");
+      AtomicFile file(cmd.out);
+      std::ostream& f = file.stream();
       f << "time";
       for (const auto& n : position_names(*engine)) f << ',' << n;
       for (int i = 0; i < engine->nv(); ++i) f << ",v_" << engine->dof_name(i);
@@ -188,15 +228,7 @@ int bvh_retarget_command(const BvhRetargetCommand& cmd) {
         for (int i = 0; i < v.size(); ++i) f << fmt::format(",{:.9g}", v[i]);
         f << '\n';
       }
-      f.close();
-      if (!f) throw InputError(cmd.out + ": cannot write");
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, cmd.out, ec);
-    if (ec) {
-      std::error_code ignored;
-      std::filesystem::remove(tmp, ignored);
-      throw InputError(cmd.out + ": cannot write (" + ec.message() + ")");
+      file.commit();
     }
     std::cout << fmt::format(
         "wrote {}: {} frames at {:.6g} Hz, {} positions and {} velocities per row; yaw {:.1f} "

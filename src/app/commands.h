@@ -14,6 +14,7 @@ inline constexpr int kExitBadInput = 2;
 inline constexpr int kExitDiverged = 3;
 inline constexpr int kExitInternalError = 70;  // BSD's EX_SOFTWARE
 inline constexpr int kExitEnvironment = 71;    // BSD's EX_OSERR
+inline constexpr int kExitInterrupted = 130;   // 128 + SIGINT, as a shell reports it
 
 struct RunCommand {
   std::string scenario;

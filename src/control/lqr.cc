@@ -11,6 +11,7 @@
 #include <fstream>
 #include <regex>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "math/dare.h"
 
@@ -241,11 +242,12 @@ void Lqr::state_metrics(const LqrState& s, nlohmann::json& metrics) const {
 }
 
 void write_force_offset_csv(const LqrSetPoint& sp, const std::string& csv_path) {
-  std::ofstream csv(csv_path);
-  if (!csv) throw InputError("lqr: cannot write " + csv_path);
+  AtomicFile file(csv_path);
+  std::ostream& csv = file.stream();
   csv << "offset_mm,vertical_force_N\n";
   for (size_t i = 0; i < sp.curve_offset_m.size(); ++i)
     csv << fmt::format("{:.9g},{:.9g}\n", sp.curve_offset_m[i] * 1e3, sp.curve_force_N[i]);
+  file.commit();
 }
 
 void plot_force_offset(const LqrSetPoint& sp, const std::string& csv_path,
@@ -258,12 +260,15 @@ void plot_force_offset(const LqrSetPoint& sp, const std::string& csv_path,
   const fs::path script = fs::path(png).replace_extension(".gp");
   const fs::path err = fs::path(png).replace_extension(".gnuplot_err");
   const auto [lo, hi] = std::minmax_element(sp.curve_force_N.begin(), sp.curve_force_N.end());
+  std::error_code ec;
   {
-    std::ofstream gp(script);
-    if (!gp) throw InputError("lqr: cannot write " + script.string());
-    // the seed's figure: force against offset, the weight, and the chosen offset
+    AtomicFile file(script);
+    std::ostream& gp = file.stream();
+    // the seed's figure: force against offset, the weight, and the chosen offset; the caller
+    // may name another output (the PNG's temporary, renamed into place when gnuplot is done)
     gp << "set terminal pngcairo size 900,540 enhanced font 'sans,11'\n"
-       << "set output '" << png.string() << "'\n"
+       << "if (!exists('png')) png = '" << png.string() << "'\n"
+       << "set output png\n"
        << "set datafile separator ','\n"
        << "set title 'Fictitious vertical root force against root height offset (mj\\_inverse, "
           "qacc = 0)'\n"
@@ -287,24 +292,28 @@ void plot_force_offset(const LqrSetPoint& sp, const std::string& csv_path,
               "\\\n",
               sp.weight_N, sp.weight_N)
        << "  NaN with lines dt 2 lw 2 lc rgb '#c0392b' title 'chosen offset'\n";
+    file.commit();
   }
-  const std::string cmd = fmt::format("gnuplot '{}' 2>'{}'", script.string(), err.string());
+  const fs::path png_tmp = temporary_path_for(png);
+  const std::string cmd = fmt::format("gnuplot -e \"png='{}'\" '{}' 2>'{}'", png_tmp.string(),
+                                      script.string(), err.string());
   if (std::system(cmd.c_str()) != 0) {
+    fs::remove(png_tmp, ec);
     std::ifstream in(err);
     std::string first;
     std::getline(in, first);
     throw InputError(fmt::format("lqr: gnuplot failed on {}: {}", script.string(), first));
   }
-  std::error_code ec;
   fs::remove(err, ec);
+  rename_into_place(png_tmp, png);
 }
 
 void Lqr::state_outputs(const LqrState&, const std::string& out_dir) const {
   namespace fs = std::filesystem;
   const fs::path dir(out_dir);
   {
-    std::ofstream k(dir / "K.csv");
-    if (!k) throw InputError("lqr: cannot write " + (dir / "K.csv").string());
+    AtomicFile file(dir / "K.csv");
+    std::ostream& k = file.stream();
     // one row per actuator, one column per state entry: dq_<dof> then v_<dof>
     const Eigen::MatrixXd& K = design_.K;
     k << "actuator";
@@ -316,6 +325,7 @@ void Lqr::state_outputs(const LqrState&, const std::string& out_dir) const {
       for (int j = 0; j < K.cols(); ++j) k << fmt::format(",{:.17g}", K(i, j));
       k << '\n';
     }
+    file.commit();
   }
   const std::string csv = (dir / "force_offset.csv").string();
   write_force_offset_csv(design_.setpoint, csv);

@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace stance {
@@ -407,12 +408,13 @@ void Simbicon::state_metrics(const State& s, nlohmann::json& metrics) const {
 }
 
 void Simbicon::state_outputs(const State& s, const std::string& out_dir) const {
-  std::ofstream f(std::filesystem::path(out_dir) / "steps.csv");
-  if (!f) throw InputError(fmt::format("--out {}: cannot write steps.csv", out_dir));
+  AtomicFile file(std::filesystem::path(out_dir) / "steps.csv");
+  std::ostream& f = file.stream();
   f << "time,foot,ankle_x,length_m,duration_s\n";
   for (const SimbiconStep& st : s.steps)
     f << fmt::format("{:.6f},{},{:.6f},{:.6f},{:.6f}\n", st.time_s,
                      st.foot == kRight ? "right" : "left", st.ankle_x, st.length_m, st.duration_s);
+  file.commit();
 }
 
 }  // namespace stance

@@ -8,6 +8,7 @@
 #include <fstream>
 
 #include "analysis/gait.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace stance {
@@ -213,12 +214,13 @@ void SlopeWalker::state_metrics(const State& s, nlohmann::json& m) const {
 }
 
 void write_steps_csv(const std::string& path, const std::vector<WalkerStep>& steps) {
-  std::ofstream f(path);
-  if (!f) throw InputError("cannot write " + path);
+  AtomicFile file(path);
+  std::ostream& f = file.stream();
   f << "step,time_s,stance_leg,step_length_m,step_duration_s\n";
   for (size_t i = 0; i < steps.size(); ++i)
     f << fmt::format("{},{:.6f},{},{:.9g},{:.9g}\n", i, steps[i].time_s, steps[i].stance_leg,
                      steps[i].length_m, steps[i].duration_s);
+  file.commit();
 }
 
 void SlopeWalker::state_outputs(const State& s, const std::string& out_dir) const {

@@ -9,6 +9,7 @@
 
 #include <fmt/format.h>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace stance {
@@ -190,10 +191,7 @@ void write_bvh_character(const std::string& bvh_path, const std::string& mjcf_pa
                          const BvhCharacterOptions& options) {
   BvhClip clip = read_bvh(bvh_path);
   BvhCharacter ch = make_bvh_character(clip, options);
-  std::ofstream f(mjcf_path, std::ios::binary);
-  if (!f) throw InputError(mjcf_path + ": cannot write");
-  f << ch.mjcf;
-  if (!f) throw InputError(mjcf_path + ": write failed");
+  write_file_atomically(mjcf_path, ch.mjcf);
 }
 
 }  // namespace stance

@@ -14,6 +14,7 @@
 #include <optional>
 #include <set>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "model/model_path.h"
 
@@ -1254,10 +1255,7 @@ SkelTranslation skel_to_mjcf(const std::vector<SkelInput>& files) {
 
 void write_mjcf_file(const std::string& skel_path, const std::string& out_path) {
   SkelTranslation t = skel_to_mjcf({SkelInput{skel_path}});
-  std::ofstream out(out_path);
-  if (!out) throw InputError(out_path + ": cannot open for writing");
-  out << t.mjcf;
-  if (!out) throw InputError(out_path + ": write failed");
+  write_file_atomically(out_path, t.mjcf);
 }
 
 }  // namespace stance

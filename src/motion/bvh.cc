@@ -14,6 +14,7 @@
 
 #include <fmt/format.h>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace stance {
@@ -693,12 +694,16 @@ BvhClip read_bvh(const std::string& path) {
   return parse_bvh(text, path);
 }
 
-std::string format_bvh(const BvhClip& clip) {
+namespace {
+// the BVH text of `clip` into `out`; with a `stream`, written out in pieces as it goes, so a long
+// clip's text is never whole in memory
+void format_bvh_into(const BvhClip& clip, std::string& out, std::ostream* stream) {
+  constexpr size_t kPiece = 1 << 16;
   std::vector<std::vector<int>> children(clip.joints.size());
   for (size_t j = 0; j < clip.joints.size(); ++j) {
     if (clip.joints[j].parent >= 0) children[clip.joints[j].parent].push_back(static_cast<int>(j));
   }
-  std::string out = "HIERARCHY\n";
+  out = "HIERARCHY\n";
   for (size_t j = 0; j < clip.joints.size(); ++j) {
     if (clip.joints[j].parent < 0) format_joint(clip, children, static_cast<int>(j), 0, out);
   }
@@ -711,7 +716,8 @@ std::string format_bvh(const BvhClip& clip) {
   const auto columns = joint_columns(clip);
   std::vector<Eigen::Vector3d> previous(clip.joints.size(), Eigen::Vector3d::Zero());
   std::vector<double> row(clip.channel_count);
-  out.reserve(out.size() + static_cast<size_t>(clip.frame_count) * clip.channel_count * 12);
+  if (!stream)
+    out.reserve(out.size() + static_cast<size_t>(clip.frame_count) * clip.channel_count * 12);
   for (int f = 0; f < clip.frame_count; ++f) {
     for (size_t j = 0; j < clip.joints.size(); ++j) {
       const BvhJoint& joint = clip.joints[j];
@@ -737,20 +743,29 @@ std::string format_bvh(const BvhClip& clip) {
       append_number(out, row[c]);
     }
     out += '\n';
+    if (stream && out.size() >= kPiece) {
+      stream->write(out.data(), static_cast<std::streamsize>(out.size()));
+      out.clear();
+    }
   }
+  if (stream) {
+    stream->write(out.data(), static_cast<std::streamsize>(out.size()));
+    out.clear();
+  }
+}
+}  // namespace
+
+std::string format_bvh(const BvhClip& clip) {
+  std::string out;
+  format_bvh_into(clip, out, nullptr);
   return out;
 }
 
 void write_bvh(const BvhClip& clip, const std::string& path) {
-  std::string text = format_bvh(clip);
-  std::ofstream file(path, std::ios::binary);
-  if (!file) {
-    throw InputError(
-        located(path, 0, fmt::format("cannot write BVH file ({})", std::strerror(errno))));
-  }
-  file.write(text.data(), static_cast<std::streamsize>(text.size()));
-  file.close();
-  if (!file) throw InputError(located(path, 0, "cannot write BVH file"));
+  AtomicFile file(path);
+  std::string piece;
+  format_bvh_into(clip, piece, &file.stream());
+  file.commit();
 }
 
 double detect_bvh_scale_to_meters(const BvhClip& clip) {

@@ -97,7 +97,7 @@ BvhClip parse_bvh(std::string_view text, const std::string& name_for_errors);
 // are written exactly (shortest round-trip form), so read -> write -> read agrees to 1e-9.
 std::string format_bvh(const BvhClip& clip);
 
-// writes format_bvh(clip) to path; throws InputError when the file cannot be written
+// writes format_bvh(clip) to path (atomically, streamed); throws InputError when it cannot
 void write_bvh(const BvhClip& clip, const std::string& path);
 
 // meters per file unit, detected from the leg length: the rest-pose drop from the root to the

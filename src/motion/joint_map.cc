@@ -4,8 +4,10 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include "core/error.h"
+#include "params/yaml_params.h"
 
 namespace stance {
 
@@ -86,18 +88,13 @@ JointMap parse_joint_map(const YAML::Node& node, const std::string& source) {
 }
 
 JointMap read_joint_map(const std::string& path) {
-  YAML::Node node;
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec))
     throw InputError(path + ": cannot read the joint map (a folder)");
-  try {
-    node = YAML::LoadFile(path);
-  } catch (const YAML::BadFile&) {
+  if (!std::filesystem::exists(path, ec) || !std::ifstream(path))
     throw InputError(path + ": cannot read the joint map");
-  } catch (const YAML::ParserException& e) {
-    throw InputError(located(path, e.mark.line + 1, e.msg));
-  }
-  return parse_joint_map(node, path);
+  // the scenarios' strict reader: duplicate keys, non-word keys and aliases are located errors
+  return parse_joint_map(load_yaml_file(path), path);
 }
 
 }  // namespace stance

@@ -1,8 +1,13 @@
 #include "params/yaml_params.h"
 
+#include <yaml-cpp/eventhandler.h>
+#include <yaml-cpp/parser.h>
+
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <sstream>
 
 namespace stance {
@@ -161,17 +166,148 @@ void YamlParamReader::read_value(const YAML::Node& n, const std::string& path, N
   }
 }
 
+namespace {
+// the checks yaml-cpp leaves out, made on the raw event stream (which carries every node's
+// line): a duplicate key in a mapping, a key that is not a word, an alias (yaml-cpp shares the
+// aliased node, so a --set through one copy would change all of them), a recursive alias
+class StrictYamlCheck final : public YAML::EventHandler {
+ public:
+  explicit StrictYamlCheck(const YamlTextSource& source) : source_(source) {}
+
+  void OnDocumentStart(const YAML::Mark&) override {}
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t anchor) override {
+    begin_node(mark, "nothing", nullptr);
+    name_anchor(mark, anchor, false);
+  }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t anchor) override {
+    auto it = anchors_.find(anchor);
+    std::string name = it != anchors_.end() ? it->second.name : "?";
+    int line = it != anchors_.end() ? it->second.line : 0;
+    bool open = it != anchors_.end() && it->second.open;
+    if (open)
+      fail(mark, fmt::format("recursive alias '*{}' inside its own anchor '&{}' (line {})", name,
+                             name, line));
+    fail(mark, fmt::format("YAML aliases are not supported ('*{}' repeats '&{}' of line {}): write "
+                           "the value out",
+                           name, name, line));
+  }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                const std::string& value) override {
+    begin_node(mark, "", &value);
+    name_anchor(mark, anchor, false);
+  }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                       YAML::EmitterStyle::value) override {
+    begin_node(mark, "a list", nullptr);
+    levels_.push_back({false, true, {}, anchor});
+    name_anchor(mark, anchor, true);
+  }
+  void OnSequenceEnd() override { end_level(); }
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t anchor,
+                  YAML::EmitterStyle::value) override {
+    begin_node(mark, "a mapping", nullptr);
+    levels_.push_back({true, true, {}, anchor});
+    name_anchor(mark, anchor, true);
+  }
+  void OnMapEnd() override { end_level(); }
+  void OnAnchor(const YAML::Mark&, const std::string& name) override { pending_anchor_ = name; }
+
+ private:
+  struct Level {
+    bool is_map = false;
+    bool expect_key = true;
+    std::map<std::string, int> keys;  // key -> its line (1-based)
+    YAML::anchor_t anchor = 0;
+  };
+  struct Anchor {
+    std::string name;
+    int line = 0;
+    bool open = false;  // its node is still being read
+  };
+
+  [[noreturn]] void fail(const YAML::Mark& mark, const std::string& message) const {
+    throw InputError(source_.where(mark, false, message));
+  }
+
+  // every node is a key or a value of the mapping around it, or an item of a list
+  void begin_node(const YAML::Mark& mark, const char* kind, const std::string* scalar) {
+    if (levels_.empty() || !levels_.back().is_map) return;
+    Level& level = levels_.back();
+    level.expect_key = !level.expect_key;
+    if (level.expect_key) return;  // it was the value
+    if (!scalar) fail(mark, fmt::format("a key must be a word, found {}", kind));
+    const int line = mark.line + 1;
+    auto [it, inserted] = level.keys.emplace(*scalar, line);
+    if (!inserted)
+      fail(mark, fmt::format("duplicate key '{}' (first at line {})", *scalar, it->second));
+  }
+
+  void name_anchor(const YAML::Mark& mark, YAML::anchor_t anchor, bool open) {
+    if (anchor == 0) return;
+    anchors_[anchor] = {pending_anchor_, mark.line + 1, open};
+    pending_anchor_.clear();
+  }
+
+  void end_level() {
+    if (levels_.back().anchor) anchors_[levels_.back().anchor].open = false;
+    levels_.pop_back();
+  }
+
+  const YamlTextSource& source_;
+  std::vector<Level> levels_;
+  std::map<YAML::anchor_t, Anchor> anchors_;
+  std::string pending_anchor_;
+};
+}  // namespace
+
+std::string YamlTextSource::where(const YAML::Mark& mark, bool column,
+                                  const std::string& message) const {
+  if (!assignment.empty()) return fmt::format("--set {}: {}", assignment, message);
+  if (column) return fmt::format("{}:{}:{}: {}", file, mark.line + 1, mark.column + 1, message);
+  return located(file, mark.line + 1, message);
+}
+
+YAML::Node load_yaml_text(const std::string& text, const YamlTextSource& source) {
+  try {
+    // the strict checks first: yaml-cpp would build a cycle from a recursive alias
+    std::istringstream events(text);
+    YAML::Parser parser(events);
+    StrictYamlCheck check(source);
+    if (parser.HandleNextDocument(check)) {
+      YAML::Mark second;
+      struct DocumentStart final : YAML::EventHandler {
+        YAML::Mark* at;
+        explicit DocumentStart(YAML::Mark* m) : at(m) {}
+        void OnDocumentStart(const YAML::Mark& m) override { *at = m; }
+        void OnDocumentEnd() override {}
+        void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+        void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+        void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                      const std::string&) override {}
+        void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                             YAML::EmitterStyle::value) override {}
+        void OnSequenceEnd() override {}
+        void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t,
+                        YAML::EmitterStyle::value) override {}
+        void OnMapEnd() override {}
+      } start(&second);
+      if (parser.HandleNextDocument(start))
+        throw InputError(source.where(second, false, "a second YAML document: a file holds one"));
+    }
+    return YAML::Load(text);
+  } catch (const YAML::Exception& e) {
+    throw InputError(source.where(e.mark, true, fmt::format("malformed YAML: {}", e.msg)));
+  }
+}
+
 YAML::Node load_yaml_file(const std::string& path) {
   if (!std::filesystem::exists(path)) throw InputError(path + ": no such file");
   if (std::filesystem::is_directory(path)) throw InputError(path + ": a folder, not a YAML file");
-  std::ifstream in(path);
+  std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open");
-  try {
-    return YAML::Load(in);
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("{}:{}:{}: malformed YAML: {}", path, e.mark.line + 1,
-                                 e.mark.column + 1, e.msg));
-  }
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return load_yaml_text(text, {path, ""});
 }
 
 void apply_yaml_override(YAML::Node& root, const std::string& assignment) {
@@ -180,12 +316,7 @@ void apply_yaml_override(YAML::Node& root, const std::string& assignment) {
     throw InputError(fmt::format("--set {}: expected key=value", assignment));
   std::string key = assignment.substr(0, eq);
   std::string text = assignment.substr(eq + 1);
-  YAML::Node value;
-  try {
-    value = YAML::Load(text);
-  } catch (const YAML::Exception& e) {
-    throw InputError(fmt::format("--set {}: malformed value: {}", assignment, e.msg));
-  }
+  YAML::Node value = load_yaml_text(text, {"", assignment});
   // clear the marks so that errors on this value say "--set" rather than a line
   std::vector<std::string> parts;
   std::stringstream ss(key);

@@ -142,7 +142,17 @@ class YamlParamWriter {
   YAML::Node& out_;
 };
 
-// load a YAML file; throws InputError "file:line:col: message" on syntax errors
+// where YAML text came from, for messages: a file ("file:line: ...") or a --set assignment
+struct YamlTextSource {
+  std::string file;
+  std::string assignment;  // set: messages say "--set a.b=v: ..."
+  std::string where(const YAML::Mark& mark, bool column, const std::string& message) const;
+};
+
+// load YAML strictly: syntax errors ("file:line:col: malformed YAML: ..."), a duplicate key in a
+// mapping (naming both lines), a key that is not a word, aliases (recursive ones named as such)
+// and a second document are InputErrors. Every stance YAML file is read through these.
+YAML::Node load_yaml_text(const std::string& text, const YamlTextSource& source);
 YAML::Node load_yaml_file(const std::string& path);
 
 // apply "a.b.c=value" to a YAML tree (value parsed as YAML, so lists work: "[1, 2, 3]").

@@ -15,12 +15,13 @@ CsvLog::CsvLog(const std::string& out_dir) {
   std::error_code ec;
   std::filesystem::create_directories(out_dir, ec);
   if (ec) throw InputError(fmt::format("--out {}: {}", out_dir, ec.message()));
-  path_ = std::filesystem::path(out_dir) / "log.csv";
-  out_.open(temporary_path_for(path_), std::ios::trunc);
-  if (!out_) throw InputError(fmt::format("--out {}: cannot write log.csv", out_dir));
+  file_ = std::make_unique<AtomicFile>(std::filesystem::path(out_dir) / "log.csv");
 }
 
+CsvLog::~CsvLog() = default;
+
 void CsvLog::on_start(const Simulation& sim) {
+  std::ostream& out_ = file_->stream();
   out_ << "time,com_x,com_y,com_z,root_x,root_y,root_z";
   for (const auto& n : sim.model().signal_names) out_ << ',' << n;
   out_ << ",push_fx,push_fy,push_fz,push_tail_x,push_tail_y,push_tail_z,push_head_x,"
@@ -34,14 +35,11 @@ void CsvLog::on_step(const Simulation& sim) {
 }
 
 void CsvLog::on_finish(const Simulation& sim, const RunResult& result) {
-  out_.flush();
-  out_.close();
-  std::error_code ec;
-  std::filesystem::rename(temporary_path_for(path_), path_, ec);
-  if (ec) throw InputError(fmt::format("{}: {}", path_.string(), ec.message()));
+  file_->commit();
 }
 
 void CsvLog::write_row(const Simulation& sim) {
+  std::ostream& out_ = file_->stream();
   const Engine& e = sim.engine();
   Eigen::Vector3d c = e.com();
   Eigen::Vector3d root = e.nbody() > 0 ? e.body_pose(0).pos : Eigen::Vector3d::Zero();

@@ -6,9 +6,11 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "core/atomic_file.h"
 #include "scenario/simulation.h"
 
 namespace stance {
@@ -18,6 +20,7 @@ namespace stance {
 class CsvLog final : public StepObserver {
  public:
   explicit CsvLog(const std::string& out_dir);
+  ~CsvLog() override;
   void on_start(const Simulation& sim) override;
   void on_step(const Simulation& sim) override;
   void on_finish(const Simulation& sim, const RunResult& result) override;
@@ -25,8 +28,7 @@ class CsvLog final : public StepObserver {
  private:
   void write_row(const Simulation& sim);
 
-  std::filesystem::path path_;
-  std::ofstream out_;
+  std::unique_ptr<AtomicFile> file_;  // committed by on_finish
   std::vector<double> values_;
 };
 

@@ -28,6 +28,7 @@ nlohmann::json RunResult::to_json() const {
   if (fell) j["fall_reason"] = fall_reason;
   j["diverged"] = diverged;
   if (diverged) j["divergence"] = divergence;
+  j["interrupted"] = interrupted;
   j["wall_time_s"] = wall_time_s;
   j["steps"] = steps;
   j["metrics"] = metrics;
@@ -77,7 +78,34 @@ Perturbation parse_push(const std::string& text) {
   return p;
 }
 
-std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name) {
+namespace {
+// "file:line: " of a key path in a scenario's document, or "" where it is not in the file (a
+// value from --set or --push)
+std::string place_in(const LoadedScenario* loaded, const std::vector<std::string>& path) {
+  if (!loaded) return "";
+  const YAML::Node doc = loaded->document;
+  std::vector<YAML::Node> chain{doc};
+  for (const std::string& key : path) {
+    const YAML::Node at = chain.back();
+    if (at.IsMap()) {
+      chain.push_back(at[key]);
+    } else if (at.IsSequence()) {
+      char* end = nullptr;
+      long i = std::strtol(key.c_str(), &end, 10);
+      if (*end || i < 0 || i >= static_cast<long>(at.size())) return "";
+      chain.push_back(at[i]);
+    } else {
+      return "";
+    }
+    if (!chain.back()) return "";
+  }
+  const int line = chain.back().Mark().line;
+  return line >= 0 ? fmt::format("{}:{}: ", loaded->source, line + 1) : "";
+}
+}  // namespace
+
+std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name,
+                                             const LoadedScenario* loaded) {
   WorldSpec spec;
   for (const auto& m : s.model) spec.models.push_back({m.file, m.offset});
   if (s.timestep > 0) spec.timestep = s.timestep;
@@ -100,7 +128,8 @@ std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::strin
   for (const auto& [name, value] : s.initial_pose) {
     int dof = engine->dof_index(name);
     if (dof < 0)
-      throw InputError(fmt::format("initial_pose: unknown dof '{}'{}", name,
+      throw InputError(fmt::format("{}initial_pose: unknown dof '{}'{}",
+                                   place_in(loaded, {"initial_pose", name}), name,
                                    did_you_mean(name, engine->dof_names())));
     engine->set_dof_position(dof, value);
   }
@@ -205,7 +234,7 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
   m->stop_after_fall_s = options.stop_after_fall_s;
   {
     std::lock_guard<std::mutex> lock(model_load_mutex());
-    engine = make_scenario_engine(sc, m->engine_name);
+    engine = make_scenario_engine(sc, m->engine_name, &loaded);
   }
   Engine& e = *engine;
   build_controllers(loaded, options, m->engine_name, *m, e);
@@ -218,11 +247,13 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
       e.forward();
     }
   }
-  for (const auto& p : sc.perturbations) {
+  for (size_t i = 0; i < sc.perturbations.size(); ++i) {
+    const Perturbation& p = sc.perturbations[i];
     int b = e.body_index(p.body);
     if (b < 0)
-      throw InputError(fmt::format("perturbation: unknown body '{}'{}", p.body,
-                                   did_you_mean(p.body, e.body_names())));
+      throw InputError(fmt::format("{}perturbation: unknown body '{}'{}",
+                                   place_in(&loaded, {"perturbations", std::to_string(i), "body"}),
+                                   p.body, did_you_mean(p.body, e.body_names())));
     m->pushes.push_back({p, b});
   }
   m->allowed_contact.assign(e.nbody(), 0);
@@ -390,7 +421,7 @@ void Simulation::send_velocity_commands(const Eigen::VectorXd& commands) {
 
 // the planner (when it is time), then the controllers with their share of its correction, then
 // the residual torques
-void Simulation::compute_controls() {
+bool Simulation::compute_controls() {
   Engine& e = *engine_;
   out_.clear();
   const PlannerModel* pm = model_->planner.get();
@@ -410,12 +441,24 @@ void Simulation::compute_controls() {
     } else {
       controllers_[i]->compute(*states_[i], e, out_);
     }
+    if (!check_output(i, e.time())) {
+      out_.correction = nullptr;
+      return false;
+    }
   }
   out_.correction = nullptr;
   out_.tau *= model_->scenario.torque_scale;
   if (pm)
     for (size_t d = 0; d < pm->dimensions.size(); ++d)
       if (pm->dimensions[d].dof >= 0) out_.tau[pm->dimensions[d].dof] += correction_[d];
+  if (pm && !out_.tau.allFinite()) {
+    progress_.diverged = true;
+    progress_.diverged_at = e.time();
+    progress_.divergence =
+        fmt::format("the planner's correction is non-finite at t={:.6f} s", e.time());
+    return false;
+  }
+  return true;
 }
 
 bool Simulation::step() {
@@ -423,11 +466,11 @@ bool Simulation::step() {
   RunProgress& s = progress_;
   if (s.diverged) return false;
   e.forward();
-  compute_controls();
+  const double t = e.time();
+  if (!compute_controls()) return false;
   e.set_generalized_forces(out_.tau);
   if (out_.ctrl_used) e.set_controls(out_.ctrl);
   if (out_.dof_velocity_used) send_velocity_commands(out_.dof_velocity);
-  const double t = e.time();
   for (const auto& push : model_->pushes)
     if (push.p.active_at(t)) e.apply_external_force(push.body, push.p.force, e.body_com(push.body));
   // torque statistics over the controlled (non-zero) entries
@@ -452,6 +495,28 @@ bool Simulation::step() {
   detect_fall();
   for (StepObserver* o : observers_) o->on_step(*this);
   return true;
+}
+
+bool Simulation::check_output(size_t i, double t) {
+  // checked before the engine sees it: MuJoCo would reset itself on a NaN force and go on
+  const bool tau_ok = out_.tau.allFinite(), ctrl_ok = !out_.ctrl_used || out_.ctrl.allFinite();
+  if (tau_ok && ctrl_ok) return true;
+  RunProgress& s = progress_;
+  s.diverged = true;
+  s.diverged_at = t;
+  std::string where;
+  if (!tau_ok) {
+    int k = 0;
+    while (k < out_.tau.size() && std::isfinite(out_.tau[k])) ++k;
+    where = fmt::format("torque {} on dof '{}'", out_.tau[k], engine_->dof_name(k));
+  } else {
+    int k = 0;
+    while (k < out_.ctrl.size() && std::isfinite(out_.ctrl[k])) ++k;
+    where = fmt::format("control {} on actuator '{}'", out_.ctrl[k], engine_->actuator_name(k));
+  }
+  s.divergence = fmt::format("controller {} ('{}') output a non-finite {} at t={:.6f} s", i,
+                             controllers_[i]->type(), where, t);
+  return false;
 }
 
 void Simulation::detect_fall() {
@@ -559,9 +624,16 @@ RunResult Simulation::run() {
     add_observer(bar.get());
   }
   for (StepObserver* o : observers_) o->on_start(*this);
-  while (!done())
+  bool interrupted = false;
+  while (!done()) {
+    if (run_files_.interrupt && run_files_.interrupt->load(std::memory_order_relaxed)) {
+      interrupted = true;
+      break;
+    }
     if (!step()) break;
+  }
   RunResult r = result();
+  r.interrupted = interrupted;
   r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   r.metrics["realtime_factor"] = r.wall_time_s > 0 ? r.sim_time / r.wall_time_s : 0.0;
   r.metrics["compute_s_per_sim_s"] = r.sim_time > 0 ? r.wall_time_s / r.sim_time : 0.0;

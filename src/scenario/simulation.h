@@ -2,6 +2,8 @@
 // clock, and steps them in one fixed order:
 //   forward -> controllers (summed, torque_scale) -> servos -> pushes -> engine step ->
 //   divergence check -> forward -> fall detection and metrics -> observers
+// A controller's non-finite output, or a non-finite state after the step, ends the run as
+// diverged with the time and the cause.
 // Every entry point (run, view, record, sweep, tune, push-threshold, the benchmarks) steps it.
 // What a scenario resolves to once (the world, the controllers' immutable models, the pushes'
 // bodies) is a SimulationModel, shared by every run, clone and thread.
@@ -9,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <atomic>
 #include <deque>
 #include <functional>
 #include <map>
@@ -37,6 +40,9 @@ struct RunOptions {
   double stop_after_fall_s = 1.0;  // s a run goes on after a fall; < 0: to the end
   // controller models reused across runs whose world and parameters are the same; null: none
   ControllerCache* cache = nullptr;
+  // set (by a signal handler): run() stops before its next step and writes its outputs with
+  // "interrupted": true; null: never
+  const std::atomic<bool>* interrupt = nullptr;
 };
 
 struct RunResult {
@@ -48,7 +54,8 @@ struct RunResult {
   std::optional<double> fall_time;
   std::string fall_reason;
   bool diverged = false;
-  std::string divergence;  // message with time and cause
+  std::string divergence;    // message with time and cause
+  bool interrupted = false;  // stopped early by RunOptions::interrupt (SIGINT)
   double wall_time_s = 0;
   long steps = 0;
   nlohmann::json metrics = nlohmann::json::object();
@@ -234,8 +241,11 @@ class Simulation {
  private:
   void start_run();
   void detect_fall();
-  void compute_controls();
+  // the controllers' (and the planner's) outputs into out_; false (diverged) when non-finite
+  bool compute_controls();
   void send_velocity_commands(const Eigen::VectorXd& commands);
+  // a non-finite command from controller i stops the run as a divergence
+  bool check_output(size_t i, double t);
 
   std::shared_ptr<const SimulationModel> model_;
   std::unique_ptr<Engine> engine_;
@@ -246,13 +256,15 @@ class Simulation {
   std::vector<StepObserver*> observers_;
   RunOptions run_files_;  // out_dir and progress for run()
   std::vector<double>* controller_seconds_ = nullptr;
-  Eigen::VectorXd correction_;          // this step's correction, dim planner dimensions
+  Eigen::VectorXd correction_;        // this step's correction, dim planner dimensions
   std::unique_ptr<Planner> planner_;  // made when the model plans
   friend class Planner;               // rollouts set their candidate plan and read the state
 };
 
 // build the engine of a scenario with its initial pose applied (no controllers)
-std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name);
+// (`loaded`, when given, locates an unknown initial_pose dof at its line in the file)
+std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name,
+                                             const LoadedScenario* loaded = nullptr);
 
 // the one lock around model loading (MuJoCo's XML compiler is not reentrant)
 std::mutex& model_load_mutex();

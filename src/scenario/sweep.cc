@@ -15,6 +15,7 @@
 #include <sstream>
 #include <thread>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "params/yaml_params.h"
 #include "scenario/scenario.h"
@@ -186,8 +187,9 @@ void write_sweep_outputs(const std::string& dir, const std::string& param,
     for (auto it = p.result.metrics.begin(); it != p.result.metrics.end(); ++it)
       if (is_scalar(it.value()) && !is_timing_metric(it.key())) scalar_keys.insert(it.key());
 
-  std::ofstream table(std::filesystem::path(dir) / "sweep.csv");
-  if (!table) throw InputError(fmt::format("--out {}: cannot write sweep.csv", dir));
+  AtomicFile table_file(std::filesystem::path(dir) / "sweep.csv");
+  AtomicFile points_file(std::filesystem::path(dir) / "points.csv");
+  std::ostream& table = table_file.stream();
   table << param << ",fell,diverged,sim_time,error";
   for (const auto& k : scalar_keys) table << ',' << k;
   table << '\n';
@@ -205,8 +207,7 @@ void write_sweep_outputs(const std::string& dir, const std::string& param,
     table << '\n';
   }
 
-  std::ofstream pts(std::filesystem::path(dir) / "points.csv");
-  if (!pts) throw InputError(fmt::format("--out {}: cannot write points.csv", dir));
+  std::ostream& pts = points_file.stream();
   pts << param << ",metric,index,y\n";
   for (const auto& p : points)
     for (auto it = p.result.metrics.begin(); it != p.result.metrics.end(); ++it) {
@@ -217,6 +218,8 @@ void write_sweep_outputs(const std::string& dir, const std::string& param,
           pts << format_sweep_value(p.value) << ',' << it.key() << ',' << i << ','
               << fmt::format("{:.9g}", arr[i].get<double>()) << '\n';
     }
+  table_file.commit();
+  points_file.commit();
 }
 
 std::string plot_sweep(const std::string& dir, const std::string& param, const std::string& metric,
@@ -237,11 +240,13 @@ std::string plot_sweep(const std::string& dir, const std::string& param, const s
   }
   const fs::path script = folder / (fs::path(png_name).stem().string() + ".gp");
   {
-    std::ofstream gp(script);
-    if (!gp) throw InputError("--plot: cannot write " + script.string());
-    // one dot per post-transient value: the passive-walker bifurcation picture
+    AtomicFile file(script);
+    std::ostream& gp = file.stream();
+    // one dot per post-transient value: the passive-walker bifurcation picture; the caller may
+    // name another output (the PNG's temporary, renamed into place when gnuplot is done)
     gp << "set terminal pngcairo size 1000,650 enhanced font 'sans,11'\n"
-       << "set output '" << png_name << "'\n"
+       << "if (!exists('png')) png = '" << png_name << "'\n"
+       << "set output png\n"
        << "set datafile separator ','\n"
        << "set title \"" << title << "\" noenhanced\n"
        << "set xlabel \"" << param << "\" noenhanced\n"
@@ -250,18 +255,22 @@ std::string plot_sweep(const std::string& dir, const std::string& param, const s
        << "unset key\n"
        << "plot 'points.csv' every ::1 using 1:(strcol(2) eq \"" << metric
        << "\" ? $4 : NaN) with points pt 7 ps 0.4 lc rgb '#1f4e9c'\n";
+    file.commit();
   }
+  const fs::path png_tmp = temporary_path_for(folder / png_name);
   const std::string cmd =
-      fmt::format("cd '{}' && gnuplot '{}' 2>'{}'", folder.string(), script.filename().string(),
-                  (folder / "gnuplot.err").string());
+      fmt::format("cd '{}' && gnuplot -e \"png='{}'\" '{}' 2>'{}'", folder.string(),
+                  png_tmp.string(), script.filename().string(), (folder / "gnuplot.err").string());
+  std::error_code ec;
   if (std::system(cmd.c_str()) != 0) {
+    fs::remove(png_tmp, ec);
     std::ifstream err(folder / "gnuplot.err");
     std::string first;
     std::getline(err, first);
     throw InputError(fmt::format("--plot: gnuplot failed on {}: {}", script.string(), first));
   }
-  std::error_code ec;
   fs::remove(folder / "gnuplot.err", ec);
+  rename_into_place(png_tmp, folder / png_name);
   return (folder / png_name).string();
 }
 

@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
@@ -581,8 +582,11 @@ void write_tune_outputs(const std::string& dir, const TuneOptions& o, const Tune
   if (ec) throw InputError(fmt::format("--out {}: {}", dir, ec.message()));
   if (r.candidates.empty()) throw InputError("tune: no candidates to write");
 
-  std::ofstream csv(fs::path(dir) / "tune.csv");
-  if (!csv) throw InputError(fmt::format("--out {}: cannot write tune.csv", dir));
+  // all three are renamed into place together, once all of them are written
+  AtomicFile csv_file(fs::path(dir) / "tune.csv");
+  AtomicFile yaml_file(fs::path(dir) / "best.yaml");
+  AtomicFile scn_file(fs::path(dir) / "best_scenario.yaml");
+  std::ostream& csv = csv_file.stream();
   csv << "generation,index";
   for (const auto& p : o.params) csv << ',' << p.key;
   csv << ",robust_score,worst_time_up_s,mean_metric,failed_runs\n";
@@ -595,8 +599,7 @@ void write_tune_outputs(const std::string& dir, const TuneOptions& o, const Tune
 
   const TuneCandidate& b = r.candidates[r.best];
   const TuneCandidate& s = r.candidates.front();
-  std::ofstream yaml(fs::path(dir) / "best.yaml");
-  if (!yaml) throw InputError(fmt::format("--out {}: cannot write best.yaml", dir));
+  std::ostream& yaml = yaml_file.stream();
   yaml << fmt::format("# stance tune {}: best of {} candidates (generation {}, candidate {})\n",
                       o.scenario, r.candidates.size(), b.generation, b.index);
   yaml << fmt::format(
@@ -613,13 +616,15 @@ void write_tune_outputs(const std::string& dir, const TuneOptions& o, const Tune
   for (size_t i = 0; i < o.params.size(); ++i)
     yaml << o.params[i].key << ": " << format_sweep_value(b.values[i]) << "\n";
 
-  std::ofstream scn(fs::path(dir) / "best_scenario.yaml");
-  if (!scn) throw InputError(fmt::format("--out {}: cannot write best_scenario.yaml", dir));
+  std::ostream& scn = scn_file.stream();
   fs::path folder = fs::absolute(o.scenario).parent_path();
   scn << "# " << o.scenario << " with --set and the best point of stance tune applied.\n"
       << "# Relative paths in it are relative to " << folder.string()
       << ": save it there to run it.\n"
       << r.scenario_yaml << "\n";
+  csv_file.commit();
+  yaml_file.commit();
+  scn_file.commit();
 }
 
 }  // namespace stance

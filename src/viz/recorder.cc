@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "viz/gl_context.h"
 
@@ -38,8 +39,14 @@ void parse_frame_size(const std::string& text, int& width, int& height) {
 
 void write_png(const std::string& path, int width, int height, const unsigned char* rgb) {
   make_parent_folder(path);
-  if (!stbi_write_png(path.c_str(), width, height, 3, rgb, width * 3))
+  // to the hidden temporary, then renamed into place: never half a picture
+  const std::filesystem::path tmp = temporary_path_for(path);
+  if (!stbi_write_png(tmp.c_str(), width, height, 3, rgb, width * 3)) {
+    std::error_code ignored;
+    std::filesystem::remove(tmp, ignored);
     throw InputError(path + ": cannot write");
+  }
+  rename_into_place(tmp, path);
 }
 
 namespace {

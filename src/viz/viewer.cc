@@ -15,10 +15,12 @@
 #include <filesystem>
 #include <fstream>
 #include <mutex>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
 #include "control/controller.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "engine/mujoco/mujoco_engine.h"
 #include "scenario/live_tuning.h"
@@ -342,9 +344,9 @@ struct Viewer::Impl {
                                                         : options.save_path);
       out = (p.parent_path() / (p.stem().string() + "_tuned.yaml")).string();
     }
-    std::ofstream f(out);
-    if (!f) throw InputError("save scenario: cannot write " + out);
-    f << doc << "\n";
+    std::ostringstream text;
+    text << doc << "\n";
+    write_file_atomically(out, text.str());
     return out;
   }
 };

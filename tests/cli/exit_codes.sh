@@ -53,7 +53,7 @@ fi
 model=$(pwd)/models/arm3.xml
 printf 'name: t\nmodel: %s\ncontrollers: [{type: hold_pose_pd, {a: 1}: 2}]\n' "$model" \
   >"$tmp/key.yaml"
-expect 2 "error: $tmp/key.yaml:3: a parameter name must be a word, found a mapping" -- \
+expect 2 "error: $tmp/key.yaml:3: a key must be a word, found a mapping" -- \
   "$stance" run "$tmp/key.yaml" --out "$tmp/out"
 expect 2 "error: --set name.x=1: 'x' is inside a value, not a mapping" -- \
   "$stance" run scenarios/pd_hold.yaml --set name.x=1 --out "$tmp/out"

@@ -113,5 +113,21 @@ python3 -c "import json,sys; d=json.load(open('$tmp/div/summary.json')); sys.exi
   fails=$((fails + 1))
 }
 
+# absurd gains diverge on DART too: exit 3 with the time, the dof and a whole summary and log
+expect 3 "error: simulation diverged: DART instability at t=0.00" -- \
+  "$stance" run scenarios/pd_hold.yaml --engine dart --set controllers.0.kp=1e12 \
+  --out "$tmp/div_dart" --quiet
+python3 - "$tmp/div_dart" <<'PY' || {
+import csv, json, math, sys
+d = json.load(open(sys.argv[1] + "/summary.json"))
+assert d["diverged"] and "on dof '" in d["divergence"] and d["sim_time"] < 0.1, d
+rows = list(csv.reader(open(sys.argv[1] + "/log.csv")))
+assert len(rows) >= 2 and all(len(r) == len(rows[0]) for r in rows)
+assert all(math.isfinite(float(x)) for r in rows[1:] for x in r), "a non-finite value in log.csv"
+PY
+  echo "FAIL: DART divergence outputs"
+  fails=$((fails + 1))
+}
+
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]

@@ -161,5 +161,93 @@ TEST(YamlParams, MalformedFileNamesLine) {
   EXPECT_THROW(load_yaml_file("/no/such.yaml"), InputError);
 }
 
+// the exact message a strict load of `text` (as file "s.yaml") throws, or "" when it loads
+std::string strict_error(const std::string& text) {
+  try {
+    load_yaml_text(text, {"s.yaml", ""});
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(StrictYaml, DuplicateKeyNamesBothLines) {
+  EXPECT_EQ(strict_error("name: a\nduration: 1\nseed: 2\nduration: 2\n"),
+            "s.yaml:4: duplicate key 'duration' (first at line 2)");
+  // in a nested mapping, a flow mapping, and the same key in two mappings is fine
+  EXPECT_EQ(strict_error("log:\n  rate_hz: 1\n  rate_hz: 2\n"),
+            "s.yaml:3: duplicate key 'rate_hz' (first at line 2)");
+  EXPECT_EQ(strict_error("c: [{type: pd, kp: 1,\n     kp: 2}]\n"),
+            "s.yaml:2: duplicate key 'kp' (first at line 1)");
+  EXPECT_EQ(strict_error("a: {x: 1}\nb: {x: 1}\nc: [x, x]\n"), "");
+  // quoting does not make another key
+  EXPECT_EQ(strict_error("x: 1\n'x': 2\n"), "s.yaml:2: duplicate key 'x' (first at line 1)");
+}
+
+TEST(StrictYaml, NonScalarKeysAreLocated) {
+  EXPECT_EQ(strict_error("name: a\n? [a]\n: 1\n"), "s.yaml:2: a key must be a word, found a list");
+  EXPECT_EQ(strict_error("c: [{type: pd, {a: 1}: 2}]\n"),
+            "s.yaml:1: a key must be a word, found a mapping");
+  EXPECT_EQ(strict_error("a: 1\n~: 2\n"), "s.yaml:2: a key must be a word, found nothing");
+}
+
+TEST(StrictYaml, AliasesAreRejectedAndRecursiveOnesNamed) {
+  EXPECT_EQ(strict_error("a: &g {kp: 1}\nb: *g\n"),
+            "s.yaml:2: YAML aliases are not supported ('*g' repeats '&g' of line 1): write the "
+            "value out");
+  EXPECT_EQ(strict_error("a: &r [1, [2, *r]]\n"),
+            "s.yaml:1: recursive alias '*r' inside its own anchor '&r' (line 1)");
+  EXPECT_EQ(strict_error("a: &r\n  b: *r\n"),
+            "s.yaml:2: recursive alias '*r' inside its own anchor '&r' (line 1)");
+  EXPECT_EQ(strict_error("a: &n\nb: *n\n"),
+            "s.yaml:2: YAML aliases are not supported ('*n' repeats '&n' of line 1): write the "
+            "value out");
+  // an anchor alone is harmless; an undefined alias is yaml-cpp's own syntax error
+  EXPECT_EQ(strict_error("a: &g 1\n"), "");
+  EXPECT_NE(strict_error("a: *nowhere\n").find("s.yaml:1:4: malformed YAML"), std::string::npos)
+      << strict_error("a: *nowhere\n");
+}
+
+TEST(StrictYaml, OneDocumentPerFile) {
+  EXPECT_EQ(strict_error("a: 1\n---\nb: 2\n"),
+            "s.yaml:2: a second YAML document: a file holds one");
+  EXPECT_EQ(strict_error("---\na: 1\n"), "");
+}
+
+TEST(StrictYaml, SetValuesAreCheckedToo) {
+  YAML::Node root = YAML::Load("a: {b: 1}\nname: x\n");
+  try {
+    apply_yaml_override(root, "a={k: 1, k: 2}");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "--set a={k: 1, k: 2}: duplicate key 'k' (first at line 1)");
+  }
+  try {
+    apply_yaml_override(root, "name.x=1");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "--set name.x=1: 'x' is inside a value, not a mapping");
+  }
+  try {
+    apply_yaml_override(root, "name.x.y=1");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(), "--set name.x.y=1: 'x' is inside a value, not a mapping");
+  }
+}
+
+TEST(StrictYaml, FilesGoThroughIt) {
+  std::string path = ::testing::TempDir() + "/dup.yaml";
+  FILE* f = fopen(path.c_str(), "w");
+  fputs("a: 1\nb: 2\na: 3\n", f);
+  fclose(f);
+  try {
+    load_yaml_file(path);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ":3: duplicate key 'a' (first at line 1)");
+  }
+}
+
 }  // namespace
 }  // namespace stance

@@ -105,6 +105,9 @@ TEST(BipedStand, PlainPdDivergenceIsReportedOnDart) {
   EXPECT_TRUE(r.diverged);
   EXPECT_LT(r.sim_time, 0.1);
   EXPECT_NE(r.divergence.find("non-finite"), std::string::npos) << r.divergence;
+  // the cause, not the load's warnings: the engine, the time and the first bad dof
+  EXPECT_EQ(r.divergence.rfind("DART instability at t=", 0), 0u) << r.divergence;
+  EXPECT_NE(r.divergence.find(" on dof 'j_"), std::string::npos) << r.divergence;
   EXPECT_TRUE(std::filesystem::exists(opt.out_dir + "/summary.json"));
   // the engine answers kinematic queries with NaN instead of aborting, and does not step
   Engine& e = run.engine();

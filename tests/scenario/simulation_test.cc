@@ -8,6 +8,7 @@
 #include <fstream>
 #include <thread>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 #include "scenario/observers.h"
 #include "scenario/scenario.h"
@@ -165,9 +166,7 @@ TEST(SimulationStateFile, RoundTripAndBadFiles) {
   EXPECT_NEAR(other.time(), sim.time() - 200 * sim.engine().timestep(), 1e-9);
   EXPECT_TRUE(trace(other, 200) == a);
   // the file is written atomically: no temporary is left beside it
-  EXPECT_FALSE(
-      std::filesystem::exists(std::filesystem::path(file).parent_path() /
-                              ("." + std::filesystem::path(file).filename().string() + ".tmp")));
+  EXPECT_FALSE(std::filesystem::exists(temporary_path_for(file)));
 
   // truncated, foreign, missing: located errors, the simulation unchanged
   std::string bytes;
@@ -240,6 +239,97 @@ TEST(SimulationLoop, RunWritesItsFilesWithoutTemporaries) {
   EXPECT_TRUE(std::filesystem::exists(dir + "/log.csv"));
   for (const auto& f : std::filesystem::directory_iterator(dir))
     EXPECT_NE(f.path().filename().string()[0], '.') << f.path();
+  std::filesystem::remove_all(dir);
+}
+
+// a controller whose torque on one dof turns NaN at a given time (a bug or a blown-up solve)
+struct NanAfterState {
+  template <class A>
+  void serialize(A&) {}
+};
+class NanAfter final : public TypedController<NanAfterState> {
+ public:
+  explicit NanAfter(double t) : t_(t) {}
+  std::string_view type() const override { return "nan_after"; }
+  YAML::Node params_yaml() const override { return {}; }
+
+ protected:
+  void reset_state(State&, const Engine&) const override {}
+  void compute_step(State&, const Engine& e, ControlOutput& out) const override {
+    if (e.time() >= t_) out.tau[out.tau.size() - 1] = std::numeric_limits<double>::quiet_NaN();
+  }
+
+ private:
+  double t_;
+};
+
+class NanController : public ::testing::TestWithParam<std::string> {};
+
+// on either engine, a non-finite controller output ends the run as diverged, with the time, the
+// controller and the dof, and the run's files are written and whole
+TEST_P(NanController, StopsTheRunWithTimeCauseAndOutputs) {
+  const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
+                           ("nan_" + GetParam() + std::to_string(::getpid())))
+                              .string();
+  std::filesystem::remove_all(dir);
+  RunOptions o = quiet(GetParam());
+  o.out_dir = dir;
+  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  sim.replace_controller(0, std::make_shared<NanAfter>(0.25));
+  RunResult r = sim.run();
+  ASSERT_TRUE(r.diverged);
+  EXPECT_NEAR(r.sim_time, 0.25, sim.engine().timestep() + 1e-9);
+  const std::string dof = sim.engine().dof_name(sim.engine().nv() - 1);
+  EXPECT_NE(r.divergence.find("controller 0 ('nan_after') output a non-finite torque nan on dof '" +
+                              dof + "' at t=0.25"),
+            std::string::npos)
+      << r.divergence;
+  // the engine never saw the NaN: its state is the last good one
+  EXPECT_TRUE(sim.engine().state_is_finite());
+  std::ifstream in(dir + "/summary.json");
+  nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["diverged"].get<bool>());
+  EXPECT_FALSE(j["interrupted"].get<bool>());
+  EXPECT_EQ(j["divergence"].get<std::string>(), r.divergence);
+  std::ifstream log(dir + "/log.csv");
+  std::string line, last;
+  int rows = 0;
+  while (std::getline(log, line)) last = line, ++rows;
+  EXPECT_GT(rows, 20);
+  EXPECT_EQ(last.find("nan"), std::string::npos) << last;
+  std::filesystem::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(Engines, NanController, ::testing::Values("mujoco", "dart"));
+
+// an interrupt (SIGINT's flag) stops the run before its next step; the outputs say so
+TEST(SimulationLoop, InterruptStopsTheRunAndWritesItsFiles) {
+  const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
+                           ("interrupt_" + std::to_string(::getpid())))
+                              .string();
+  std::atomic<bool> stop{false};
+  struct StopAt : StepObserver {
+    std::atomic<bool>* stop;
+    double at;
+    void on_step(const Simulation& sim) override {
+      if (sim.time() >= at) stop->store(true);
+    }
+  } stopper;
+  stopper.stop = &stop;
+  stopper.at = 0.5;
+  RunOptions o = quiet();
+  o.out_dir = dir;
+  o.interrupt = &stop;
+  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  sim.add_observer(&stopper);
+  RunResult r = sim.run();
+  EXPECT_TRUE(r.interrupted);
+  EXPECT_FALSE(r.diverged);
+  EXPECT_NEAR(r.sim_time, 0.5, sim.engine().timestep() + 1e-9);
+  std::ifstream in(dir + "/summary.json");
+  nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["interrupted"].get<bool>());
+  EXPECT_NEAR(j["sim_time"].get<double>(), 0.5, 0.01);
   std::filesystem::remove_all(dir);
 }
 

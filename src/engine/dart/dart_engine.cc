@@ -31,6 +31,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <iostream>
@@ -64,6 +65,13 @@ struct PositionGroup {
 };
 
 // one mobile skeleton's slice of the global vectors
+// a number as printf's `format` writes it, for messages
+std::string number_text(double x, const char* format = "%.6f") {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, format, x);
+  return buf;
+}
+
 struct SkeletonBlock {
   SkeletonPtr skeleton;
   int dof_start = 0;
@@ -792,6 +800,7 @@ class DartEngine final : public Engine {
       b.skeleton->getDof(dof - b.dof_start)->setCommand(velocity_command_[dof]);
     }
     // stepping a diverged state aborts in DART's FreeJoint assert; the runner reports it instead
+    step_start_time_ = world_->getTime();
     if (!state_is_finite()) return;
     world_->step();
     use_forward_contacts_ = false;
@@ -808,7 +817,30 @@ class DartEngine final : public Engine {
         if (!std::isfinite(b.skeleton->getVelocity(i))) return false;
     return true;
   }
-  std::string last_warning() const override { return load_warnings_; }
+  // after a divergence its cause (the load's warnings are not one), else the load's warnings
+  std::string last_warning() const override {
+    if (state_is_finite()) return load_warnings_;
+    for (const SkeletonBlock& b : blocks_)
+      for (int i = 0; i < b.ndof; ++i) {
+        const double q = b.skeleton->getPosition(i), v = b.skeleton->getVelocity(i);
+        if (std::isfinite(q) && std::isfinite(v)) continue;
+        const bool bad_v = !std::isfinite(v);
+        return std::string("DART instability at t=") + number_text(step_start_time_) +
+               " s: " + (bad_v ? "non-finite velocity " : "non-finite position ") +
+               number_text(bad_v ? v : q, "%g") + " on dof '" + dof_name(b.dof_start + i) + "'";
+      }
+    // all finite, but the squared positions overflow: name the largest
+    int worst = 0;
+    double value = 0;
+    for (const SkeletonBlock& b : blocks_)
+      for (int i = 0; i < b.ndof; ++i)
+        if (std::abs(b.skeleton->getPosition(i)) > std::abs(value)) {
+          value = b.skeleton->getPosition(i);
+          worst = b.dof_start + i;
+        }
+    return "DART instability at t=" + number_text(step_start_time_) + " s: position too large " +
+           number_text(value, "%g") + " on dof '" + dof_name(worst) + "'";
+  }
 
  private:
   using Lookup = std::map<std::string, int, std::less<>>;
@@ -1063,6 +1095,7 @@ class DartEngine final : public Engine {
   // solve_mass_shifted's saved joint forces, damping and spring stiffnesses; dim nv
   mutable Eigen::VectorXd shift_forces_, shift_damping_, shift_springs_;
   std::string load_warnings_;
+  double step_start_time_ = 0;  // s, of the last step (for the divergence message)
 
   // contacts: the last step's, or those forward() found for positions set since
   dart::collision::CollisionResult forward_contacts_;
