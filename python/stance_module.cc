@@ -26,6 +26,10 @@
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "scenario/sweep.h"
+#include "scenario/tune.h"
+#ifdef STANCE_HAVE_VIEWER
+#include "viz/viewer.h"
+#endif
 
 namespace py = pybind11;
 
@@ -225,6 +229,8 @@ class PyController final : public Controller {
       for (auto it = m.begin(); it != m.end(); ++it) metrics[it.key()] = it.value();
   }
   YAML::Node params_yaml() const override { return params_; }
+  // no sliders: a live edit rebuilds through the registry, which Python classes are not in
+  std::vector<ParamEntry> tunable_params() const override { return {}; }
 
  private:
   static void bind(PyControllerState& s, const Engine& engine) {
@@ -325,12 +331,17 @@ PyRunResult run_simulation(Simulation& sim, long max_steps) {
 
 // ---- the simulation
 
-std::unique_ptr<Simulation> load_simulation(const std::string& path, const py::object& overrides,
-                                            const std::string& engine,
-                                            std::optional<double> duration,
-                                            const std::string& out_dir,
-                                            const std::vector<std::string>& pushes,
-                                            bool past_fall) {
+// a Python Simulation keeps what it was loaded from (for stance.view's saving and replays)
+py::object with_loaded(std::unique_ptr<Simulation> sim, const py::object& loaded) {
+  py::object obj = py::cast(std::move(sim));
+  if (!loaded.is_none()) obj.attr("_loaded") = loaded;
+  return obj;
+}
+
+py::object load_simulation(const std::string& path, const py::object& overrides,
+                           const std::string& engine, std::optional<double> duration,
+                           const std::string& out_dir, const std::vector<std::string>& pushes,
+                           bool past_fall) {
   LoadedScenario loaded = load_scenario(path, override_list(overrides));
   // as stance run names it
   if (loaded.scenario.name.empty())
@@ -344,7 +355,10 @@ std::unique_ptr<Simulation> load_simulation(const std::string& path, const py::o
   if (past_fall) opt.stop_after_fall_s = -1;
   std::string dir = std::filesystem::path(path).parent_path().string();
   opt.external_controllers = python_factory(dir.empty() ? "." : dir);
-  return std::make_unique<Simulation>(loaded, opt);
+  auto sim = std::make_unique<Simulation>(loaded, opt);
+  py::capsule kept(new LoadedScenario(loaded),
+                   [](void* p) { delete static_cast<LoadedScenario*>(p); });
+  return with_loaded(std::move(sim), kept);
 }
 
 // a controller for sim.add_controller: a Python object, or a dict naming a registered type
@@ -796,7 +810,8 @@ into a new engine ("mujoco" or "dart"), forwarded.)")
                               "a simulation's whole state (Simulation.save / restore)");
 
   // ---- the simulation
-  py::class_<Simulation>(m, "Simulation", R"(A loaded scenario: an engine, the controllers and their
+  py::class_<Simulation>(m, "Simulation", py::dynamic_attr(),
+                         R"(A loaded scenario: an engine, the controllers and their
 states, the pushes, fall detection and metrics, stepped in stance's one loop.
 
 Made by stance.load(). Python controllers (`type: python` entries, add_controller) run inside
@@ -865,7 +880,13 @@ reset(engine), metrics()), or a dict naming a registered C++ type, e.g.
           "the whole state: engine, controller states, fall and metric progress, time")
       .def("restore", &Simulation::restore, py::arg("state"))
       .def("reset", &Simulation::reset, "back to the initial state")
-      .def("clone", &Simulation::clone, "the same model on a new engine, at this state")
+      .def(
+          "clone",
+          [](py::object self) {
+            return with_loaded(self.cast<const Simulation&>().clone(),
+                               py::getattr(self, "_loaded", py::none()));
+          },
+          "the same model on a new engine, at this state")
       .def("write_state", &Simulation::write_state, py::arg("path"))
       .def("read_state", &Simulation::read_state, py::arg("path"))
       .def("__repr__", [](const Simulation& s) {
@@ -885,6 +906,40 @@ out: a folder for summary.json, log.csv and the controllers' files, as `stance r
 pushes: ["body,fx,fy,fz,start,duration", ...], as --push
 past_fall: run to the end after a fall (default: stop 1 s after it)
 Bad input raises stance.InputError with the file and line.)");
+
+#ifdef STANCE_HAVE_VIEWER
+  m.def(
+      "view",
+      [](py::object sim_obj, int width, int height, int frames) {
+        const Simulation& sim = sim_obj.cast<const Simulation&>();
+        py::object kept = py::getattr(sim_obj, "_loaded", py::none());
+        if (kept.is_none()) throw InputError("view: a simulation made by stance.load is needed");
+        const auto& loaded = *static_cast<LoadedScenario*>(kept.cast<py::capsule>().get_pointer());
+        ViewerOptions o;
+        o.engine = std::string(sim.engine().engine_name());
+        o.width = width;
+        o.height = height;
+        o.save_path = loaded.source;
+        std::unique_ptr<Simulation> run = sim.clone();
+        double t = 0;
+        // the viewer's physics thread takes the GIL per step for Python controllers: the
+        // window loop and the viewer's end run without it
+        py::gil_scoped_release release;
+        {
+          Viewer v(loaded, o, std::move(run));
+          if (frames > 0)
+            for (int i = 0; i < frames; ++i) v.frame();
+          else
+            v.run();
+          t = v.sim_time();
+        }
+        return t;
+      },
+      py::arg("sim"), py::arg("width") = 1400, py::arg("height") = 900, py::arg("frames") = 0,
+      R"(Open stance's viewer on a clone of `sim` at its current state, Python controllers included,
+until the window is closed (frames > 0: that many frames). `sim` itself is not advanced. Returns
+the simulated time the viewer reached. Needs a display (RuntimeError without one).)");
+#endif
 
   // ---- maths
   m.def(
@@ -1058,4 +1113,64 @@ converge returns success False with a message.)");
 threads (0: every core; results do not depend on it), the GIL released. Returns a dict of numpy
 arrays (value, fell, fall_time (NaN: stood), diverged, sim_time) and lists (metrics without the
 wall-clock ones, error: non-empty where that run's input was bad).)");
+
+  m.def(
+      "tune",
+      [](const std::string& path, const std::vector<std::string>& params,
+         const std::vector<std::string>& neighbours, int budget, int population,
+         unsigned long long seed, const std::string& metric, double fall_penalty,
+         const py::object& overrides, const std::string& engine, std::optional<double> duration,
+         int threads) {
+        TuneOptions o;
+        o.scenario = path;
+        o.sets = override_list(overrides);
+        for (const auto& p : params) o.params.push_back(parse_tune_param(p));
+        for (const auto& n : neighbours) o.neighbours.push_back(parse_neighbour(n));
+        o.budget = budget;
+        o.population = population;
+        o.seed = seed;
+        o.metric = metric;
+        o.fall_penalty = fall_penalty;
+        o.engine = engine;
+        o.duration = duration;
+        o.threads = threads;
+        TuneResult t;
+        {
+          py::gil_scoped_release release;
+          t = run_tune(o);
+        }
+        const py::ssize_t n = t.candidates.size(), k = o.params.size();
+        py::array_t<double> values({n, k}), score(n), time_up(n), metric_mean(n);
+        py::array_t<int> generation(n), failed(n);
+        for (py::ssize_t i = 0; i < n; ++i) {
+          const TuneCandidate& c = t.candidates[i];
+          for (py::ssize_t j = 0; j < k; ++j) values.mutable_at(i, j) = c.values[j];
+          score.mutable_at(i) = c.robust_score;
+          time_up.mutable_at(i) = c.worst_time_up;
+          metric_mean.mutable_at(i) = c.mean_metric;
+          generation.mutable_at(i) = c.generation;
+          failed.mutable_at(i) = c.failed_runs;
+        }
+        py::dict d;
+        d["params"] = params;
+        d["values"] = values;
+        d["robust_score"] = score;
+        d["worst_time_up"] = time_up;
+        d["mean_metric"] = metric_mean;
+        d["generation"] = generation;
+        d["failed_runs"] = failed;
+        d["best"] = t.best;
+        d["best_sets"] = n ? tune_assignments(o, t.candidates[t.best]) : std::vector<std::string>{};
+        d["notes"] = t.notes;
+        return d;
+      },
+      py::arg("path"), py::arg("params"), py::arg("neighbours") = std::vector<std::string>{},
+      py::arg("budget") = 40, py::arg("population") = 8, py::arg("seed") = 1,
+      py::arg("metric") = "", py::arg("fall_penalty") = 100.0, py::arg("overrides") = py::none(),
+      py::arg("engine") = "", py::arg("duration") = std::nullopt, py::arg("threads") = 0,
+      R"(`stance tune`: a seeded cross-entropy search over params ("key=lo:hi[:log]"), each
+candidate scored by its worst run over the nominal setting and the neighbours ("k*=0.85,k2=v"),
+the GIL released; the same results for any thread count. Returns a dict: values (candidates x
+params), robust_score, worst_time_up, mean_metric, generation, failed_runs (numpy arrays in
+evaluation order; row 0 is the start), best (an index), best_sets (--set lines), notes.)");
 }

@@ -39,12 +39,15 @@ when loaded from Python) or with ``sim.add_controller(obj)``; ``sim.add_controll
 its generic tests, and their own attributes are not saved, restored or branched (clones and
 planner rollouts do not use them).
 
+Viewer: stance.view(sim) opens stance's viewer on a clone of a simulation built in Python (its
+Python controllers included).
+
 Errors: stance.InputError (a ValueError) carries the CLI's one-line message with the file and
 line or the parameter; stance.DivergenceError (a RuntimeError) is the CLI's exit code 3, with
 ``.result``.
 
-Batch: stance.sweep returns numpy arrays and releases the GIL while C++ runs, as Simulation.run
-does.
+Batch: stance.sweep and stance.tune return numpy arrays and release the GIL while C++ runs, as
+Simulation.run does.
 """
 
 from ._stance import (  # noqa: F401
@@ -72,14 +75,20 @@ from ._stance import (  # noqa: F401
     solve_dare,
     spectral_radius,
     sweep,
+    tune,
 )
+
+try:
+    from ._stance import view  # noqa: F401  (built with the viewer)
+except ImportError:
+    pass
 
 __all__ = [
     "Controller", "ControlOutput", "Contact", "DareResult", "DivergenceError", "Engine",
     "EngineState", "InputError", "JointInfo", "JointType", "LqrDesign", "LqrSetPoint",
     "RunResult", "Simulation", "SimulationState", "design_lqr", "find_lqr_setpoint",
     "linearize_fd", "linearize_fd_forces", "load", "lqr_gain", "lqr_state_cost",
-    "plot_force_offset", "run", "solve_dare", "spectral_radius", "sweep",
+    "plot_force_offset", "run", "solve_dare", "spectral_radius", "sweep", "tune", "view",
 ]
 
 

@@ -156,3 +156,25 @@ def test_run_releases_the_gil():
     assert sim.time == pytest.approx(3.0)
     assert inside[0] > 10
     assert len(seen) > 10
+
+
+def test_tune_returns_the_cli_table(tmp):
+    path = SCENARIOS / "biped_stand.yaml"
+    args = dict(params=["controllers.0.kp=20:1000:log", "controllers.0.kd=2:100:log"],
+                neighbours=["controllers.0.kp*=0.8,controllers.0.kd*=0.8"], budget=4,
+                population=2, duration=0.5, threads=2, metric="com_displacement_m",
+                overrides={"controllers.0.kp": 40, "controllers.0.kd": 4})
+    rc, _, err = run_cli("tune", path, "--param", args["params"][0], "--param", args["params"][1],
+                         "--neighbour", args["neighbours"][0], "--set", "controllers.0.kp=40",
+                         "--set", "controllers.0.kd=4", "--budget", 4, "--population", 2,
+                         "--duration", 0.5, "--threads", 2, "--metric", "com_displacement_m",
+                         "--out", tmp)
+    assert rc == 0, err
+    t = stance.tune(str(path), **args)
+    table = np.genfromtxt(tmp / "tune.csv", delimiter=",", names=True)
+    assert t["values"].shape == (4, 2) and t["values"].dtype == np.float64
+    np.testing.assert_array_equal(t["values"][0], [40, 4])
+    np.testing.assert_allclose(t["values"][:, 0], table["controllers0kp"], rtol=1e-12)
+    np.testing.assert_allclose(t["robust_score"], table["robust_score"], rtol=1e-8)  # 9 digits
+    np.testing.assert_array_equal(t["generation"], table["generation"])
+    assert len(t["best_sets"]) == 2
