@@ -1,30 +1,36 @@
 # stance: two commands on a fresh Debian bookworm machine.
+#   make        (make build) install dependencies if missing, build, the Python module in build/python
 #   make demo   install dependencies if missing, build (Release), run the main job
 #   make test   install dependencies if missing, build, run ctest (every test)
 #   make test-fast   the unit and cli tests only (labels: unit, physics, cli, viz)
-#   make install     headers, libraries, the stance binary and find_package(stance) into PREFIX
+#   make install     headers, libraries, the stance binary, find_package(stance) and the Python
+#                    module (PREFIX/lib/python3.X/dist-packages) into PREFIX
 #   make test-sanitize   clang ASan+UBSan tree (build-sanitize/): the unit and cli tests, then
 #                        each fuzzer FUZZ_SECONDS (30) seconds
 #   make fuzz SECONDS=N  each fuzzer N seconds (default 60) in the same tree
+# CMAKE_FLAGS go to cmake's configure (e.g. CMAKE_FLAGS=-DSTANCE_WITH_PYTHON=ON)
+.DEFAULT_GOAL := build
 BUILD ?= build
 JOBS ?= $(shell nproc)
 STANCE = $(BUILD)/stance
 PREFIX ?= /usr/local
+CMAKE_FLAGS ?=
 
 SANITIZE_BUILD ?= build-sanitize
 FUZZ_SECONDS ?= 30
 SECONDS ?= 60
 
-.PHONY: demo test test-fast build install deps bench clean format eval-track sanitize-build \
-  test-sanitize fuzz
+.PHONY: demo test test-fast build install deps bench bench-python clean format eval-track \
+  sanitize-build test-sanitize fuzz
 
 deps:
 	@bash scripts/install-deps.sh
 
 $(BUILD)/CMakeCache.txt:
-	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release
+	cmake -S . -B $(BUILD) -DCMAKE_BUILD_TYPE=Release $(CMAKE_FLAGS)
 
 build: deps $(BUILD)/CMakeCache.txt
+	$(if $(CMAKE_FLAGS),cmake -S . -B $(BUILD) $(CMAKE_FLAGS))
 	cmake --build $(BUILD) -j$(JOBS)
 
 test: build
@@ -66,6 +72,10 @@ bench: deps $(BUILD)/CMakeCache.txt
 # the planner's tracking matrix (not part of CI: about two hours on 2 cores)
 eval-track: build
 	@bash scripts/eval_track.sh $(BUILD)
+
+# the Python module's benchmark: the seed's dartpy loop and Python controllers on stance's engines
+bench-python: build
+	PYTHONPATH=$(BUILD)/python /usr/bin/python3 bench/python_bench.py
 
 format:
 	clang-format -i $$(git ls-files '*.cc' '*.h')

@@ -11,6 +11,7 @@ packages=(
   libglfw3-dev libimgui-dev libgl-dev libegl-dev libosmesa6-dev
   gnuplot-nox ffmpeg xvfb xauth
   python3-dartpy
+  python3-dev pybind11-dev python3-numpy python3-pytest
   libslicot-dev libtinyxml2-dev
   clang-14 libclang-rt-14-dev
 )

@@ -275,6 +275,9 @@ struct ControllerType {
 };
 
 const std::vector<ControllerType>& controller_registry();
+// the scenario entry type of controllers that live outside the registry: Python classes, built
+// only when the scenario is loaded from the Python module (RunOptions::external_controllers)
+inline constexpr std::string_view kExternalControllerType = "python";
 // throws InputError naming the nearest type when `name` is unknown
 const ControllerType& find_controller_type(const std::string& name);
 

@@ -97,6 +97,11 @@ class Engine {
   virtual void set_gravity(const Eigen::Vector3d& g) = 0;
   virtual void get_positions(Eigen::Ref<Eigen::VectorXd> q) const = 0;   // dim nq
   virtual void get_velocities(Eigen::Ref<Eigen::VectorXd> v) const = 0;  // dim nv
+  // the engine's own storage of q (dim nq) and v (dim nv) when it is one contiguous array that
+  // lives as long as the engine (MuJoCo's qpos/qvel), for zero-copy read-only views (the Python
+  // module's engine.q); null when there is none (DART: per-skeleton storage). Read only.
+  virtual const double* positions_data() const { return nullptr; }
+  virtual const double* velocities_data() const { return nullptr; }
   virtual void set_positions(const Eigen::Ref<const Eigen::VectorXd>& q) = 0;
   virtual void set_velocities(const Eigen::Ref<const Eigen::VectorXd>& v) = 0;
   virtual double dof_position(int dof) const = 0;  // hinge/slide dofs only

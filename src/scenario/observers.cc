@@ -18,15 +18,57 @@ CsvLog::CsvLog(const std::string& out_dir) {
   file_ = std::make_unique<AtomicFile>(std::filesystem::path(out_dir) / "log.csv");
 }
 
+std::vector<std::string> log_columns(const Simulation& sim) {
+  std::vector<std::string> c = {"time", "com_x", "com_y", "com_z", "root_x", "root_y", "root_z"};
+  for (const auto& n : sim.model().signal_names) c.push_back(n);
+  for (const char* n : {"push_fx", "push_fy", "push_fz", "push_tail_x", "push_tail_y",
+                        "push_tail_z", "push_head_x", "push_head_y", "push_head_z"})
+    c.push_back(n);
+  return c;
+}
+
+void log_row(const Simulation& sim, std::vector<double>& row) {
+  const Engine& e = sim.engine();
+  Eigen::Vector3d c = e.com();
+  Eigen::Vector3d root = e.nbody() > 0 ? e.body_pose(0).pos : Eigen::Vector3d::Zero();
+  row.clear();
+  row.insert(row.end(), {e.time(), c.x(), c.y(), c.z(), root.x(), root.y(), root.z()});
+  sim.signals(row);
+  // pushes: the force and the seed's arrow (force/30, ending at the body)
+  Eigen::Vector3d f = Eigen::Vector3d::Zero(), head = Eigen::Vector3d::Zero();
+  bool any = false;
+  for (const auto& push : sim.model().pushes)
+    if (push.p.active_at(e.time())) {
+      f += push.p.force;
+      if (!any) head = e.body_pose(push.body).pos;
+      any = true;
+    }
+  Eigen::Vector3d tail = any ? Eigen::Vector3d(head - f / 30.0) : head;
+  row.insert(row.end(),
+             {f.x(), f.y(), f.z(), tail.x(), tail.y(), tail.z(), head.x(), head.y(), head.z()});
+}
+
+void MemoryLog::on_start(const Simulation& sim) {
+  columns = log_columns(sim);
+  values.clear();
+  log_row(sim, row_);
+  values.insert(values.end(), row_.begin(), row_.end());
+}
+
+void MemoryLog::on_step(const Simulation& sim) {
+  if (sim.progress().steps % sim.model().log_every != 0) return;
+  log_row(sim, row_);
+  values.insert(values.end(), row_.begin(), row_.end());
+}
+
 CsvLog::~CsvLog() = default;
 
 void CsvLog::on_start(const Simulation& sim) {
   std::ostream& out_ = file_->stream();
-  out_ << "time,com_x,com_y,com_z,root_x,root_y,root_z";
-  for (const auto& n : sim.model().signal_names) out_ << ',' << n;
-  out_ << ",push_fx,push_fy,push_fz,push_tail_x,push_tail_y,push_tail_z,push_head_x,"
-          "push_head_y,push_head_z\n";
-  values_.reserve(sim.model().signal_names.size());
+  std::vector<std::string> columns = log_columns(sim);
+  for (size_t i = 0; i < columns.size(); ++i) out_ << (i ? "," : "") << columns[i];
+  out_ << "\n";
+  row_.reserve(columns.size());
   write_row(sim);
 }
 
@@ -40,26 +82,11 @@ void CsvLog::on_finish(const Simulation& sim, const RunResult& result) {
 
 void CsvLog::write_row(const Simulation& sim) {
   std::ostream& out_ = file_->stream();
-  const Engine& e = sim.engine();
-  Eigen::Vector3d c = e.com();
-  Eigen::Vector3d root = e.nbody() > 0 ? e.body_pose(0).pos : Eigen::Vector3d::Zero();
-  out_ << fmt::format("{:.6f},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}", e.time(), c.x(), c.y(),
-                      c.z(), root.x(), root.y(), root.z());
-  values_.clear();
-  sim.signals(values_);
-  for (double v : values_) out_ << fmt::format(",{:.9g}", v);
-  // pushes: the force and the seed's arrow (force/30, ending at the body)
-  Eigen::Vector3d f = Eigen::Vector3d::Zero(), head = Eigen::Vector3d::Zero();
-  bool any = false;
-  for (const auto& push : sim.model().pushes)
-    if (push.p.active_at(e.time())) {
-      f += push.p.force;
-      if (!any) head = e.body_pose(push.body).pos;
-      any = true;
-    }
-  Eigen::Vector3d tail = any ? Eigen::Vector3d(head - f / 30.0) : head;
-  out_ << fmt::format(",{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g},{:.9g}\n", f.x(),
-                      f.y(), f.z(), tail.x(), tail.y(), tail.z(), head.x(), head.y(), head.z());
+  log_row(sim, row_);
+  // time to the microsecond, the rest to 9 significant digits
+  out_ << fmt::format("{:.6f}", row_[0]);
+  for (size_t i = 1; i < row_.size(); ++i) out_ << fmt::format(",{:.9g}", row_[i]);
+  out_ << "\n";
 }
 
 ProgressBar::ProgressBar(double total_s) : total_s_(total_s) {}

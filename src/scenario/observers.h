@@ -15,6 +15,27 @@
 
 namespace stance {
 
+// the log's columns: time, com_x..z, root_x..z (the first mobile body's origin), the
+// controllers' signals, push_fx..z, push_tail_x..z, push_head_x..z (the force/30, ending at the
+// pushed body, as the seed draws it)
+std::vector<std::string> log_columns(const Simulation& sim);
+// the values of those columns now; `row` is cleared, then filled (its capacity is kept)
+void log_row(const Simulation& sim, std::vector<double>& row);
+
+// the log in memory, at the scenario's log rate: the same rows as log.csv at full precision
+// (the Python module's result.log)
+class MemoryLog final : public StepObserver {
+ public:
+  void on_start(const Simulation& sim) override;
+  void on_step(const Simulation& sim) override;
+
+  std::vector<std::string> columns;
+  std::vector<double> values;  // rows one after another, columns.size() each
+
+ private:
+  std::vector<double> row_;
+};
+
 // log.csv at the scenario's log rate: time, COM, root, the controllers' signals, the active push
 // and its arrow. Written beside as a hidden file and renamed into place when the run finishes.
 class CsvLog final : public StepObserver {
@@ -29,7 +50,7 @@ class CsvLog final : public StepObserver {
   void write_row(const Simulation& sim);
 
   std::unique_ptr<AtomicFile> file_;  // committed by on_finish
-  std::vector<double> values_;
+  std::vector<double> row_;
 };
 
 // a one-line progress bar with an ETA on stderr, drawn only when stderr is a terminal

@@ -54,7 +54,9 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
         throw InputError(located(source, entry.Mark().line + 1,
                                  fmt::format("controllers[{}]: needs a 'type'", i)));
       try {
-        find_controller_type(entry["type"].Scalar());
+        // python entries are resolved when the simulation is built (RunOptions)
+        if (entry["type"].Scalar() != kExternalControllerType)
+          find_controller_type(entry["type"].Scalar());
       } catch (const InputError& e) {
         throw InputError(located(source, entry["type"].Mark().line + 1, e.what()));
       }

@@ -193,11 +193,18 @@ void build_controllers(const LoadedScenario& loaded, const RunOptions& options,
   const std::string world = world_key(m.scenario, engine_name, loaded.source);
   for (size_t i = 0; i < loaded.controllers.size(); ++i) {
     const YAML::Node& node = loaded.controllers[i];
-    const ControllerType& type = find_controller_type(node["type"].Scalar());
+    const bool external = node["type"].Scalar() == kExternalControllerType;
+    if (external && !options.external_controllers)
+      throw InputError(located(loaded.source, node["type"].Mark().line + 1,
+                               fmt::format("controllers[{}]: type 'python' is resolved only when "
+                                           "the scenario is loaded from Python (stance.load)",
+                                           i)));
+    const ControllerFactory& make =
+        external ? options.external_controllers : find_controller_type(node["type"].Scalar()).make;
     ControllerContext ctx = controller_context(m, i);
     auto build = [&]() -> std::shared_ptr<const Controller> {
       try {
-        return type.make(node, ctx, e);
+        return make(node, ctx, e);
       } catch (const InputError& err) {
         std::string msg = err.what();
         // name errors from the engine get the controller's place in the file
@@ -206,7 +213,7 @@ void build_controllers(const LoadedScenario& loaded, const RunOptions& options,
         throw InputError(msg);
       }
     };
-    if (options.cache) {
+    if (options.cache && !external) {
       YAML::Emitter out;
       out << node;
       m.controllers.push_back(
@@ -611,7 +618,7 @@ RunResult Simulation::result() const {
   return r;
 }
 
-RunResult Simulation::run() {
+RunResult Simulation::run(long max_steps) {
   auto wall0 = std::chrono::steady_clock::now();
   std::unique_ptr<CsvLog> log;
   std::unique_ptr<ProgressBar> bar;
@@ -625,7 +632,7 @@ RunResult Simulation::run() {
   }
   for (StepObserver* o : observers_) o->on_start(*this);
   bool interrupted = false;
-  while (!done()) {
+  for (long n = 0; !done() && (max_steps < 0 || n < max_steps); ++n) {
     if (run_files_.interrupt && run_files_.interrupt->load(std::memory_order_relaxed)) {
       interrupted = true;
       break;
@@ -653,6 +660,11 @@ RunResult Simulation::run() {
 
 void Simulation::remove_observer(StepObserver* observer) {
   observers_.erase(std::remove(observers_.begin(), observers_.end(), observer), observers_.end());
+}
+
+void Simulation::add_controller(std::shared_ptr<const Controller> controller) {
+  states_.push_back(controller->make_state(*engine_));
+  controllers_.push_back(std::move(controller));
 }
 
 void Simulation::replace_controller(size_t i, std::shared_ptr<const Controller> controller) {
@@ -697,7 +709,9 @@ void Simulation::restore(const SimulationState& state) {
 std::unique_ptr<Simulation> Simulation::clone() const {
   auto sim = std::make_unique<Simulation>(model_);
   for (size_t i = 0; i < controllers_.size(); ++i)
-    if (sim->controllers_[i] != controllers_[i]) {
+    if (i >= sim->controllers_.size()) {
+      sim->add_controller(controllers_[i]);
+    } else if (sim->controllers_[i] != controllers_[i]) {
       sim->controllers_[i] = controllers_[i];
       sim->states_[i] = controllers_[i]->make_state(*sim->engine_);
     }

@@ -43,6 +43,9 @@ struct RunOptions {
   // set (by a signal handler): run() stops before its next step and writes its outputs with
   // "interrupted": true; null: never
   const std::atomic<bool>* interrupt = nullptr;
+  // builds the entries of type kExternalControllerType ("python": outside the registry, given
+  // by the Python module); empty: such an entry is bad input (the CLI). Never cached.
+  ControllerFactory external_controllers;
 };
 
 struct RunResult {
@@ -184,8 +187,9 @@ class Simulation {
   bool step();
   // the run is over: its length reached, diverged, or stop_after_fall_s past a fall
   bool done() const;
-  // step until done, with log.csv, summary.json and the controllers' files when out_dir is set
-  RunResult run();
+  // step until done (or max_steps steps, when >= 0), with log.csv, summary.json and the
+  // controllers' files when out_dir is set
+  RunResult run(long max_steps = -1);
   // the result and metrics as of now
   RunResult result() const;
   // restart from the initial state (replay)
@@ -221,6 +225,10 @@ class Simulation {
     if (!s) throw std::logic_error("controller state of another type");
     return s->value;
   }
+  // compose one more controller with the scenario's (the Python module's sim.add_controller);
+  // its state starts at the engine's current state. It is not part of the shared model: clones
+  // take it along, but its log signals are not in log.csv.
+  void add_controller(std::shared_ptr<const Controller> controller);
   // replace controller i (a live parameter edit); its state is kept when the new model
   // keeps_state_of the old one, else made fresh at the engine's current state
   void replace_controller(size_t i, std::shared_ptr<const Controller> controller);

@@ -352,6 +352,10 @@ struct Viewer::Impl {
 };
 
 Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
+    : Viewer(loaded, options, nullptr) {}
+
+Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options,
+               std::unique_ptr<Simulation> run)
     : impl_(std::make_unique<Impl>()) {
   Impl& s = *impl_;
   s.loaded = loaded;
@@ -360,7 +364,7 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
   ro.engine = options.engine;
   ro.quiet = true;
   // the viewer runs until closed: the scenario's duration does not stop it
-  s.run = std::make_unique<Simulation>(loaded, ro);
+  s.run = run ? std::move(run) : std::make_unique<Simulation>(loaded, ro);
 
   if (!glfwInit()) throw EnvironmentError("cannot initialise GLFW (no display? try xvfb-run)");
   glfwWindowHint(GLFW_VISIBLE, options.visible ? GLFW_TRUE : GLFW_FALSE);

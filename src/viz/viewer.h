@@ -35,6 +35,7 @@
 namespace stance {
 
 class Controller;
+class Simulation;
 
 struct ViewerOptions {
   std::string engine;  // overrides the scenario's
@@ -49,6 +50,10 @@ class Viewer {
  public:
   // throws EnvironmentError when no window can be opened (no display)
   Viewer(const LoadedScenario& loaded, const ViewerOptions& options);
+  // on a simulation built elsewhere (the Python module's stance.view), `loaded` being what it
+  // was built from (for saving the scenario)
+  Viewer(const LoadedScenario& loaded, const ViewerOptions& options,
+         std::unique_ptr<Simulation> run);
   ~Viewer();
   Viewer(const Viewer&) = delete;
   Viewer& operator=(const Viewer&) = delete;

@@ -2,10 +2,12 @@
 // after a fall, the progress bar.
 #include "scenario/simulation.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <thread>
 
 #include "core/atomic_file.h"
@@ -331,6 +333,110 @@ TEST(SimulationLoop, InterruptStopsTheRunAndWritesItsFiles) {
   EXPECT_TRUE(j["interrupted"].get<bool>());
   EXPECT_NEAR(j["sim_time"].get<double>(), 0.5, 0.01);
   std::filesystem::remove_all(dir);
+}
+
+
+TEST(SimulationLoop, MemoryLogHoldsTheRowsOfLogCsv) {
+  const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
+                           ("memlog_" + std::to_string(::getpid())))
+                              .string();
+  RunOptions o = quiet();
+  o.duration = 2.5;  // through the push at 2 s
+  o.out_dir = dir;
+  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  MemoryLog log;
+  sim.add_observer(&log);
+  sim.run();
+  std::ifstream csv(dir + "/log.csv");
+  std::string line;
+  std::getline(csv, line);
+  std::string header;
+  for (const auto& c : log.columns) header += (header.empty() ? "" : ",") + c;
+  EXPECT_EQ(line, header);
+  size_t rows = 0;
+  int pushed_rows = 0;
+  for (; std::getline(csv, line); ++rows) {
+    std::stringstream ss(line);
+    std::string cell;
+    for (size_t c = 0; std::getline(ss, cell, ','); ++c) {
+      const double logged = log.values.at(rows * log.columns.size() + c);
+      EXPECT_NEAR(std::stod(cell), logged, 1e-8 * std::max(1.0, std::abs(logged)))
+          << log.columns[c] << " row " << rows;
+      if (log.columns[c] == "push_fz" && logged == -20.0) ++pushed_rows;
+    }
+  }
+  EXPECT_EQ(rows, 251u);
+  EXPECT_EQ(log.values.size(), rows * log.columns.size());
+  // the push of 0.2 s at 2 s, logged at 100 Hz
+  EXPECT_GE(pushed_rows, 19);
+  EXPECT_LE(pushed_rows, 21);
+  std::filesystem::remove_all(dir);
+}
+
+TEST(SimulationLoop, RunForAStepCountThenToTheEnd) {
+  RunOptions o = quiet();
+  o.duration = 0.5;
+  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  EXPECT_EQ(sim.run(120).steps, 120);
+  EXPECT_EQ(sim.run().steps, 500);
+  EXPECT_TRUE(sim.done());
+}
+
+// an entry of type python: a located error without a factory (the CLI), built by the factory
+// when there is one (the Python module)
+TEST(SimulationExternalControllers, NeedAFactoryAndUseIt) {
+  const std::string path = test::write_temp_file("external.yaml", fmt::format(
+                                                                      R"(name: external
+model: {}/models/arm3.xml
+duration: 0.2
+controllers:
+  - type: python
+    module: my_ctrl
+    class: MyController
+)",
+                                                                      test::source_dir()));
+  try {
+    Simulation sim(load_scenario(path), quiet());
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              path +
+                  ":5: controllers[0]: type 'python' is resolved only when the scenario is "
+                  "loaded from Python (stance.load)");
+  }
+  RunOptions o = quiet();
+  std::string module;
+  o.external_controllers = [&](const YAML::Node& node, const ControllerContext& ctx,
+                               const Engine& engine) {
+    module = node["module"].Scalar();
+    YAML::Node pd;
+    pd["type"] = "hold_pose_pd";
+    return find_controller_type("hold_pose_pd").make(pd, ctx, engine);
+  };
+  Simulation sim(load_scenario(path), o);
+  EXPECT_EQ(module, "my_ctrl");
+  EXPECT_EQ(sim.controllers().at(0)->type(), "hold_pose_pd");
+}
+
+// a controller added to a loaded simulation composes with the scenario's, and clones take it
+TEST(SimulationLoop, AddedControllersComposeAndClone) {
+  RunOptions o = quiet();
+  o.duration = 1;
+  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  Simulation plain(load_scenario(scenario("pd_hold.yaml")), o);
+  ControllerContext ctx = controller_context(sim.model(), 1);
+  YAML::Node pd;
+  pd["type"] = "hold_pose_pd";
+  pd["kp"] = 30;
+  pd["kd"] = 1;
+  sim.add_controller(find_controller_type("hold_pose_pd").make(pd, ctx, sim.engine()));
+  ASSERT_EQ(sim.controllers().size(), 2u);
+  for (int k = 0; k < 100; ++k) ASSERT_TRUE(sim.step() && plain.step());
+  // the second controller's torques add to the first's
+  EXPECT_GT((sim.last_output().tau - plain.last_output().tau).norm(), 1e-6);
+  auto clone = sim.clone();
+  ASSERT_EQ(clone->controllers().size(), 2u);
+  EXPECT_EQ(trace(*clone, 200), trace(sim, 200));
 }
 
 TEST(ProgressBar, LineShowsFractionTimesAndEta) {

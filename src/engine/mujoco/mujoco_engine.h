@@ -50,6 +50,8 @@ class MujocoEngine final : public Engine {
   void set_gravity(const Eigen::Vector3d& g) override;
   void get_positions(Eigen::Ref<Eigen::VectorXd> q) const override;
   void get_velocities(Eigen::Ref<Eigen::VectorXd> v) const override;
+  const double* positions_data() const override { return d_->qpos; }
+  const double* velocities_data() const override { return d_->qvel; }
   void set_positions(const Eigen::Ref<const Eigen::VectorXd>& q) override;
   void set_velocities(const Eigen::Ref<const Eigen::VectorXd>& v) override;
   double dof_position(int dof) const override;
