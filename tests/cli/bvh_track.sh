@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# stance bvh track: a clip tracked in free mode with the planner writes the scenario it ran, the
+# character, summary.json with metrics.mocap, log.csv and tracked.bvh; bad input exits 2 and
+# leaves an earlier output folder as it was.
+set -u
+stance=$1
+tmp=$(mktemp -d)
+trap 'rm -rf "$tmp"' EXIT
+fails=0
+fail() {
+  echo "FAIL: $*"
+  fails=$((fails + 1))
+}
+
+"$stance" bvh track models/synthetic_walk.bvh --loop --duration 0.4 --threads 2 --out "$tmp/t" \
+  --quiet >"$tmp/out" 2>&1 || fail "track exited $?: $(cat "$tmp/out")"
+for f in track.yaml character.xml summary.json log.csv tracked.bvh; do
+  [ -s "$tmp/t/$f" ] || fail "no $f"
+done
+grep -q "enabled: true" "$tmp/t/track.yaml" || fail "the scenario has no planner"
+python3 - "$tmp/t" <<'PY' || fail "summary.json"
+import json, sys
+s = json.load(open(sys.argv[1] + "/summary.json"))
+m = s["metrics"]["mocap"]
+for k in ("mean_body_position_error_m", "success", "mean_joint_error_deg", "mean_root_error_m",
+          "foot_skate_m_per_s", "compute_s_per_sim_s"):
+    assert k in m, k
+assert s["metrics"]["planner"]["plans"] >= 9, s["metrics"]["planner"]
+assert abs(s["sim_time"] - 0.4) < 0.01, s["sim_time"]
+PY
+# the exported motion reads back as a BVH
+"$stance" bvh info "$tmp/t/tracked.bvh" >"$tmp/info" 2>&1 || fail "tracked.bvh: $(cat "$tmp/info")"
+
+# bad input: exit 2, one line naming the problem, the folder untouched
+sum_before=$(cat "$tmp/t"/* | md5sum)
+"$stance" bvh track "$tmp/missing.bvh" --out "$tmp/t" >"$tmp/err" 2>&1
+code=$?
+[ "$code" -eq 2 ] || fail "a missing clip exited $code"
+grep -q "missing.bvh" "$tmp/err" || fail "the message does not name the file: $(cat "$tmp/err")"
+"$stance" bvh track models/synthetic_walk.bvh --map models/maps/synthetic_walk_to_humanoid.yaml \
+  --out "$tmp/t" >"$tmp/err" 2>&1
+code=$?
+[ "$code" -eq 2 ] || fail "--map without --model exited $code"
+grep -q -- "--map and --model go together" "$tmp/err" || fail "message: $(cat "$tmp/err")"
+"$stance" bvh track models/synthetic_walk.bvh --last-frame 100000 --out "$tmp/t" >"$tmp/err" 2>&1
+[ $? -eq 2 ] || fail "a frame range past the clip was accepted"
+[ "$(cat "$tmp/t"/* | md5sum)" = "$sum_before" ] || fail "bad input changed the output folder"
+
+echo "$fails failed"
+[ "$fails" -eq 0 ]
