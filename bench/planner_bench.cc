@@ -81,7 +81,11 @@ void BM_PlannerBipedStand(benchmark::State& state) {
   measure_planner(state, scenario("biped_stand_planner.yaml"), {});
   state.SetLabel("biped_stand_planner, MuJoCo, 1 ms step");
 }
-BENCHMARK(BM_PlannerBipedStand)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->UseRealTime()
+BENCHMARK(BM_PlannerBipedStand)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
     ->Iterations(2);
 
 }  // namespace

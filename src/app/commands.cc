@@ -279,14 +279,12 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
     doc["model"][0]["file"] = "character.xml";
   } else {
     doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
-    const std::string model = cmd.model.find("://") != std::string::npos
-                                  ? cmd.model
-                                  : fs::absolute(cmd.model).string();
+    const std::string model =
+        cmd.model.find("://") != std::string::npos ? cmd.model : fs::absolute(cmd.model).string();
     doc["model"][0]["file"] = model;
     tracker["joint_map"] = fs::absolute(cmd.map).string();
   }
-  doc["duration"] = cmd.duration ? *cmd.duration
-                                 : (last - cmd.first_frame) * clip.frame_time_s;
+  doc["duration"] = cmd.duration ? *cmd.duration : (last - cmd.first_frame) * clip.frame_time_s;
   doc["controllers"].push_back(tracker);
   doc["planner"]["enabled"] = true;
   doc["planner"]["threads"] = cmd.threads;

@@ -36,9 +36,9 @@ struct CorrectionDim {
 
 // how far a run is from what a controller tracks, now (the planner's cost terms)
 struct TrackingError {
-  double joint_rad = 0;   // mean over tracked joints of the geodesic angle error
-  double root_m = 0;      // root position error
-  double body_m = 0;      // mean world position error of the tracked bodies
+  double joint_rad = 0;      // mean over tracked joints of the geodesic angle error
+  double root_m = 0;         // root position error
+  double body_m = 0;         // mean world position error of the tracked bodies
   double root_tilt_rad = 0;  // root orientation error about horizontal axes
 };
 

@@ -280,8 +280,7 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
     out.tau[m.knee[swing]] += servo(m.knee[swing], tg.swing_knee, gn.swing_knee);
     out.tau[m.knee[stance]] += servo(m.knee[stance], tg.stance_knee, gn.stance_knee);
     out.tau[m.ankle[swing]] += servo(m.ankle[swing], tg.swing_ankle, gn.swing_ankle);
-    out.tau[m.ankle[stance]] +=
-        servo(m.ankle[stance], tg.stance_ankle + dc_ankle, gn.stance_ankle);
+    out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle + dc_ankle, gn.stance_ankle);
     return;
   }
 

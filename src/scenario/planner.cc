@@ -188,8 +188,7 @@ std::shared_ptr<const PlannerModel> make_planner_model(
       for (int dof = 0; dof < e.nv(); ++dof)
         if (e.joint(e.dof_joint(dof)).type != JointType::kFree) dofs.push_back(dof);
     for (int dof : dofs)
-      pm->dimensions.push_back(
-          {"residual." + e.dof_name(dof), -1, dof, params.residual_torque});
+      pm->dimensions.push_back({"residual." + e.dof_name(dof), -1, dof, params.residual_torque});
   }
   if (pm->dimensions.empty()) fail("planner: the model has no joint to correct");
   if (e.nbody() > 0) {

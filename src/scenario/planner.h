@@ -131,8 +131,8 @@ class Planner {
 
 // resolve a scenario's planner on a simulation model built without one: the dimensions from the
 // controllers (or residual torques), the rollout model. Throws InputError naming planner.* keys.
-std::shared_ptr<const PlannerModel> make_planner_model(const PlannerParams& params,
-                                                       const SimulationModel& model,
-                                                       std::shared_ptr<const SimulationModel> rollout);
+std::shared_ptr<const PlannerModel> make_planner_model(
+    const PlannerParams& params, const SimulationModel& model,
+    std::shared_ptr<const SimulationModel> rollout);
 
 }  // namespace stance

@@ -9,15 +9,15 @@ namespace stance {
 // the rollout cost: a time average of weighted squared residuals, plus a fall penalty
 struct PlannerCostWeights {
   // while a controller tracks a reference (Controller::tracking_error)
-  double joint = 4;       // per rad^2 of mean joint error
-  double root = 4;        // per m^2 of root position error
-  double body = 20;       // per m^2 of mean body position error
-  double root_tilt = 2;   // per rad^2 of root tilt against the reference
+  double joint = 4;      // per rad^2 of mean joint error
+  double root = 4;       // per m^2 of root position error
+  double body = 20;      // per m^2 of mean body position error
+  double root_tilt = 2;  // per rad^2 of root tilt against the reference
   // while nothing is tracked: keep balance where the run started
-  double capture = 20;       // per m^2 of the capture point's horizontal offset from the start
-  double com_velocity = 1;   // per (m/s)^2 of horizontal COM velocity
-  double upright = 5;        // per rad^2 of the root's tilt from its start
-  double height = 50;        // per m^2 of COM height below its start
+  double capture = 20;      // per m^2 of the capture point's horizontal offset from the start
+  double com_velocity = 1;  // per (m/s)^2 of horizontal COM velocity
+  double upright = 5;       // per rad^2 of the root's tilt from its start
+  double height = 50;       // per m^2 of COM height below its start
   // always
   double effort = 0.01;  // per squared unit of noise, mean over dimensions
   double fall = 100;     // a fall in the horizon: this, times 1 + the share of the horizon left
@@ -41,12 +41,12 @@ struct PlannerCostWeights {
 
 struct PlannerParams {
   bool enabled = false;
-  int samples = 12;           // candidates per planning step, the current plan included
-  double horizon_s = 0.35;    // s
-  double interval_s = 0.04;   // s between planning steps
-  int knots = 4;              // spline knots over the horizon (piecewise linear)
-  double noise = 1;           // standard deviation, in units of each dimension's scale
-  double limit = 3;           // knots are clamped to +-limit units
+  int samples = 12;                 // candidates per planning step, the current plan included
+  double horizon_s = 0.35;          // s
+  double interval_s = 0.04;         // s between planning steps
+  int knots = 4;                    // spline knots over the horizon (piecewise linear)
+  double noise = 1;                 // standard deviation, in units of each dimension's scale
+  double limit = 3;                 // knots are clamped to +-limit units
   std::string method = "sampling";  // sampling (predictive sampling) or cem
   int iterations = 2;               // cem: refits of the mean and deviation
   int elites = 4;                   // cem: candidates the refit keeps

@@ -90,8 +90,9 @@ std::vector<double> planned_trace(int threads, const std::vector<std::string>& e
 }
 
 TEST(Planner, SamePlanForAnyThreadCount) {
-  const std::vector<std::string> push = {"perturbations=[{body: h_spine, force: [80, 0, 0], "
-                                         "start: 0.05, duration: 0.1}]"};
+  const std::vector<std::string> push = {
+      "perturbations=[{body: h_spine, force: [80, 0, 0], "
+      "start: 0.05, duration: 0.1}]"};
   std::vector<double> one = planned_trace(1, push);
   EXPECT_EQ(planned_trace(2, push), one);
   EXPECT_EQ(planned_trace(3, push), one);
@@ -154,16 +155,16 @@ double stays_up_s(bool plan, const std::vector<std::string>& setting) {
                                    "planner.threads=2",
                                    std::string("planner.enabled=") + (plan ? "true" : "false")};
   sets.insert(sets.end(), setting.begin(), setting.end());
-  RunResult r = Simulation(load_scenario(scenario("biped_stand_planner.yaml"), sets), quiet()).run();
+  RunResult r =
+      Simulation(load_scenario(scenario("biped_stand_planner.yaml"), sets), quiet()).run();
   return r.fell ? *r.fall_time : r.sim_time;
 }
 
 // Not a threshold at one tuned point: at the defaults, kp 0.8x and 1.2x and another seed, the
 // planned run stays up clearly longer than the same push without the planner (or does not fall)
 TEST(PlannerStanding, OutlastsTheAnkleStrategyAfterAPushItCannotTake) {
-  for (const std::vector<std::string>& setting :
-       std::vector<std::vector<std::string>>{{}, {"controllers.0.kp=320"},
-                                             {"controllers.0.kp=480"}, {"seed=2"}}) {
+  for (const std::vector<std::string>& setting : std::vector<std::vector<std::string>>{
+           {}, {"controllers.0.kp=320"}, {"controllers.0.kp=480"}, {"seed=2"}}) {
     SCOPED_TRACE(setting.empty() ? "defaults" : setting[0]);
     const double base = stays_up_s(false, setting);
     EXPECT_LT(base, 2.2) << "the push should floor the unplanned biped";

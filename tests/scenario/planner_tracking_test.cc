@@ -67,8 +67,8 @@ TEST(PlannerTracking, MassWalkStaysUpAtTheDefaultsAndAnotherSeed) {
 
 // the cross-check: the base policy alone (the same tracker, no planner) falls
 TEST(PlannerTracking, TheSameWalkFallsWithoutThePlanner) {
-  RunResult r = track(track_scenario(synthetic_walk(), "track_walk_bare"),
-                      {"planner.enabled=false"});
+  RunResult r =
+      track(track_scenario(synthetic_walk(), "track_walk_bare"), {"planner.enabled=false"});
   EXPECT_TRUE(r.fell);
 }
 

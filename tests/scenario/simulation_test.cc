@@ -335,7 +335,6 @@ TEST(SimulationLoop, InterruptStopsTheRunAndWritesItsFiles) {
   std::filesystem::remove_all(dir);
 }
 
-
 TEST(SimulationLoop, MemoryLogHoldsTheRowsOfLogCsv) {
   const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
                            ("memlog_" + std::to_string(::getpid())))
