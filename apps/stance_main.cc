@@ -166,12 +166,48 @@ int main(int argc, char** argv) {
   push_threshold_cmd->add_option("--set", push_threshold.sets, "override: key.path=value")
       ->allow_extra_args(false);
   push_threshold_cmd->add_option("--max", push_threshold.max_force, "largest force tried, N");
-  push_threshold_cmd->add_option("--duration-push", push_threshold.push_duration, "push, s");
+  push_threshold_cmd->add_option("--push-duration,--duration-push", push_threshold.push_duration,
+                                 "push, s");
+  push_threshold_cmd->add_option("--point", push_threshold.point,
+                                 "where the push acts: com, origin or x,y,z (body frame, m)");
   push_threshold_cmd->add_option("--at", push_threshold.at, "push start, s");
   push_threshold_cmd->add_option("--tolerance", push_threshold.tolerance, "bracket width, N");
   push_threshold_cmd->add_option("--threads", push_threshold.threads,
                                  "2: both directions at once, 1: one after the other");
   push_threshold_cmd->add_flag("--quiet", push_threshold.quiet, "no line per trial");
+
+  stance::RobustnessCommand robustness;
+  auto* robustness_cmd = app.add_subcommand(
+      "robustness", "push thresholds per direction and gait phase, with outcome codes");
+  robustness_cmd->add_option("scenario", robustness.scenario, "scenario YAML")->required();
+  robustness_cmd->add_option("--body", robustness.body, "body to push")->required();
+  robustness_cmd->add_option("--directions", robustness.directions,
+                             "directions in the horizontal plane");
+  robustness_cmd->add_option("--phases", robustness.phases,
+                             "gait phases (walkers) or push start times (standing)");
+  robustness_cmd->add_option("--push-duration,--duration-push", robustness.push_duration,
+                             "push, s");
+  robustness_cmd->add_option("--max", robustness.max_force, "largest force tried, N");
+  robustness_cmd->add_option("--tolerance", robustness.tolerance, "bracket width, N");
+  robustness_cmd->add_option("--at", robustness.at,
+                             "s: first push start (standing) or warm-up (walkers)");
+  robustness_cmd->add_option("--phase-spacing", robustness.phase_spacing,
+                             "s between a standing scenario's push starts");
+  robustness_cmd->add_option("--recovery-window", robustness.recovery_window,
+                             "s after the push in which steps are counted");
+  robustness_cmd->add_option("--max-steps", robustness.max_steps,
+                             "recovery steps allowed before outcome 3");
+  robustness_cmd->add_option("--point", robustness.point,
+                             "where the push acts: com, origin or x,y,z (body frame, m)");
+  robustness_cmd->add_option("--engine", robustness.engine, "mujoco or dart");
+  robustness_cmd->add_option("--duration", robustness.duration, "seconds per run");
+  robustness_cmd->add_option("--set", robustness.sets, "override: key.path=value")
+      ->allow_extra_args(false);
+  robustness_cmd->add_option("--threads", robustness.threads, "worker threads (default: all cores)");
+  robustness_cmd->add_option("--out", robustness.out_dir,
+                             "output folder (robustness.csv, thresholds.csv, summary.json, PNG)");
+  robustness_cmd->add_flag("--plot,!--no-plot", robustness.plot, "the polar plot (gnuplot)");
+  robustness_cmd->add_flag("--quiet", robustness.quiet, "no line per direction and phase");
 
   stance::TuneCommand tune;
   auto* tune_cmd = app.add_subcommand("tune", "robust search of several parameters of a scenario");
@@ -260,6 +296,7 @@ int main(int argc, char** argv) {
   if (*sweep_cmd) return stance::sweep_command(sweep);
   if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);
   if (*push_threshold_cmd) return stance::push_threshold_command(push_threshold);
+  if (*robustness_cmd) return stance::robustness_command(robustness);
   if (*tune_cmd) return stance::tune_command(tune);
   return stance::kExitBadInput;
 }

@@ -28,7 +28,8 @@ set(stance_label_patterns
   physics "^SimulationBranching\\."
   physics "^SimulationLoop\\.StopsOneSecondAfterAFall"
   physics "^PlannerStanding\\."
-  physics "^PlannerTracking\\.")
+  physics "^PlannerTracking\\."
+  physics "^RobustnessMap\\.")
 
 foreach(target IN LISTS STANCE_GTEST_TARGETS)
   foreach(test IN LISTS ${target}_TESTS)

@@ -28,6 +28,7 @@
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
 #include "scenario/push_threshold.h"
+#include "scenario/robustness.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "scenario/sweep.h"
@@ -422,6 +423,7 @@ int push_threshold_command(const PushThresholdCommand& cmd) {
     o.at = cmd.at;
     o.tolerance = cmd.tolerance;
     o.threads = cmd.threads;
+    parse_push_point(cmd.point, o.point, o.offset);
     LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
     auto wall0 = std::chrono::steady_clock::now();
     PushThresholdResult r = find_push_threshold(loaded, o, [&](double f, bool survived) {
@@ -447,6 +449,55 @@ int push_threshold_command(const PushThresholdCommand& cmd) {
     }
     std::cout << fmt::format("{} trials in {:.2f} s wall\n", r.positive.trials + r.negative.trials,
                              wall);
+    return kExitOk;
+  });
+}
+
+int robustness_command(const RobustnessCommand& cmd) {
+  return guarded([&] {
+    RobustnessOptions o;
+    o.body = cmd.body;
+    o.directions = cmd.directions;
+    o.phases = cmd.phases;
+    o.push_duration = cmd.push_duration;
+    o.max_force = cmd.max_force;
+    o.tolerance = cmd.tolerance;
+    o.at = cmd.at;
+    o.phase_spacing_s = cmd.phase_spacing;
+    o.recovery_window_s = cmd.recovery_window;
+    o.max_recovery_steps = cmd.max_steps;
+    parse_push_point(cmd.point, o.point, o.offset);
+    o.engine = cmd.engine;
+    o.duration = cmd.duration;
+    o.threads = cmd.threads;
+    if (cmd.out_dir.empty()) throw InputError("--out: give an output folder");
+    LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
+    auto wall0 = std::chrono::steady_clock::now();
+    RobustnessResult r = run_robustness(loaded, o, [&](const RobustnessCell& c, int done, int total) {
+      if (cmd.quiet) return;
+      std::cout << fmt::format("  [{}/{}] direction {} phase {}: {} N ({} trials, outcome {} at it)\n",
+                               done, total, c.direction, c.phase, c.threshold, c.trials.size(),
+                               c.outcome_at_threshold)
+                << std::flush;
+    });
+    double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    for (const auto& note : r.notes) std::cout << "note: " << note << "\n";
+    write_robustness_outputs(cmd.out_dir, o, r);
+    const nlohmann::json s = r.summary();
+    int trials = 0;
+    for (const auto& c : r.cells) trials += static_cast<int>(c.trials.size());
+    std::cout << fmt::format(
+        "{} on {} ({}{}): {} directions x {} phases, {} s pushes on {}; {} trials in {:.1f} s wall\n",
+        r.scenario, r.engine, r.walker ? "walker" : "standing", r.planar ? ", planar" : "",
+        r.directions.size(), r.phase_fractions.size(), o.push_duration, o.body, trials, wall);
+    std::cout << fmt::format(
+        "threshold min {} N, mean {:.1f} N, max {} N; weakest: {} degrees at phase {}\n",
+        s["threshold_n"]["min"].get<double>(), s["threshold_n"]["mean"].get<double>(),
+        s["threshold_n"]["max"].get<double>(), s["weakest"]["angle_deg"].get<double>(),
+        s["weakest"]["phase"].get<int>());
+    std::cout << fmt::format("wrote {}/robustness.csv, thresholds.csv and summary.json\n",
+                             cmd.out_dir);
+    if (cmd.plot) std::cout << "wrote " << plot_robustness(cmd.out_dir, r) << "\n";
     return kExitOk;
   });
 }

@@ -141,9 +141,36 @@ struct PushThresholdCommand {
   double at = 2.0;             // s
   double tolerance = 2.0;      // N
   int threads = 2;
+  std::string point = "com";  // com, origin or x,y,z in the body frame
   bool quiet = false;
 };
 int push_threshold_command(const PushThresholdCommand& cmd);
+
+// `stance robustness SCENARIO --body B [--directions 8] [--phases 4] ...`: the largest push
+// survived per direction and gait phase, with outcome codes (scenario/robustness.h);
+// robustness.csv, thresholds.csv, summary.json and robustness.png in out_dir
+struct RobustnessCommand {
+  std::string scenario;
+  std::string body;
+  int directions = 8;
+  int phases = 4;
+  double push_duration = 0.2;  // s
+  double max_force = 800;      // N
+  double tolerance = 2;        // N
+  double at = 2.0;             // s
+  double phase_spacing = 0.25;  // s
+  double recovery_window = 3.0;  // s
+  int max_steps = 3;
+  std::string point = "com";
+  std::string engine;
+  std::optional<double> duration;
+  std::vector<std::string> sets;
+  int threads = 0;
+  std::string out_dir = "out/robustness";
+  bool plot = true;
+  bool quiet = false;
+};
+int robustness_command(const RobustnessCommand& cmd);
 
 // `stance tune SCENARIO --param key=lo:hi[:log] ... [--neighbour "k*=0.85,k2=v" ...]`: a
 // robust parameter search (scenario/tune.h); tune.csv, best.yaml and best_scenario.yaml in out_dir

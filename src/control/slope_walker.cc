@@ -151,6 +151,13 @@ void SlopeWalker::compute_step(State& s, const Engine& engine, ControlOutput& ou
   }
 }
 
+FallVerdict SlopeWalker::state_fall_verdict(const State& s, const Engine&,
+                                            std::string& reason) const {
+  if (!s.fell) return FallVerdict::kUp;
+  reason = fmt::format("hip below {} m above the floor", model_.params.fall_hip_height_m);
+  return FallVerdict::kFell;
+}
+
 void SlopeWalker::signal_names(std::vector<std::string>& names) const {
   for (const char* n : {"hip_vx", "hip_vz", "leg1_angle", "leg2_angle", "foot1_z", "foot2_z",
                         "hip_fsm", "knee1_fsm", "knee2_fsm", "step_count", "last_step_length_m"})

@@ -153,6 +153,10 @@ class SlopeWalker final : public TypedController<SlopeWalkerState> {
   void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
   void state_signals(const State& state, std::vector<double>& values) const override;
   void state_metrics(const State& state, nlohmann::json& metrics) const override;
+  // the walker judges its own fall (hip below fall_hip_height_m above the floor): the run's
+  // COM criterion measures along tilted gravity, which drops as the walker goes downhill
+  FallVerdict state_fall_verdict(const State& state, const Engine& engine,
+                                 std::string& reason) const override;
   void state_outputs(const State& state, const std::string& out_dir) const override;
 
  private:

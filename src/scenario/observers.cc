@@ -40,7 +40,7 @@ void log_row(const Simulation& sim, std::vector<double>& row) {
   for (const auto& push : sim.model().pushes)
     if (push.p.active_at(e.time())) {
       f += push.p.force;
-      if (!any) head = e.body_pose(push.body).pos;
+      if (!any) head = push_point(e, push);
       any = true;
     }
   Eigen::Vector3d tail = any ? Eigen::Vector3d(head - f / 30.0) : head;

@@ -21,6 +21,8 @@ RunOptions trial_options(const PushThresholdOptions& o, double signed_force) {
   p.force[o.axis] = signed_force;
   p.start = o.at;
   p.duration = o.push_duration;
+  p.point = o.point;
+  p.offset = o.offset;
   r.extra_pushes.push_back(p);
   return r;
 }
@@ -69,7 +71,7 @@ PushThresholdResult find_push_threshold(
     throw InputError(fmt::format("push-threshold: axis {} not 0..2", o.axis));
   if (!(o.max_force > 0)) throw InputError("push-threshold: --max must be > 0");
   if (!(o.tolerance > 0)) throw InputError("push-threshold: --tolerance must be > 0");
-  if (!(o.push_duration > 0)) throw InputError("push-threshold: --duration-push must be > 0");
+  if (!(o.push_duration > 0)) throw InputError("push-threshold: --push-duration must be > 0");
   const double run_end = o.duration.value_or(loaded.scenario.duration);
   if (o.at + o.push_duration > run_end)
     throw InputError(fmt::format("push-threshold: the push ({} s + {} s) ends after the run ({} s)",

@@ -24,6 +24,8 @@ struct PushThresholdOptions {
   double at = 2.0;                 // s, push start
   double tolerance = 2.0;          // N, final bracket width
   int threads = 2;                 // 1: the two directions one after the other
+  std::string point = "com";       // where the push acts (Perturbation::point, offset)
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
 };
 
 // the outcome of one direction's bisection

@@ -30,6 +30,11 @@ struct Perturbation {
   Eigen::Vector3d force = Eigen::Vector3d::Zero();  // N, world frame
   double start = 0;                                 // s
   double duration = 0.1;                            // s
+  // where the force acts: "com" (the body's centre of mass) or "origin" (its frame's origin, as
+  // DART's addExtForce does), plus `offset` in the body frame (point: origin with an offset is
+  // any point fixed to the body)
+  std::string point = "com";
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // m, body frame
 
   template <class V>
   void visit(V& v) {
@@ -37,6 +42,8 @@ struct Perturbation {
     v("force", force, {.unit = "N", .help = "force in the world frame"});
     v("start", start, {.unit = "s", .min = 0});
     v("duration", duration, {.unit = "s", .min = 0});
+    v("point", point, {.help = "where the force acts: com or origin (plus offset)"});
+    v("offset", offset, {.unit = "m", .help = "added to the point, in the body frame"});
   }
   bool active_at(double t) const { return t >= start && t < start + duration; }
 };

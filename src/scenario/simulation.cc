@@ -78,6 +78,47 @@ Perturbation parse_push(const std::string& text) {
   return p;
 }
 
+Eigen::Vector3d push_point(const Engine& engine, const ResolvedPush& push) {
+  if (push.at_origin && push.p.offset.isZero()) return engine.body_pose(push.body).pos;
+  const BodyPose pose = engine.body_pose(push.body);
+  const Eigen::Vector3d base = push.at_origin ? pose.pos : engine.body_com(push.body);
+  return base + pose.quat * push.p.offset;
+}
+
+void parse_push_point(const std::string& text, std::string& point, Eigen::Vector3d& offset) {
+  if (text == "com" || text == "origin") {
+    point = text;
+    offset.setZero();
+    return;
+  }
+  std::vector<std::string> parts;
+  std::stringstream ss(text);
+  for (std::string p; std::getline(ss, p, ',');) parts.push_back(p);
+  Eigen::Vector3d x;
+  bool ok = parts.size() == 3;
+  for (int i = 0; ok && i < 3; ++i) {
+    try {
+      size_t used = 0;
+      x[i] = std::stod(parts[i], &used);
+      ok = used == parts[i].size() && std::isfinite(x[i]);
+    } catch (const std::exception&) {
+      ok = false;
+    }
+  }
+  if (!ok)
+    throw InputError(fmt::format(
+        "--point '{}': expected com, origin or x,y,z (a point in the body frame, m)", text));
+  point = "origin";
+  offset = x;
+}
+
+bool push_point_is_origin(const std::string& point, const std::string& where) {
+  if (point == "com") return false;
+  if (point == "origin") return true;
+  throw InputError(fmt::format("{}: '{}' is not a push point (com or origin, plus an offset)",
+                               where, point));
+}
+
 namespace {
 // "file:line: " of a key path in a scenario's document, or "" where it is not in the file (a
 // value from --set or --push)
@@ -261,7 +302,10 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
       throw InputError(fmt::format("{}perturbation: unknown body '{}'{}",
                                    place_in(&loaded, {"perturbations", std::to_string(i), "body"}),
                                    p.body, did_you_mean(p.body, e.body_names())));
-    m->pushes.push_back({p, b});
+    const bool at_origin = push_point_is_origin(
+        p.point, place_in(&loaded, {"perturbations", std::to_string(i), "point"}) +
+                     fmt::format("perturbations.{}.point", i));
+    m->pushes.push_back({p, b, at_origin});
   }
   m->allowed_contact.assign(e.nbody(), 0);
   for (const auto& name : sc.fall.allowed_contacts) {
@@ -479,7 +523,7 @@ bool Simulation::step() {
   if (out_.ctrl_used) e.set_controls(out_.ctrl);
   if (out_.dof_velocity_used) send_velocity_commands(out_.dof_velocity);
   for (const auto& push : model_->pushes)
-    if (push.p.active_at(t)) e.apply_external_force(push.body, push.p.force, e.body_com(push.body));
+    if (push.p.active_at(t)) e.apply_external_force(push.body, push.p.force, push_point(e, push));
   // torque statistics over the controlled (non-zero) entries
   for (int i = 0; i < out_.tau.size(); ++i) {
     double tau = out_.tau[i];

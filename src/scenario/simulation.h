@@ -76,7 +76,16 @@ nlohmann::json without_wall_clock(const nlohmann::json& metrics);
 struct ResolvedPush {
   Perturbation p;
   int body = -1;
+  bool at_origin = false;  // p.point == "origin"
 };
+
+// the world point where a push acts now (its point and offset on the body)
+Eigen::Vector3d push_point(const Engine& engine, const ResolvedPush& push);
+// "com" or "origin", else InputError naming `where` ("perturbations.0.point", "--point")
+bool push_point_is_origin(const std::string& point, const std::string& where);
+// "com", "origin" or "x,y,z" (the origin plus that offset in the body frame, m), as the CLI's
+// --point; InputError naming --point otherwise
+void parse_push_point(const std::string& text, std::string& point, Eigen::Vector3d& offset);
 
 // what a loaded scenario resolves to once; immutable and shared by every run of it
 struct SimulationModel {

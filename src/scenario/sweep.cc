@@ -238,36 +238,44 @@ std::string plot_sweep(const std::string& dir, const std::string& param, const s
       throw InputError(fmt::format("--plot: no values of '{}' in {} (runs too short?)", metric,
                                    (folder / "points.csv").string()));
   }
-  const fs::path script = folder / (fs::path(png_name).stem().string() + ".gp");
-  {
-    AtomicFile file(script);
-    std::ostream& gp = file.stream();
-    // one dot per post-transient value: the passive-walker bifurcation picture; the caller may
-    // name another output (the PNG's temporary, renamed into place when gnuplot is done)
-    gp << "set terminal pngcairo size 1000,650 enhanced font 'sans,11'\n"
-       << "if (!exists('png')) png = '" << png_name << "'\n"
-       << "set output png\n"
-       << "set datafile separator ','\n"
-       << "set title \"" << title << "\" noenhanced\n"
-       << "set xlabel \"" << param << "\" noenhanced\n"
-       << "set ylabel \"" << metric << "\" noenhanced\n"
-       << "set grid\n"
-       << "unset key\n"
-       << "plot 'points.csv' every ::1 using 1:(strcol(2) eq \"" << metric
-       << "\" ? $4 : NaN) with points pt 7 ps 0.4 lc rgb '#1f4e9c'\n";
-    file.commit();
-  }
+  // one dot per post-transient value: the passive-walker bifurcation picture
+  std::string script = fmt::format(
+      "set terminal pngcairo size 1000,650 enhanced font 'sans,11'\n"
+      "set output png\n"
+      "set datafile separator ','\n"
+      "set title \"{}\" noenhanced\n"
+      "set xlabel \"{}\" noenhanced\n"
+      "set ylabel \"{}\" noenhanced\n"
+      "set grid\n"
+      "unset key\n"
+      "plot 'points.csv' every ::1 using 1:(strcol(2) eq \"{}\" ? $4 : NaN) with points pt 7 "
+      "ps 0.4 lc rgb '#1f4e9c'\n",
+      title, param, metric, metric);
+  return render_gnuplot(folder.string(), fs::path(png_name).stem().string() + ".gp", script,
+                        png_name);
+}
+
+std::string render_gnuplot(const std::string& dir, const std::string& script_name,
+                           const std::string& script, const std::string& png_name) {
+  namespace fs = std::filesystem;
+  if (std::system("command -v gnuplot >/dev/null 2>&1") != 0)
+    throw InputError("gnuplot not found on PATH (Debian: apt-get install gnuplot-nox)");
+  const fs::path folder = fs::absolute(dir);
+  // run by hand, the script writes the PNG itself
+  write_file_atomically(folder / script_name,
+                        fmt::format("if (!exists('png')) png = '{}'\n", png_name) + script);
   const fs::path png_tmp = temporary_path_for(folder / png_name);
   const std::string cmd =
       fmt::format("cd '{}' && gnuplot -e \"png='{}'\" '{}' 2>'{}'", folder.string(),
-                  png_tmp.string(), script.filename().string(), (folder / "gnuplot.err").string());
+                  png_tmp.string(), script_name, (folder / "gnuplot.err").string());
   std::error_code ec;
   if (std::system(cmd.c_str()) != 0) {
     fs::remove(png_tmp, ec);
     std::ifstream err(folder / "gnuplot.err");
     std::string first;
     std::getline(err, first);
-    throw InputError(fmt::format("--plot: gnuplot failed on {}: {}", script.string(), first));
+    throw InputError(
+        fmt::format("gnuplot failed on {}: {}", (folder / script_name).string(), first));
   }
   fs::remove(folder / "gnuplot.err", ec);
   rename_into_place(png_tmp, folder / png_name);

@@ -73,4 +73,10 @@ std::vector<std::string> sweep_list_metrics(const std::vector<SweepPoint>& point
 std::string plot_sweep(const std::string& dir, const std::string& param, const std::string& metric,
                        const std::string& title, const std::string& png_name);
 
+// writes `script` as dir/<script_name> and runs gnuplot on it, which must write the PNG named by
+// its variable `png` (set on the command line to a temporary, renamed to dir/<png_name> when
+// gnuplot is done). Throws InputError when gnuplot is missing or fails. Returns the PNG path.
+std::string render_gnuplot(const std::string& dir, const std::string& script_name,
+                           const std::string& script, const std::string& png_name);
+
 }  // namespace stance

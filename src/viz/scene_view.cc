@@ -310,11 +310,9 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
     add_arrow(point - len, point, kPushColor, 0.03);
   };
   if (options.pushes) {
-    for (const auto& p : run.scenario().perturbations) {
-      if (!p.active_at(time_) || p.force.norm() == 0) continue;
-      int b = engine.body_index(p.body);
-      if (b >= 0) draw_force(engine.body_com(b), p.force);
-    }
+    for (const auto& push : run.model().pushes)
+      if (push.p.active_at(time_) && push.p.force.norm() > 0)
+        draw_force(push_point(engine, push), push.p.force);
     for (const auto& a : extra_forces)
       if (a.force.norm() > 0) draw_force(a.point, a.force);
   }

@@ -1,0 +1,493 @@
+#include "scenario/robustness.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <limits>
+#include <mutex>
+#include <numbers>
+#include <sstream>
+
+#include "core/atomic_file.h"
+#include "core/error.h"
+#include "scenario/push_threshold.h"
+#include "scenario/simulation.h"
+#include "scenario/sweep.h"
+
+namespace stance {
+
+namespace {
+
+using Horizontal = Eigen::Matrix<double, 2, 3>;  // rows: the plane's axes e1, e2
+
+// e1: world x projected on the plane normal to `up` (world y when x is vertical), e2 = up x e1
+Horizontal horizontal_basis(const Eigen::Vector3d& up) {
+  Eigen::Vector3d e1 = Eigen::Vector3d::UnitX() - up.dot(Eigen::Vector3d::UnitX()) * up;
+  if (e1.norm() < 1e-6) e1 = Eigen::Vector3d::UnitY() - up.dot(Eigen::Vector3d::UnitY()) * up;
+  e1.normalize();
+  Horizontal h;
+  h.row(0) = e1.transpose();
+  h.row(1) = up.cross(e1).normalized().transpose();
+  return h;
+}
+
+// exact zeros where a direction's component is rounding noise, so that the +-x directions push
+// exactly as push-threshold's --axis x does
+Eigen::Vector3d snapped(Eigen::Vector3d d) {
+  for (int i = 0; i < 3; ++i)
+    if (std::abs(d[i]) < 1e-12) d[i] = 0;
+  return d;
+}
+
+double snapped(double x) {
+  return std::abs(x) < 1e-12 ? 0.0 : x;
+}
+
+// feet touching the ground, touchdowns and lift-offs, and the root's detour from a reference run
+class GaitObserver final : public StepObserver {
+ public:
+  GaitObserver(const std::vector<std::vector<int>>& feet, double min_air_s, const Horizontal& h)
+      : feet_(&feet), min_air_s_(min_air_s), h_(h) {}
+
+  // record the root at every step (the unpushed run)
+  std::vector<Eigen::Vector3d>* record_root = nullptr;
+  // compare the root with this run's at the same step, from detour_from_s on
+  const std::vector<Eigen::Vector3d>* reference_root = nullptr;
+  double detour_from_s = 0;
+  // mark every body that touches the ground before a fall (to find the feet)
+  std::vector<char>* touched = nullptr;
+
+  std::vector<double> touchdowns;  // s
+  std::vector<double> liftoffs;    // s: a foot left the ground (for at least min_air_s)
+  double detour_m = 0;
+
+  void on_start(const Simulation& sim) override {
+    const Engine& e = sim.engine();
+    down_.assign(feet_->size(), 0);
+    air_since_.assign(feet_->size(), e.time());
+    lift_counted_.assign(feet_->size(), 0);
+    for (size_t f = 0; f < feet_->size(); ++f) down_[f] = foot_down(e, f);
+    observe_root(sim);
+  }
+
+  void on_step(const Simulation& sim) override {
+    const Engine& e = sim.engine();
+    const double t = e.time();
+    for (size_t f = 0; f < feet_->size(); ++f) {
+      const bool down = foot_down(e, f);
+      if (down && !down_[f]) {
+        if (t - air_since_[f] >= min_air_s_) touchdowns.push_back(t);
+      } else if (!down && down_[f]) {
+        air_since_[f] = t;
+        lift_counted_[f] = 0;
+      } else if (!down && !lift_counted_[f] && t - air_since_[f] >= min_air_s_) {
+        lift_counted_[f] = 1;
+        liftoffs.push_back(air_since_[f]);
+      }
+      down_[f] = down;
+    }
+    if (touched && !sim.progress().fell)
+      for (int i = 0, n = e.num_contacts(); i < n; ++i) {
+        const Contact c = e.contact(i);
+        if (c.body1 < 0 && c.body2 >= 0) (*touched)[c.body2] = 1;
+        if (c.body2 < 0 && c.body1 >= 0) (*touched)[c.body1] = 1;
+      }
+    observe_root(sim);
+  }
+
+ private:
+  bool foot_down(const Engine& e, size_t f) const {
+    for (int b : (*feet_)[f])
+      if (e.body_touches_ground(b)) return true;
+    return false;
+  }
+  void observe_root(const Simulation& sim) {
+    const Engine& e = sim.engine();
+    if (e.nbody() == 0) return;
+    const Eigen::Vector3d root = e.body_pose(0).pos;
+    if (record_root) record_root->push_back(root);
+    const long k = sim.progress().steps;
+    if (reference_root && e.time() >= detour_from_s - 1e-12 && k >= 0 &&
+        k < static_cast<long>(reference_root->size()))
+      detour_m = std::max(detour_m, (h_ * (root - (*reference_root)[k])).norm());
+  }
+
+  const std::vector<std::vector<int>>* feet_;
+  double min_air_s_;
+  Horizontal h_;
+  std::vector<char> down_, lift_counted_;
+  std::vector<double> air_since_;
+};
+
+int count_in(const std::vector<double>& times, double from, double to) {
+  return static_cast<int>(std::count_if(times.begin(), times.end(),
+                                        [&](double t) { return t >= from && t <= to; }));
+}
+
+void validate(const RobustnessOptions& o) {
+  if (o.body.empty()) throw InputError("robustness: --body is required");
+  if (o.directions < 1 || o.directions > 360)
+    throw InputError(fmt::format("robustness: --directions {} not in 1..360", o.directions));
+  if (o.phases < 1 || o.phases > 100)
+    throw InputError(fmt::format("robustness: --phases {} not in 1..100", o.phases));
+  auto positive = [](double x, const char* what) {
+    if (!(std::isfinite(x) && x > 0))
+      throw InputError(fmt::format("robustness: {} must be a finite number > 0", what));
+  };
+  positive(o.push_duration, "--push-duration");
+  positive(o.max_force, "--max");
+  positive(o.tolerance, "--tolerance");
+  positive(o.recovery_window_s, "--recovery-window");
+  positive(o.phase_spacing_s, "--phase-spacing");
+  if (!(std::isfinite(o.at) && o.at >= 0))
+    throw InputError("robustness: --at must be a finite number >= 0");
+  if (!(std::isfinite(o.min_air_s) && o.min_air_s >= 0))
+    throw InputError("robustness: min_air_s must be >= 0");
+  if (o.max_recovery_steps < 0) throw InputError("robustness: --max-steps must be >= 0");
+  if (o.duration && !(std::isfinite(*o.duration) && *o.duration > 0))
+    throw InputError("robustness: --duration must be a finite number > 0");
+  if (!o.offset.allFinite()) throw InputError("--point: the offset must be finite");
+  push_point_is_origin(o.point, "--point");
+}
+
+}  // namespace
+
+PushOutcome push_outcome(std::optional<double> fall_time, double push_start, bool stepped) {
+  if (fall_time) return *fall_time < push_start ? PushOutcome::kFellBefore : PushOutcome::kFellAfter;
+  return stepped ? PushOutcome::kManySteps : PushOutcome::kSuccess;
+}
+
+nlohmann::json RobustnessResult::summary() const {
+  nlohmann::json s;
+  if (cells.empty()) return s;
+  const RobustnessCell* weakest = &cells.front();
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo, sum = 0;
+  for (const auto& c : cells) {
+    lo = std::min(lo, c.threshold);
+    hi = std::max(hi, c.threshold);
+    sum += c.threshold;
+    if (c.threshold < weakest->threshold) weakest = &c;
+  }
+  s["threshold_n"] = {{"min", lo}, {"mean", sum / cells.size()}, {"max", hi}};
+  s["weakest"] = {{"direction", weakest->direction},
+                  {"angle_deg", angles_deg[weakest->direction]},
+                  {"phase", weakest->phase},
+                  {"phase_fraction", phase_fractions[weakest->phase]},
+                  {"push_start_s", push_starts[weakest->phase]},
+                  {"threshold_n", weakest->threshold}};
+  return s;
+}
+
+RobustnessResult run_robustness(
+    const LoadedScenario& loaded, const RobustnessOptions& options,
+    const std::function<void(const RobustnessCell&, int done, int total)>& on_cell) {
+  const RobustnessOptions& o = options;
+  validate(o);
+  RobustnessResult result;
+  result.scenario = loaded.scenario.name;
+
+  auto push_of = [&](const Eigen::Vector3d& force, double start) {
+    Perturbation p;
+    p.body = o.body;
+    p.force = force;
+    p.start = start;
+    p.duration = o.push_duration;
+    p.point = o.point;
+    p.offset = o.offset;
+    return p;
+  };
+  auto run_options = [&](double duration) {
+    RunOptions r;
+    r.engine = o.engine;
+    r.duration = duration;
+    r.quiet = true;
+    return r;
+  };
+  ControllerCache cache;
+  double duration = o.duration.value_or(loaded.scenario.duration);
+
+  // a probe: the body, the engine and the point resolve here, on this thread
+  RunOptions probe_options = run_options(duration);
+  probe_options.extra_pushes.push_back(push_of(Eigen::Vector3d::Zero(), 0));
+  probe_options.cache = &cache;
+  Simulation probe(loaded, probe_options);
+  Engine& e = probe.engine();
+  result.engine = std::string(e.engine_name());
+  e.forward();
+  const Eigen::Vector3d up = probe.model().up;
+  const Horizontal h = horizontal_basis(up);
+  const ResolvedPush& pushed = probe.model().pushes.back();
+
+  // the directions: the plane's, or the one a planar model can move along
+  {
+    Eigen::MatrixXd jac(3, e.nv()), none(3, 0);
+    e.point_jacobian(pushed.body, push_point(e, pushed), jac, none);
+    const Eigen::Matrix2d reach = (h * jac) * (h * jac).transpose();
+    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(reach);
+    const double big = eig.eigenvalues()[1], small = eig.eigenvalues()[0];
+    if (!(big > 1e-12))
+      throw InputError(fmt::format(
+          "robustness: body '{}' cannot move horizontally (a fixed base?): nothing to push",
+          o.body));
+    result.planar = small < 1e-9 * big;
+    if (result.planar) {
+      Eigen::Vector2d a = eig.eigenvectors().col(1);
+      for (int i = 0; i < 2; ++i) a[i] = snapped(a[i]);
+      if (a[0] < 0 || (a[0] == 0 && a[1] < 0)) a = -a;
+      const double angle = std::atan2(a[1], a[0]) * 180 / std::numbers::pi;
+      for (double sign : {1.0, -1.0}) {
+        result.directions.push_back(snapped(Eigen::Vector3d(sign * h.transpose() * a)));
+        result.angles_deg.push_back(sign > 0 ? angle : angle + 180);
+      }
+      if (o.directions != 2)
+        result.notes.push_back(fmt::format(
+            "planar model: '{}' moves along one horizontal direction only, so the map has its "
+            "two senses ({} and {} degrees) instead of {} directions",
+            o.body, result.angles_deg[0], result.angles_deg[1], o.directions));
+    } else {
+      for (int k = 0; k < o.directions; ++k) {
+        const double deg = 360.0 * k / o.directions;
+        const double rad = deg * std::numbers::pi / 180;
+        const double c = snapped(std::cos(rad)), s = snapped(std::sin(rad));
+        result.directions.push_back(snapped(Eigen::Vector3d(c * h.row(0) + s * h.row(1))));
+        result.angles_deg.push_back(deg);
+      }
+    }
+  }
+
+  // the feet: the allowed contacts, else what touches the ground in the unpushed run
+  std::vector<char> is_foot(probe.model().allowed_contact.begin(),
+                            probe.model().allowed_contact.end());
+  is_foot.resize(e.nbody(), 0);
+  if (std::find(is_foot.begin(), is_foot.end(), 1) == is_foot.end()) {
+    std::vector<std::vector<int>> none;
+    GaitObserver finder(none, o.min_air_s, h);
+    finder.touched = &is_foot;
+    RunOptions ro = run_options(duration);
+    ro.cache = &cache;
+    Simulation sim(loaded, ro);
+    sim.add_observer(&finder);
+    sim.run();
+    result.notes.push_back(
+        "feet: the bodies that touch the ground in the unpushed run (no fall.allowed_contacts)");
+  }
+  std::vector<std::vector<int>> feet;
+  {
+    std::vector<int> top(e.nbody(), -1);
+    for (int b = 0; b < e.nbody(); ++b) {
+      if (!is_foot[b]) continue;
+      top[b] = b;
+      for (int p = e.body_parent(b); p >= 0; p = e.body_parent(p))
+        if (is_foot[p]) top[b] = p;
+    }
+    for (int b = 0; b < e.nbody(); ++b) {
+      if (top[b] != b) continue;
+      feet.push_back({});
+      for (int c = 0; c < e.nbody(); ++c)
+        if (top[c] == b) feet.back().push_back(c);
+      result.feet.push_back(e.body_name(b));
+    }
+  }
+
+  // the unpushed run: the gait, the phases' start times, the root to measure detours against
+  std::vector<Eigen::Vector3d> baseline_root;
+  GaitObserver baseline(feet, o.min_air_s, h);
+  auto run_baseline = [&] {
+    baseline = GaitObserver(feet, o.min_air_s, h);
+    baseline_root.clear();
+    baseline.record_root = &baseline_root;
+    RunOptions ro = run_options(duration);
+    ro.cache = &cache;
+    ro.stop_after_fall_s = -1;  // the reference goes on to the end
+    Simulation sim(loaded, ro);
+    sim.add_observer(&baseline);
+    RunResult r = sim.run();
+    result.unpushed_fall_time.reset();
+    if (r.fell) result.unpushed_fall_time = r.fall_time;
+    if (r.diverged) result.unpushed_fall_time = r.sim_time;
+  };
+  run_baseline();
+  std::vector<double> after;
+  for (double t : baseline.touchdowns)
+    if (t >= o.at) after.push_back(t);
+  result.walker = after.size() >= 2 && !(result.unpushed_fall_time && *result.unpushed_fall_time < after[1]);
+  for (int j = 0; j < o.phases; ++j) {
+    const double fraction = static_cast<double>(j) / o.phases;
+    result.phase_fractions.push_back(fraction);
+    if (result.walker)
+      result.push_starts.push_back(after[0] + fraction * (after[1] - after[0]));
+    else
+      result.push_starts.push_back(o.at + j * o.phase_spacing_s);
+  }
+  if (result.walker) result.step_period_s = after[1] - after[0];
+  const double needed =
+      *std::max_element(result.push_starts.begin(), result.push_starts.end()) + o.push_duration +
+      o.recovery_window_s;
+  if (needed > duration + 1e-9) {
+    result.notes.push_back(fmt::format(
+        "runs lengthened from {} s to {} s: the last push and its {} s recovery window", duration,
+        needed, o.recovery_window_s));
+    duration = needed;
+    run_baseline();
+  }
+  result.duration_s = duration;
+
+  // every direction and phase: an independent bisection
+  const int nd = static_cast<int>(result.directions.size()), np = o.phases;
+  result.cells.resize(nd * np);
+  std::mutex report;
+  int done = 0;
+  parallel_for(nd * np, o.threads, [&](int index) {
+    RobustnessCell& cell = result.cells[index];
+    cell.direction = index / np;
+    cell.phase = index % np;
+    const double start = result.push_starts[cell.phase];
+    const double window_from = start + o.push_duration, window_to = window_from + o.recovery_window_s;
+    const int baseline_steps = count_in(baseline.touchdowns, window_from, window_to);
+    auto trial = [&](double force) {
+      RobustnessTrial t;
+      t.direction = cell.direction;
+      t.phase = cell.phase;
+      t.force = force;
+      RunOptions ro = run_options(duration);
+      ro.cache = &cache;
+      ro.extra_pushes.push_back(push_of(force * result.directions[cell.direction], start));
+      GaitObserver gait(feet, o.min_air_s, h);
+      gait.reference_root = &baseline_root;
+      gait.detour_from_s = start;
+      Simulation sim(loaded, ro);
+      sim.add_observer(&gait);
+      const RunResult r = sim.run();
+      if (r.fell) t.fall_time = r.fall_time;
+      if (r.diverged) t.fall_time = r.sim_time;
+      t.touchdowns = count_in(gait.touchdowns, window_from, window_to);
+      t.recovery_steps = t.touchdowns - baseline_steps;
+      t.detour_m = gait.detour_m;
+      const bool stepped = result.walker ? t.recovery_steps > o.max_recovery_steps
+                                         : count_in(gait.liftoffs, start, duration) > 0;
+      t.outcome = static_cast<int>(push_outcome(t.fall_time, start, stepped));
+      cell.trials.push_back(t);
+      return t.survived();
+    };
+    const PushBracket b = bisect_push(trial, o.max_force, o.tolerance);
+    cell.threshold = b.survived;
+    cell.fell = b.fell;
+    cell.falls_unpushed = b.falls_unpushed;
+    for (const auto& t : cell.trials)
+      if (t.force == (b.falls_unpushed ? 0.0 : b.survived)) cell.outcome_at_threshold = t.outcome;
+    std::lock_guard<std::mutex> lock(report);
+    ++done;
+    if (on_cell) on_cell(cell, done, nd * np);
+  });
+  return result;
+}
+
+void write_robustness_outputs(const std::string& dir, const RobustnessOptions& o,
+                              const RobustnessResult& r) {
+  namespace fs = std::filesystem;
+  fs::create_directories(dir);
+  const fs::path folder(dir);
+  {
+    AtomicFile file(folder / "robustness.csv");
+    std::ostream& out = file.stream();
+    out << "direction,angle_deg,phase,phase_fraction,push_start_s,force_n,outcome,fall_time_s,"
+           "touchdowns,recovery_steps,detour_m\n";
+    for (const auto& c : r.cells)
+      for (const auto& t : c.trials)
+        out << fmt::format("{},{},{},{},{},{},{},{},{},{},{}\n", t.direction,
+                           r.angles_deg[t.direction], t.phase, r.phase_fractions[t.phase],
+                           r.push_starts[t.phase], t.force, t.outcome,
+                           t.fall_time ? fmt::format("{}", *t.fall_time) : "", t.touchdowns,
+                           t.recovery_steps, t.detour_m);
+    file.commit();
+  }
+  {
+    AtomicFile file(folder / "thresholds.csv");
+    std::ostream& out = file.stream();
+    out << "direction,angle_deg,phase,phase_fraction,push_start_s,threshold_n,"
+           "outcome_at_threshold,fell_at_n,trials\n";
+    for (const auto& c : r.cells)
+      out << fmt::format("{},{},{},{},{},{},{},{},{}\n", c.direction, r.angles_deg[c.direction],
+                         c.phase, r.phase_fractions[c.phase], r.push_starts[c.phase], c.threshold,
+                         c.outcome_at_threshold, c.fell ? fmt::format("{}", *c.fell) : "",
+                         c.trials.size());
+    file.commit();
+  }
+  nlohmann::json s = r.summary();
+  s["scenario"] = r.scenario;
+  s["engine"] = r.engine;
+  s["body"] = o.body;
+  s["point"] = o.point;
+  s["offset_m"] = {o.offset.x(), o.offset.y(), o.offset.z()};
+  s["kind"] = r.walker ? "walker" : "standing";
+  s["planar"] = r.planar;
+  if (r.walker) s["step_period_s"] = r.step_period_s;
+  s["feet"] = r.feet;
+  s["duration_s"] = r.duration_s;
+  s["push_duration_s"] = o.push_duration;
+  s["max_force_n"] = o.max_force;
+  s["tolerance_n"] = o.tolerance;
+  s["recovery_window_s"] = o.recovery_window_s;
+  s["max_recovery_steps"] = o.max_recovery_steps;
+  s["directions"] = r.directions.size();
+  s["phases"] = r.phase_fractions.size();
+  s["push_starts_s"] = r.push_starts;
+  s["unpushed_fall_time_s"] =
+      r.unpushed_fall_time ? nlohmann::json(*r.unpushed_fall_time) : nlohmann::json(nullptr);
+  int trials = 0;
+  for (const auto& c : r.cells) trials += static_cast<int>(c.trials.size());
+  s["trials"] = trials;
+  s["notes"] = r.notes;
+  write_file_atomically(folder / "summary.json", s.dump(2) + "\n");
+}
+
+std::string plot_robustness(const std::string& dir, const RobustnessResult& r) {
+  namespace fs = std::filesystem;
+  const fs::path folder = fs::absolute(dir);
+  fs::create_directories(folder);
+  // one block per phase, the first direction repeated to close the curve
+  {
+    AtomicFile file(folder / "robustness_polar.dat");
+    std::ostream& out = file.stream();
+    const int np = static_cast<int>(r.phase_fractions.size());
+    const int nd = static_cast<int>(r.directions.size());
+    for (int p = 0; p < np; ++p) {
+      out << "# phase " << p << "\n";
+      for (int k = 0; k <= nd; ++k) {
+        const int d = k % nd;
+        out << fmt::format("{} {}\n", r.angles_deg[d] + (k == nd ? 360 : 0),
+                           r.cell(d, p).threshold);
+      }
+      out << "\n\n";
+    }
+    file.commit();
+  }
+  double top = 1;
+  for (const auto& c : r.cells) top = std::max(top, c.threshold);
+  std::string script = fmt::format(
+      "set terminal pngcairo size 800,760 enhanced font 'sans,11'\n"
+      "set output png\n"
+      "set title \"{} on {}: largest push survived (N) against direction\" noenhanced\n"
+      "set polar\nset angles degrees\nset size square\n"
+      "unset border\nunset xtics\nunset ytics\nunset raxis\n"
+      "set rrange [0:{}]\nset rtics format '%g N'\n"
+      "set grid polar 45 lt 1 lc rgb '#cccccc'\n"
+      "set ttics 0,45 format '%g°'\n"
+      "set key outside right top\n",
+      r.scenario, r.engine, std::ceil(top * 1.1));
+  script += "plot ";
+  for (size_t p = 0; p < r.phase_fractions.size(); ++p) {
+    const std::string label = r.walker ? fmt::format("phase {:g}", r.phase_fractions[p])
+                                       : fmt::format("push at {:g} s", r.push_starts[p]);
+    script += fmt::format("{}'robustness_polar.dat' index {} using 1:2 with linespoints lw 2 pt 7 "
+                          "title '{}'",
+                          p ? ", " : "", p, label);
+  }
+  script += "\n";
+  return render_gnuplot(folder.string(), "robustness.gp", script, "robustness.png");
+}
+
+}  // namespace stance
