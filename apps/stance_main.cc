@@ -206,6 +206,8 @@ int main(int argc, char** argv) {
   robustness_cmd->add_option("--threads", robustness.threads, "worker threads (default: all cores)");
   robustness_cmd->add_option("--out", robustness.out_dir,
                              "output folder (robustness.csv, thresholds.csv, summary.json, PNG)");
+  robustness_cmd->add_option("--resume", robustness.resume,
+                             "finish an interrupted run in this folder (same options)");
   robustness_cmd->add_flag("--plot,!--no-plot", robustness.plot, "the polar plot (gnuplot)");
   robustness_cmd->add_flag("--quiet", robustness.quiet, "no line per direction and phase");
 

@@ -453,8 +453,33 @@ int push_threshold_command(const PushThresholdCommand& cmd) {
   });
 }
 
-int robustness_command(const RobustnessCommand& cmd) {
+namespace {
+// what a resumed robustness run must share with the interrupted one (not threads, nor where
+// and how it reports)
+nlohmann::json robustness_fingerprint(const RobustnessCommand& c) {
+  return {{"scenario", std::filesystem::absolute(c.scenario).lexically_normal().string()},
+          {"sets", c.sets},
+          {"body", c.body},
+          {"directions", c.directions},
+          {"phases", c.phases},
+          {"push_duration", c.push_duration},
+          {"max", c.max_force},
+          {"tolerance", c.tolerance},
+          {"at", c.at},
+          {"phase_spacing", c.phase_spacing},
+          {"recovery_window", c.recovery_window},
+          {"max_steps", c.max_steps},
+          {"point", c.point},
+          {"engine", c.engine},
+          {"duration", c.duration ? nlohmann::json(*c.duration) : nlohmann::json(nullptr)}};
+}
+constexpr const char* kRobustnessPartial = "robustness.partial.json";
+}  // namespace
+
+int robustness_command(const RobustnessCommand& command) {
   return guarded([&] {
+    RobustnessCommand cmd = command;
+    if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
     RobustnessOptions o;
     o.body = cmd.body;
     o.directions = cmd.directions;
@@ -470,24 +495,66 @@ int robustness_command(const RobustnessCommand& cmd) {
     o.engine = cmd.engine;
     o.duration = cmd.duration;
     o.threads = cmd.threads;
+    o.interrupt = &g_interrupt;
     if (cmd.out_dir.empty()) throw InputError("--out: give an output folder");
+    const std::filesystem::path partial = std::filesystem::path(cmd.out_dir) / kRobustnessPartial;
+    const nlohmann::json fingerprint = robustness_fingerprint(cmd);
+    nlohmann::json saved = {{"options", fingerprint}, {"cells", nlohmann::json::array()}};
+    std::vector<RobustnessCell> finished;
+    if (!cmd.resume.empty()) {
+      std::ifstream in(partial);
+      if (!in)
+        throw InputError(fmt::format("--resume {}: no {} there (nothing to resume)", cmd.resume,
+                                     kRobustnessPartial));
+      try {
+        saved = nlohmann::json::parse(in);
+        for (auto it = fingerprint.begin(); it != fingerprint.end(); ++it)
+          if (saved.at("options").at(it.key()) != it.value())
+            throw InputError(fmt::format(
+                "--resume {}: option '{}' was {} in the interrupted run, now {}", cmd.resume,
+                it.key(), saved.at("options").at(it.key()).dump(), it.value().dump()));
+        for (const auto& c : saved.at("cells")) finished.push_back(cell_from_json(c));
+      } catch (const nlohmann::json::exception& e) {
+        throw InputError(fmt::format("{}: not a robustness resume file ({})", partial.string(),
+                                     e.what()));
+      }
+    }
     LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
     auto wall0 = std::chrono::steady_clock::now();
-    RobustnessResult r = run_robustness(loaded, o, [&](const RobustnessCell& c, int done, int total) {
-      if (cmd.quiet) return;
-      std::cout << fmt::format("  [{}/{}] direction {} phase {}: {} N ({} trials, outcome {} at it)\n",
-                               done, total, c.direction, c.phase, c.threshold, c.trials.size(),
-                               c.outcome_at_threshold)
-                << std::flush;
-    });
+    InterruptHandler interrupt_handler;
+    RobustnessResult r = run_robustness(
+        loaded, o,
+        [&](const RobustnessCell& c, int done, int total) {
+          // every finished direction and phase is kept, for --resume
+          saved["cells"].push_back(cell_to_json(c));
+          std::filesystem::create_directories(cmd.out_dir);
+          write_file_atomically(partial, saved.dump() + "\n");
+          if (cmd.quiet) return;
+          std::cout << fmt::format(
+                           "  [{}/{}] direction {} phase {}: {} N ({} trials, outcome {} at it)\n",
+                           done, total, c.direction, c.phase, c.threshold, c.trials.size(),
+                           c.outcome_at_threshold)
+                    << std::flush;
+        },
+        finished);
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    if (r.interrupted) {
+      int done = 0;
+      for (const auto& c : r.cells) done += c.done;
+      std::cerr << fmt::format(
+          "interrupted: {} of {} directions x phases done, kept in {}; finish them with the same "
+          "command and --resume {}\n",
+          done, r.cells.size(), partial.string(), cmd.out_dir);
+      return kExitInterrupted;
+    }
     for (const auto& note : r.notes) std::cout << "note: " << note << "\n";
     write_robustness_outputs(cmd.out_dir, o, r);
     const nlohmann::json s = r.summary();
     int trials = 0;
     for (const auto& c : r.cells) trials += static_cast<int>(c.trials.size());
     std::cout << fmt::format(
-        "{} on {} ({}{}): {} directions x {} phases, {} s pushes on {}; {} trials in {:.1f} s wall\n",
+        "{} on {} ({}{}): {} directions x {} phases, {} s pushes on {}; {} trials in {:.1f} s "
+        "wall\n",
         r.scenario, r.engine, r.walker ? "walker" : "standing", r.planar ? ", planar" : "",
         r.directions.size(), r.phase_fractions.size(), o.push_duration, o.body, trials, wall);
     std::cout << fmt::format(
@@ -498,6 +565,8 @@ int robustness_command(const RobustnessCommand& cmd) {
     std::cout << fmt::format("wrote {}/robustness.csv, thresholds.csv and summary.json\n",
                              cmd.out_dir);
     if (cmd.plot) std::cout << "wrote " << plot_robustness(cmd.out_dir, r) << "\n";
+    std::error_code ec;
+    std::filesystem::remove(partial, ec);
     return kExitOk;
   });
 }

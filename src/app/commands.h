@@ -167,6 +167,7 @@ struct RobustnessCommand {
   std::vector<std::string> sets;
   int threads = 0;
   std::string out_dir = "out/robustness";
+  std::string resume;  // the folder of an interrupted run: its finished cells are kept
   bool plot = true;
   bool quiet = false;
 };

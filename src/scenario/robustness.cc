@@ -122,6 +122,9 @@ class GaitObserver final : public StepObserver {
   std::vector<double> air_since_;
 };
 
+// abandons a direction and phase when the run is interrupted
+struct Interrupted {};
+
 int count_in(const std::vector<double>& times, double from, double to) {
   return static_cast<int>(std::count_if(times.begin(), times.end(),
                                         [&](double t) { return t >= from && t <= to; }));
@@ -181,9 +184,49 @@ nlohmann::json RobustnessResult::summary() const {
   return s;
 }
 
+nlohmann::json cell_to_json(const RobustnessCell& c) {
+  nlohmann::json trials = nlohmann::json::array();
+  for (const auto& t : c.trials)
+    trials.push_back({t.force, t.outcome,
+                      t.fall_time ? nlohmann::json(*t.fall_time) : nlohmann::json(nullptr),
+                      t.touchdowns, t.recovery_steps, t.detour_m});
+  return {{"direction", c.direction},
+          {"phase", c.phase},
+          {"threshold", c.threshold},
+          {"fell", c.fell ? nlohmann::json(*c.fell) : nlohmann::json(nullptr)},
+          {"outcome_at_threshold", c.outcome_at_threshold},
+          {"falls_unpushed", c.falls_unpushed},
+          {"trials", trials}};
+}
+
+RobustnessCell cell_from_json(const nlohmann::json& j) {
+  RobustnessCell c;
+  c.done = true;
+  c.direction = j.at("direction").get<int>();
+  c.phase = j.at("phase").get<int>();
+  c.threshold = j.at("threshold").get<double>();
+  if (!j.at("fell").is_null()) c.fell = j.at("fell").get<double>();
+  c.outcome_at_threshold = j.at("outcome_at_threshold").get<int>();
+  c.falls_unpushed = j.at("falls_unpushed").get<bool>();
+  for (const auto& row : j.at("trials")) {
+    RobustnessTrial t;
+    t.direction = c.direction;
+    t.phase = c.phase;
+    t.force = row.at(0).get<double>();
+    t.outcome = row.at(1).get<int>();
+    if (!row.at(2).is_null()) t.fall_time = row.at(2).get<double>();
+    t.touchdowns = row.at(3).get<int>();
+    t.recovery_steps = row.at(4).get<int>();
+    t.detour_m = row.at(5).get<double>();
+    c.trials.push_back(t);
+  }
+  return c;
+}
+
 RobustnessResult run_robustness(
     const LoadedScenario& loaded, const RobustnessOptions& options,
-    const std::function<void(const RobustnessCell&, int done, int total)>& on_cell) {
+    const std::function<void(const RobustnessCell&, int done, int total)>& on_cell,
+    const std::vector<RobustnessCell>& finished) {
   const RobustnessOptions& o = options;
   validate(o);
   RobustnessResult result;
@@ -338,10 +381,23 @@ RobustnessResult run_robustness(
   // every direction and phase: an independent bisection
   const int nd = static_cast<int>(result.directions.size()), np = o.phases;
   result.cells.resize(nd * np);
-  std::mutex report;
   int done = 0;
+  for (const auto& c : finished) {
+    if (c.direction < 0 || c.direction >= nd || c.phase < 0 || c.phase >= np)
+      throw InputError(fmt::format("--resume: direction {} phase {} is not in this map",
+                                   c.direction, c.phase));
+    RobustnessCell& cell = result.cells[c.direction * np + c.phase];
+    if (!cell.done) ++done;
+    cell = c;
+    cell.done = true;
+  }
+  std::mutex report;
+  auto interrupted = [&] { return o.interrupt && o.interrupt->load(); };
+  try {
   parallel_for(nd * np, o.threads, [&](int index) {
     RobustnessCell& cell = result.cells[index];
+    if (cell.done) return;
+    if (interrupted()) throw Interrupted{};
     cell.direction = index / np;
     cell.phase = index % np;
     const double start = result.push_starts[cell.phase];
@@ -354,6 +410,7 @@ RobustnessResult run_robustness(
       t.force = force;
       RunOptions ro = run_options(duration);
       ro.cache = &cache;
+      ro.interrupt = o.interrupt;
       ro.extra_pushes.push_back(push_of(force * result.directions[cell.direction], start));
       GaitObserver gait(feet, o.min_air_s, h);
       gait.reference_root = &baseline_root;
@@ -361,6 +418,7 @@ RobustnessResult run_robustness(
       Simulation sim(loaded, ro);
       sim.add_observer(&gait);
       const RunResult r = sim.run();
+      if (r.interrupted) throw Interrupted{};
       if (r.fell) t.fall_time = r.fall_time;
       if (r.diverged) t.fall_time = r.sim_time;
       t.touchdowns = count_in(gait.touchdowns, window_from, window_to);
@@ -378,10 +436,16 @@ RobustnessResult run_robustness(
     cell.falls_unpushed = b.falls_unpushed;
     for (const auto& t : cell.trials)
       if (t.force == (b.falls_unpushed ? 0.0 : b.survived)) cell.outcome_at_threshold = t.outcome;
+    cell.done = true;
     std::lock_guard<std::mutex> lock(report);
     ++done;
     if (on_cell) on_cell(cell, done, nd * np);
   });
+  } catch (const Interrupted&) {
+    result.interrupted = true;
+    for (auto& c : result.cells)
+      if (!c.done) c = RobustnessCell{};
+  }
   return result;
 }
 

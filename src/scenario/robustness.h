@@ -26,6 +26,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include <atomic>
 #include <functional>
 #include <optional>
 #include <string>
@@ -53,6 +54,9 @@ struct RobustnessOptions {
   std::optional<double> duration;  // s per run; default the scenario's, at least long enough
                                    // for the last push and its recovery window
   int threads = 0;                 // 0: every core
+  // set (by a signal handler): no new direction or phase starts and the running ones are
+  // abandoned; the result then holds the finished ones (RobustnessResult::interrupted)
+  const std::atomic<bool>* interrupt = nullptr;
 };
 
 enum class PushOutcome { kSuccess = 0, kFellBefore = 1, kFellAfter = 2, kManySteps = 3 };
@@ -73,6 +77,7 @@ struct RobustnessTrial {
 };
 
 struct RobustnessCell {
+  bool done = false;  // searched (false only in an interrupted result)
   int direction = 0, phase = 0;
   double threshold = 0;        // N, largest force survived (0 when even 0 falls)
   std::optional<double> fell;  // N, smallest found to fall; none: max_force survived
@@ -95,6 +100,7 @@ struct RobustnessResult {
   std::optional<double> unpushed_fall_time;    // s
   std::vector<RobustnessCell> cells;           // direction-major: cell(d, p) = d * phases + p
   std::vector<std::string> notes;              // what the command chose and why
+  bool interrupted = false;  // stopped by RobustnessOptions::interrupt: some cells not done
 
   const RobustnessCell& cell(int direction, int phase) const {
     return cells.at(direction * phase_fractions.size() + phase);
@@ -104,10 +110,17 @@ struct RobustnessResult {
 };
 
 // the whole map. Bad input (body, counts, bounds) throws InputError before any trial runs.
-// on_cell (optional) is called under a lock as each direction and phase finishes.
+// on_cell (optional) is called under a lock as each direction and phase finishes. `finished`
+// (a resumed run's cells, as saved from on_cell) are taken as they are, not searched again;
+// searching is deterministic, so the result equals an uninterrupted run's.
 RobustnessResult run_robustness(
     const LoadedScenario& loaded, const RobustnessOptions& options,
-    const std::function<void(const RobustnessCell&, int done, int total)>& on_cell = {});
+    const std::function<void(const RobustnessCell&, int done, int total)>& on_cell = {},
+    const std::vector<RobustnessCell>& finished = {});
+
+// a cell as JSON and back (the resume file): numbers round-trip exactly
+nlohmann::json cell_to_json(const RobustnessCell& cell);
+RobustnessCell cell_from_json(const nlohmann::json& j);
 
 // robustness.csv, thresholds.csv and summary.json into dir (created if needed)
 void write_robustness_outputs(const std::string& dir, const RobustnessOptions& options,
