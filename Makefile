@@ -21,6 +21,7 @@ FUZZ_SECONDS ?= 30
 SECONDS ?= 60
 
 .PHONY: demo test test-fast build install deps bench bench-python clean format eval-track \
+  robustness-maps compare-seed \
   sanitize-build test-sanitize fuzz
 
 deps:
@@ -41,7 +42,8 @@ test-fast: build
 
 $(SANITIZE_BUILD)/CMakeCache.txt:
 	CC=clang-14 CXX=clang++-14 cmake -S . -B $(SANITIZE_BUILD) -DCMAKE_BUILD_TYPE=Release \
-	  -DSTANCE_SANITIZE=ON -DSTANCE_BUILD_BENCH=OFF -DSTANCE_WITH_VIEWER=OFF -DSTANCE_WITH_PYTHON=OFF
+	  -DSTANCE_SANITIZE=ON -DSTANCE_BUILD_BENCH=OFF -DSTANCE_WITH_VIEWER=OFF -DSTANCE_WITH_PYTHON=OFF \
+	  -DSTANCE_WITH_MPI=OFF
 
 sanitize-build: deps $(SANITIZE_BUILD)/CMakeCache.txt
 	cmake --build $(SANITIZE_BUILD) -j$(JOBS)
@@ -72,6 +74,14 @@ bench: deps $(BUILD)/CMakeCache.txt
 # the planner's tracking matrix (not part of CI: about two hours on 2 cores)
 eval-track: build
 	@bash scripts/eval_track.sh $(BUILD)
+
+# the README's robustness maps (docs/img/robustness_*.png; about 5 minutes on 2 cores)
+robustness-maps: build
+	@bash scripts/robustness_maps.sh $(STANCE)
+
+# S0's push thresholds beside the seed's own dartpy loop, measured in one run (about 3 minutes)
+compare-seed: build
+	@bash scripts/compare_seed_pushes.sh $(STANCE)
 
 # the Python module's benchmark: the seed's dartpy loop and Python controllers on stance's engines
 bench-python: build

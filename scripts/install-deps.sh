@@ -14,6 +14,7 @@ packages=(
   python3-dev pybind11-dev python3-numpy python3-pytest
   libslicot-dev libtinyxml2-dev
   clang-14 libclang-rt-14-dev
+  libopenmpi-dev openmpi-bin
 )
 
 missing=()

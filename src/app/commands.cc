@@ -27,6 +27,7 @@
 #include "model/skel_to_mjcf.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
+#include "scenario/batch_ranks.h"
 #include "scenario/push_threshold.h"
 #include "scenario/robustness.h"
 #include "scenario/scenario.h"
@@ -369,6 +370,8 @@ int sweep_command(const SweepCommand& cmd) {
                 << std::flush;
     });
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    // under mpirun, rank 0 gathered every result and writes; the others are done
+    if (!BatchRanks::get().root()) return kExitOk;
     write_sweep_outputs(cmd.out_dir, cmd.param, points);
     std::cout << fmt::format(
         "swept {} over {} values in {:.2f} s wall; wrote {}/sweep.csv and "
@@ -538,6 +541,8 @@ int robustness_command(const RobustnessCommand& command) {
         },
         finished);
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    // under mpirun, rank 0 gathered every result and writes; the others are done
+    if (!BatchRanks::get().root()) return kExitOk;
     if (r.interrupted) {
       int done = 0;
       for (const auto& c : r.cells) done += c.done;

@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <limits>
@@ -13,6 +14,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "scenario/batch_ranks.h"
 #include "scenario/push_threshold.h"
 #include "scenario/simulation.h"
 #include "scenario/sweep.h"
@@ -392,9 +394,9 @@ RobustnessResult run_robustness(
     cell.done = true;
   }
   std::mutex report;
+  BatchRanks& ranks = BatchRanks::get();
   auto interrupted = [&] { return o.interrupt && o.interrupt->load(); };
-  try {
-  parallel_for(nd * np, o.threads, [&](int index) {
+  auto search = [&](int index) {
     RobustnessCell& cell = result.cells[index];
     if (cell.done) return;
     if (interrupted()) throw Interrupted{};
@@ -437,17 +439,38 @@ RobustnessResult run_robustness(
     for (const auto& t : cell.trials)
       if (t.force == (b.falls_unpushed ? 0.0 : b.survived)) cell.outcome_at_threshold = t.outcome;
     cell.done = true;
+    if (!ranks.root()) return;
     std::lock_guard<std::mutex> lock(report);
     ++done;
     if (on_cell) on_cell(cell, done, nd * np);
-  });
-  } catch (const Interrupted&) {
-    result.interrupted = true;
-    for (auto& c : result.cells)
-      if (!c.done) c = RobustnessCell{};
-  }
+  };
+  // an interrupted search leaves its cell as it was (not done); the others stop starting
+  std::atomic<bool> stopped{false};
+  ranks.distributed_for(
+      nd * np, o.threads,
+      [&](int index) {
+        try {
+          search(index);
+        } catch (const Interrupted&) {
+          result.cells[index] = RobustnessCell{};
+          stopped = true;
+        }
+      },
+      [&](int index) {
+        const RobustnessCell& c = result.cells[index];
+        return c.done ? cell_to_json(c).dump() : std::string();
+      },
+      [&](int index, const std::string& text) {
+        if (text.empty()) return;
+        result.cells[index] = cell_from_json(nlohmann::json::parse(text));
+        ++done;
+        if (on_cell) on_cell(result.cells[index], done, nd * np);
+      });
+  for (const auto& c : result.cells) result.interrupted = result.interrupted || !c.done;
+  if (!result.interrupted && stopped) result.interrupted = true;
   return result;
 }
+
 
 void write_robustness_outputs(const std::string& dir, const RobustnessOptions& o,
                               const RobustnessResult& r) {

@@ -35,6 +35,24 @@ nlohmann::json RunResult::to_json() const {
   return j;
 }
 
+RunResult RunResult::from_json(const nlohmann::json& j) {
+  RunResult r;
+  r.scenario = j.at("scenario").get<std::string>();
+  r.engine = j.at("engine").get<std::string>();
+  r.seed = j.at("seed").get<int>();
+  r.sim_time = j.at("sim_time").get<double>();
+  r.fell = j.at("fell").get<bool>();
+  if (!j.at("fall_time").is_null()) r.fall_time = j.at("fall_time").get<double>();
+  r.fall_reason = j.value("fall_reason", "");
+  r.diverged = j.at("diverged").get<bool>();
+  r.divergence = j.value("divergence", "");
+  r.interrupted = j.at("interrupted").get<bool>();
+  r.wall_time_s = j.at("wall_time_s").get<double>();
+  r.steps = j.at("steps").get<long>();
+  r.metrics = j.at("metrics");
+  return r;
+}
+
 bool is_wall_clock_metric(const std::string& key) {
   auto ends_with = [&](std::string_view suffix) {
     return key.size() >= suffix.size() &&

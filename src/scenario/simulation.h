@@ -64,6 +64,8 @@ struct RunResult {
   nlohmann::json metrics = nlohmann::json::object();
 
   nlohmann::json to_json() const;
+  // back from to_json() (results gathered from another MPI rank)
+  static RunResult from_json(const nlohmann::json& j);
 };
 
 // metrics measured on the wall clock (realtime_factor, design_time_ms, controller_ns_per_step,

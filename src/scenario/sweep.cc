@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "core/atomic_file.h"
+#include "scenario/batch_ranks.h"
 #include "core/error.h"
 #include "params/yaml_params.h"
 #include "scenario/scenario.h"
@@ -153,19 +154,35 @@ std::vector<SweepPoint> run_sweep(
   std::vector<SweepPoint> points(n);
   std::mutex done_mutex;
   int done = 0;
-  parallel_for(n, o.threads, [&](int i) {
-    SweepPoint& pt = points[i];
-    pt.value = o.values[i];
-    try {
-      pt.result = run_without_timing(scenarios[i], run_options);
-    } catch (const InputError& e) {
-      // a value this point's run rejects; anything else is a bug and ends the sweep
-      pt.error = e.what();
-    }
-    std::lock_guard<std::mutex> lock(done_mutex);
-    ++done;
-    if (on_done) on_done(pt, done, n);
-  });
+  BatchRanks& ranks = BatchRanks::get();
+  ranks.distributed_for(
+      n, o.threads,
+      [&](int i) {
+        SweepPoint& pt = points[i];
+        pt.value = o.values[i];
+        try {
+          pt.result = run_without_timing(scenarios[i], run_options);
+        } catch (const InputError& e) {
+          // a value this point's run rejects; anything else is a bug and ends the sweep
+          pt.error = e.what();
+        }
+        if (!ranks.root()) return;
+        std::lock_guard<std::mutex> lock(done_mutex);
+        ++done;
+        if (on_done) on_done(pt, done, n);
+      },
+      [&](int i) {
+        return nlohmann::json{{"error", points[i].error}, {"result", points[i].result.to_json()}}
+            .dump();
+      },
+      [&](int i, const std::string& text) {
+        const nlohmann::json j = nlohmann::json::parse(text);
+        points[i].value = o.values[i];
+        points[i].error = j.at("error").get<std::string>();
+        points[i].result = RunResult::from_json(j.at("result"));
+        ++done;
+        if (on_done) on_done(points[i], done, n);
+      });
   return points;
 }
 
