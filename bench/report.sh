@@ -46,6 +46,31 @@ fi
 
 run_bench rest '-^BM_Biped' "$min_time"
 
+# batch runs per second: 16 runs of the planar SIMBICON walk (4 s each) as a sweep on 1 and 2
+# threads and, when the build has MPI, on 2 ranks of 1 thread, one right after the other
+stance=$build/stance
+batch=(sweep "$root/scenarios/simbicon_walk.yaml" --param controllers.0.gait.states.0.cv
+  --from 0.1 --to 0.3 --steps 16 --duration 4 --quiet)
+wall_of() {  # the command's wall time in seconds
+  local t0 t1
+  t0=$(date +%s.%N)
+  "$@" >/dev/null 2>&1 || { echo "nan"; return; }
+  t1=$(date +%s.%N)
+  "$python" -c "print($t1 - $t0)"
+}
+if [ -x "$stance" ]; then
+  echo "report.sh: batch runs, 1 and 2 threads, 2 MPI ranks" >&2
+  {
+    echo "runs 16"
+    echo "threads1 $(wall_of "$stance" "${batch[@]}" --threads 1 --out "$tmp/b1")"
+    echo "threads2 $(wall_of "$stance" "${batch[@]}" --threads 2 --out "$tmp/b2")"
+    if command -v mpirun >/dev/null && grep -q 'STANCE_WITH_MPI:BOOL=ON' "$build/CMakeCache.txt"; then
+      echo "mpi2 $(OMPI_MCA_btl_vader_single_copy_mechanism=none wall_of mpirun -np 2 \
+        --oversubscribe --allow-run-as-root "$stance" "${batch[@]}" --threads 1 --out "$tmp/bm")"
+    fi
+  } >"$tmp/batch.txt"
+fi
+
 "$python" - "$tmp" "$peer_note" "$json_out" <<'PY'
 import json, os, sys
 
@@ -182,6 +207,30 @@ for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 m
                      f"{fmt(get(two, 'rollout_us'))} µs vs {fmt(get(two, 'step_us'))} / "
                      f"{fmt(get(two, 'controlled_us'))} µs: overhead {pct(get(two, 'overhead_vs_step'))} "
                      f"over the bare step, {pct(get(two, 'overhead_vs_controlled'))} over the base policy's"))
+
+if "BM_BatchLoopOverhead" in runs:
+    name = "BM_BatchLoopOverhead"
+    rows.append(("Batch stepping vs bare engine stepping (planar SIMBICON model, 1 s runs, no "
+                 "controllers; goal: 10% or less)",
+                 f"{fmt(get(name, 'run_us'))} vs {fmt(get(name, 'bare_us'))} µs per step: "
+                 f"overhead {pct(get(name, 'overhead'))}"))
+batch_file = os.path.join(tmp, "batch.txt")
+if os.path.exists(batch_file):
+    b = dict(line.split() for line in open(batch_file) if line.strip())
+    n = float(b["runs"])
+    def rate(key):
+        try:
+            return n / float(b[key])
+        except (KeyError, ValueError, ZeroDivisionError):
+            return None
+    one = rate("threads1")
+    parts = [f"1 thread {fmt(one)} runs/s"]
+    for key, label, workers in (("threads2", "2 threads", 2), ("mpi2", "2 MPI ranks", 2)):
+        r = rate(key)
+        if r is not None and one:
+            parts.append(f"{label} {fmt(r)} runs/s ({pct(r / (workers * one))} efficiency)")
+    rows.append(("Batch runs per second (16 runs of the planar SIMBICON walk, 4 s each, as a "
+                 "sweep; goal: 90% efficiency)", "; ".join(parts)))
 
 cpu = [get(n, "cpu_per_wall") for n in ("BM_BipedStandMujoco", "BM_BipedStandDart")]
 cpu = [c for c in cpu if c is not None]
