@@ -49,12 +49,15 @@ sanitize-build: deps $(SANITIZE_BUILD)/CMakeCache.txt
 	cmake --build $(SANITIZE_BUILD) -j$(JOBS)
 
 # the fast subset under ASan+UBSan (the install-and-find_package test links outside the tree's
-# sanitizer flags, so it stays in `make test`), then the fuzzers
+# sanitizer flags, so it stays in `make test`; the DART-MuJoCo mass-matrix cross-check on an MJCF
+# chain differs when stance's DART backend is built by clang against Debian's gcc-built DART, with
+# no sanitizer report, and stays in `make test` too), then the fuzzers
 test-sanitize: sanitize-build
 	cd $(SANITIZE_BUILD) && \
 	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/fuzz/lsan.supp:print_suppressions=0 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
-	  ctest --output-on-failure -j$(JOBS) -L '^(unit|cli)$$' -E '^cli\.find_package$$'
+	  ctest --output-on-failure -j$(JOBS) -L '^(unit|cli)$$' \
+	    -E '^(cli\.find_package|DartEngine\.AgreesWithMujocoOnAnMjcfChain)$$'
 	bash tests/fuzz/run.sh $(SANITIZE_BUILD) $(FUZZ_SECONDS)
 
 fuzz: sanitize-build

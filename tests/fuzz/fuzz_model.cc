@@ -1,4 +1,5 @@
-// model loading through stance's own path (make_engine), on both engines. Input: byte 0 picks
+// model loading through stance's own path (make_engine), on both engines, then a step (MuJoCo)
+// or the forward kinematics and dynamics (DART). Input: byte 0 picks
 // the engine (even: mujoco, odd: dart), byte 1 the format (even: MJCF .xml, odd: SKEL .skel),
 // the rest is the file.
 #include <cstdint>
@@ -18,7 +19,14 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   spec.models.push_back({fuzz::write_scratch(name, fuzz::as_text(data + 2, size - 2)), {}});
   try {
     std::unique_ptr<Engine> e = make_engine(engine, spec);
-    e->step();
+    // loading is what is fuzzed. DART is only forwarded: stance's DART backend built by clang
+    // against Debian's gcc-built DART steps some models differently from the release tree (its
+    // LCP then asserts inside DART; Makefile, test-sanitize), so a step there finds no bug of
+    // stance's
+    if (engine == "mujoco")
+      e->step();
+    else
+      e->forward();
   } catch (const InputError&) {
   }
   return 0;
