@@ -148,6 +148,8 @@ int main(int argc, char** argv) {
     c->add_flag("--plot,!--no-plot", s.plot, "plot a list metric against the value (gnuplot)");
     c->add_option("--plot-metric", s.plot_metric, "list metric to plot");
     c->add_flag("--quiet", s.quiet, "no progress lines");
+    c->add_option("--resume", s.resume,
+                  "finish an interrupted sweep in this folder (same options)");
   };
   auto* sweep_cmd = app.add_subcommand("sweep", "run a scenario over a range of one parameter");
   add_sweep_options(sweep_cmd, sweep);

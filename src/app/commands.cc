@@ -343,8 +343,48 @@ int list_command(const std::string& scenario_dir) {
   });
 }
 
-int sweep_command(const SweepCommand& cmd) {
+namespace {
+// what a resumed sweep must share with the interrupted one
+nlohmann::json sweep_fingerprint(const SweepCommand& c, const std::vector<double>& values) {
+  return {{"scenario", std::filesystem::absolute(c.scenario).lexically_normal().string()},
+          {"param", c.param},
+          {"values", values},
+          {"engine", c.engine},
+          {"duration", c.duration ? nlohmann::json(*c.duration) : nlohmann::json(nullptr)},
+          {"sets", c.sets}};
+}
+constexpr const char* kSweepPartial = "sweep.partial.json";
+
+// the finished entries of an interrupted batch (DIR/<partial>), checked against `fingerprint`:
+// saved["done"] maps an index to its JSON; a differing option is bad input naming it
+nlohmann::json read_partial(const std::string& dir, const char* partial_name,
+                            const nlohmann::json& fingerprint) {
+  const std::filesystem::path partial = std::filesystem::path(dir) / partial_name;
+  std::ifstream in(partial);
+  if (!in)
+    throw InputError(
+        fmt::format("--resume {}: no {} there (nothing to resume)", dir, partial_name));
+  nlohmann::json saved;
+  try {
+    saved = nlohmann::json::parse(in);
+    for (auto it = fingerprint.begin(); it != fingerprint.end(); ++it)
+      if (saved.at("options").at(it.key()) != it.value())
+        throw InputError(fmt::format("--resume {}: option '{}' was {} in the interrupted run, now {}",
+                                     dir, it.key(), saved.at("options").at(it.key()).dump(),
+                                     it.value().dump()));
+    (void)saved.at("done");
+  } catch (const nlohmann::json::exception& e) {
+    throw InputError(
+        fmt::format("{}: not a resume file of this command ({})", partial.string(), e.what()));
+  }
+  return saved;
+}
+}  // namespace
+
+int sweep_command(const SweepCommand& command) {
   return guarded([&] {
+    SweepCommand cmd = command;
+    if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
     SweepOptions o;
     o.scenario = cmd.scenario;
     o.param = cmd.param;
@@ -352,27 +392,61 @@ int sweep_command(const SweepCommand& cmd) {
     o.threads = cmd.threads;
     o.engine = cmd.engine;
     o.duration = cmd.duration;
+    o.interrupt = &g_interrupt;
     if (!cmd.values.empty()) {
       o.values = parse_value_list(cmd.values);
     } else {
       if (!cmd.from || !cmd.to) throw InputError("sweep: give --from and --to, or --values");
       o.values = linspace(*cmd.from, *cmd.to, cmd.steps);
     }
+    const std::filesystem::path partial = std::filesystem::path(cmd.out_dir) / kSweepPartial;
+    nlohmann::json saved = {{"options", sweep_fingerprint(cmd, o.values)},
+                            {"done", nlohmann::json::object()}};
+    std::map<int, SweepPoint> finished;
+    if (!cmd.resume.empty()) {
+      saved = read_partial(cmd.resume, kSweepPartial, saved["options"]);
+      try {
+        for (auto it = saved["done"].begin(); it != saved["done"].end(); ++it)
+          finished[std::stoi(it.key())] = sweep_point_from_json(it.value());
+      } catch (const std::exception& e) {
+        throw InputError(fmt::format("{}: a point does not read back ({})", partial.string(),
+                                     e.what()));
+      }
+    }
     auto wall0 = std::chrono::steady_clock::now();
-    std::vector<SweepPoint> points = run_sweep(o, [&](const SweepPoint& p, int done, int total) {
-      if (cmd.quiet) return;
-      std::string what = !p.error.empty()    ? "error: " + p.error
-                         : p.result.diverged ? "diverged"
-                         : p.result.fell     ? "fell"
-                                             : "ok";
-      std::cout << fmt::format("  [{}/{}] {}={} {}\n", done, total, cmd.param,
-                               format_sweep_value(p.value), what)
-                << std::flush;
-    });
+    InterruptHandler interrupt_handler;
+    std::vector<SweepPoint> points = run_sweep(
+        o,
+        [&](const SweepPoint& p, int index, int done, int total) {
+          // every finished run is kept, for --resume
+          saved["done"][std::to_string(index)] = sweep_point_to_json(p);
+          std::filesystem::create_directories(cmd.out_dir);
+          write_file_atomically(partial, saved.dump() + "\n");
+          if (cmd.quiet) return;
+          std::string what = !p.error.empty()    ? "error: " + p.error
+                             : p.result.diverged ? "diverged"
+                             : p.result.fell     ? "fell"
+                                                 : "ok";
+          std::cout << fmt::format("  [{}/{}] {}={} {}\n", done, total, cmd.param,
+                                   format_sweep_value(p.value), what)
+                    << std::flush;
+        },
+        finished);
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     // under mpirun, rank 0 gathered every result and writes; the others are done
     if (!BatchRanks::get().root()) return kExitOk;
+    const long unfinished = std::count_if(points.begin(), points.end(),
+                                          [](const SweepPoint& p) { return !p.done; });
+    if (unfinished > 0) {
+      std::cerr << fmt::format(
+          "interrupted: {} of {} runs done, kept in {}; finish them with the same command and "
+          "--resume {}\n",
+          points.size() - unfinished, points.size(), partial.string(), cmd.out_dir);
+      return kExitInterrupted;
+    }
     write_sweep_outputs(cmd.out_dir, cmd.param, points);
+    std::error_code ec;
+    std::filesystem::remove(partial, ec);
     std::cout << fmt::format(
         "swept {} over {} values in {:.2f} s wall; wrote {}/sweep.csv and "
         "points.csv\n",
@@ -502,24 +576,15 @@ int robustness_command(const RobustnessCommand& command) {
     if (cmd.out_dir.empty()) throw InputError("--out: give an output folder");
     const std::filesystem::path partial = std::filesystem::path(cmd.out_dir) / kRobustnessPartial;
     const nlohmann::json fingerprint = robustness_fingerprint(cmd);
-    nlohmann::json saved = {{"options", fingerprint}, {"cells", nlohmann::json::array()}};
+    nlohmann::json saved = {{"options", fingerprint}, {"done", nlohmann::json::array()}};
     std::vector<RobustnessCell> finished;
     if (!cmd.resume.empty()) {
-      std::ifstream in(partial);
-      if (!in)
-        throw InputError(fmt::format("--resume {}: no {} there (nothing to resume)", cmd.resume,
-                                     kRobustnessPartial));
+      saved = read_partial(cmd.resume, kRobustnessPartial, fingerprint);
       try {
-        saved = nlohmann::json::parse(in);
-        for (auto it = fingerprint.begin(); it != fingerprint.end(); ++it)
-          if (saved.at("options").at(it.key()) != it.value())
-            throw InputError(fmt::format(
-                "--resume {}: option '{}' was {} in the interrupted run, now {}", cmd.resume,
-                it.key(), saved.at("options").at(it.key()).dump(), it.value().dump()));
-        for (const auto& c : saved.at("cells")) finished.push_back(cell_from_json(c));
-      } catch (const nlohmann::json::exception& e) {
-        throw InputError(fmt::format("{}: not a robustness resume file ({})", partial.string(),
-                                     e.what()));
+        for (const auto& c : saved.at("done")) finished.push_back(cell_from_json(c));
+      } catch (const std::exception& e) {
+        throw InputError(fmt::format("{}: a direction and phase do not read back ({})",
+                                     partial.string(), e.what()));
       }
     }
     LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
@@ -529,7 +594,7 @@ int robustness_command(const RobustnessCommand& command) {
         loaded, o,
         [&](const RobustnessCell& c, int done, int total) {
           // every finished direction and phase is kept, for --resume
-          saved["cells"].push_back(cell_to_json(c));
+          saved["done"].push_back(cell_to_json(c));
           std::filesystem::create_directories(cmd.out_dir);
           write_file_atomically(partial, saved.dump() + "\n");
           if (cmd.quiet) return;

@@ -121,6 +121,7 @@ struct SweepCommand {
   std::optional<double> duration;
   std::vector<std::string> sets;
   std::string out_dir = "out/sweep";
+  std::string resume;  // the folder of an interrupted sweep: its finished runs are kept
   bool plot = false;
   std::string plot_metric;
   bool quiet = false;

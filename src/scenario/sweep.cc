@@ -126,9 +126,23 @@ RunResult run_without_timing(const LoadedScenario& loaded, const RunOptions& opt
   return r;
 }
 
+nlohmann::json sweep_point_to_json(const SweepPoint& p) {
+  return {{"value", p.value}, {"error", p.error}, {"result", p.result.to_json()}};
+}
+
+SweepPoint sweep_point_from_json(const nlohmann::json& j) {
+  SweepPoint p;
+  p.value = j.at("value").get<double>();
+  p.error = j.at("error").get<std::string>();
+  p.result = RunResult::from_json(j.at("result"));
+  p.done = true;
+  return p;
+}
+
 std::vector<SweepPoint> run_sweep(
     const SweepOptions& o,
-    const std::function<void(const SweepPoint&, int done, int total)>& on_done) {
+    const std::function<void(const SweepPoint&, int index, int done, int total)>& on_done,
+    const std::map<int, SweepPoint>& finished) {
   if (o.param.empty()) throw InputError("sweep: no parameter given (--param key.path)");
   if (o.values.empty()) throw InputError("sweep: no values to sweep");
   const YAML::Node doc = load_yaml_file(o.scenario);
@@ -154,11 +168,20 @@ std::vector<SweepPoint> run_sweep(
   std::vector<SweepPoint> points(n);
   std::mutex done_mutex;
   int done = 0;
+  for (const auto& [i, p] : finished) {
+    if (i < 0 || i >= n || p.value != o.values[i])
+      throw InputError(fmt::format("--resume: point {} is not in this sweep", i));
+    points[i] = p;
+    points[i].done = true;
+    ++done;
+  }
+  run_options.interrupt = o.interrupt;
   BatchRanks& ranks = BatchRanks::get();
   ranks.distributed_for(
       n, o.threads,
       [&](int i) {
         SweepPoint& pt = points[i];
+        if (pt.done || (o.interrupt && o.interrupt->load())) return;
         pt.value = o.values[i];
         try {
           pt.result = run_without_timing(scenarios[i], run_options);
@@ -166,22 +189,18 @@ std::vector<SweepPoint> run_sweep(
           // a value this point's run rejects; anything else is a bug and ends the sweep
           pt.error = e.what();
         }
-        if (!ranks.root()) return;
+        pt.done = !pt.result.interrupted;
+        if (!pt.done || !ranks.root()) return;
         std::lock_guard<std::mutex> lock(done_mutex);
         ++done;
-        if (on_done) on_done(pt, done, n);
+        if (on_done) on_done(pt, i, done, n);
       },
-      [&](int i) {
-        return nlohmann::json{{"error", points[i].error}, {"result", points[i].result.to_json()}}
-            .dump();
-      },
+      [&](int i) { return points[i].done ? sweep_point_to_json(points[i]).dump() : std::string(); },
       [&](int i, const std::string& text) {
-        const nlohmann::json j = nlohmann::json::parse(text);
-        points[i].value = o.values[i];
-        points[i].error = j.at("error").get<std::string>();
-        points[i].result = RunResult::from_json(j.at("result"));
+        if (text.empty() || points[i].done) return;
+        points[i] = sweep_point_from_json(nlohmann::json::parse(text));
         ++done;
-        if (on_done) on_done(points[i], done, n);
+        if (on_done) on_done(points[i], i, done, n);
       });
   return points;
 }

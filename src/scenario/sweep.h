@@ -11,7 +11,9 @@
 //  - <metric>.png and .gp with plot_sweep(): the points of one list metric against the value
 #pragma once
 
+#include <atomic>
 #include <functional>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -31,13 +33,21 @@ struct SweepOptions {
   // false: every point builds its controllers' models afresh (bench/lqr_bench.cc measures what
   // the shared cache saves; nothing else needs to turn it off)
   bool share_models = true;
+  // set (by a signal handler): no new run starts and the running ones stop; their points come
+  // back not done (SweepPoint::done)
+  const std::atomic<bool>* interrupt = nullptr;
 };
 
 struct SweepPoint {
   double value = 0;
   RunResult result;
   std::string error;  // non-empty: this run failed (it has no result)
+  bool done = false;  // ran to its end (false only when the sweep was interrupted)
 };
+
+// a point as JSON and back (MPI gathering, the resume file); numbers round-trip exactly
+nlohmann::json sweep_point_to_json(const SweepPoint& point);
+SweepPoint sweep_point_from_json(const nlohmann::json& j);
 
 // `steps` values from `from` to `to` inclusive (steps >= 1; steps == 1 gives `from`)
 std::vector<double> linspace(double from, double to, int steps);
@@ -49,10 +59,12 @@ std::vector<double> parse_value_list(const std::string& text);
 std::string format_sweep_value(double value);
 
 // runs every value. Bad input (scenario, key path, first value) throws InputError before any
-// thread starts. on_done (optional) is called under a lock as each run finishes.
+// thread starts. on_done (optional) is called under a lock as each run finishes, with its index.
+// `finished` (a resumed sweep's points by index, as saved from on_done) are not run again.
 std::vector<SweepPoint> run_sweep(
     const SweepOptions& options,
-    const std::function<void(const SweepPoint&, int done, int total)>& on_done = {});
+    const std::function<void(const SweepPoint&, int index, int done, int total)>& on_done = {},
+    const std::map<int, SweepPoint>& finished = {});
 
 // shared with the tuner (scenario/tune.h):
 // job(i) for every i in [0, n) on `threads` threads (0: every core); job must not throw
