@@ -568,6 +568,16 @@ TEST(BvhErrors, BoundsAndNamesTheWriterCouldNotWriteBack) {
        fmt::format("test.bvh:{}: more than {} joints", 6 + 4 * (kMaxBvhJoints - 1), kMaxBvhJoints)},
       {"non-UTF-8 name", replace_once(synthetic_bvh("ZXY", kRows), "LeftUpLeg", "Left\xff"),
        "test.bvh:6: joint name has a byte that is not UTF-8 (0xff) at column 5 of the name"},
+      // UTF-8 that JSON writers refuse: an overlong form (found by fuzz_bvh), a surrogate,
+      // above U+10FFFF
+      {"overlong UTF-8", replace_once(synthetic_bvh("ZXY", kRows), "LeftUpLeg", "Left\xc1\xb7"),
+       "test.bvh:6: joint name has a byte that is not UTF-8 (0xc1) at column 5 of the name"},
+      {"UTF-8 surrogate",
+       replace_once(synthetic_bvh("ZXY", kRows), "LeftUpLeg", "Left\xed\xa0\x80"),
+       "test.bvh:6: joint name has a byte that is not UTF-8 (0xed) at column 5 of the name"},
+      {"above U+10FFFF",
+       replace_once(synthetic_bvh("ZXY", kRows), "LeftUpLeg", "Left\xf4\x90\x80\x80"),
+       "test.bvh:6: joint name has a byte that is not UTF-8 (0xf4) at column 5 of the name"},
       {"brace in a name",
        replace_once(synthetic_bvh("ZXY", kRows), "JOINT LeftUpLeg\n", "JOINT a{ {\n"),
        "test.bvh:6: joint name 'a{' has a character BVH cannot write back (a brace)"},
@@ -587,6 +597,11 @@ TEST(BvhErrors, BoundsAndNamesTheWriterCouldNotWriteBack) {
   EXPECT_NE(msg.find("truncated data: 'Frames: 10000000' (line 12) but only 1 motion rows"),
             std::string::npos)
       << msg;
+  // valid UTF-8 of every length reads, and its JSON summary writes
+  const BvhClip utf8 = parse_bvh(replace_once(synthetic_bvh("ZXY", kRows), "LeftUpLeg",
+                                              "L\xc3\xa9g\xe2\x82\xac\xf0\x9f\xa6\xb5"),
+                                 "test.bvh");
+  EXPECT_NO_THROW(bvh_info_json(utf8).dump());
   // at the limits themselves the files read
   EXPECT_EQ(parse_bvh(nested_bvh(kMaxBvhDepth - 1), "test.bvh").joint_count(), kMaxBvhDepth);
 }
