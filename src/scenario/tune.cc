@@ -567,7 +567,13 @@ TuneResult run_tune(const TuneOptions& o,
       return failed_run(e.what(), duration, o.fall_penalty);
     }
   };
-  const bool resuming = resume_from && resume_from->at("finished_generations").get<int>() > 0;
+  // a checkpoint is made after a finished generation: it holds at least one
+  const bool resuming = resume_from != nullptr;
+  if (resuming) {
+    auto it = resume_from->find("finished_generations");
+    if (it == resume_from->end() || !it->is_number_integer() || it->get<int>() < 1)
+      throw InputError("--resume: not a stance tune resume file (no finished generation)");
+  }
   TuneRun first;
   if (!resuming) {
     double duration = result.duration;

@@ -317,6 +317,15 @@ TEST(Tune, ResumeRefusesOtherOptions) {
   EXPECT_EQ(error_of([&] { check_tune_resume(other, r.checkpoint, "x"); }), "");
   e = error_of([&] { check_tune_resume(o, nlohmann::json{{"cells", 1}}, "--resume d"); });
   EXPECT_EQ(e, "--resume d: not a stance tune resume file");
+  // a damaged checkpoint is named, not a crash
+  nlohmann::json broken = r.checkpoint;
+  broken["search"].erase("rng");
+  e = error_of([&] { run_tune(o, {}, &broken); });
+  EXPECT_EQ(e.rfind("--resume: not a stance tune resume file (", 0), 0u) << e;
+  broken = r.checkpoint;
+  broken["finished_generations"] = 0;
+  e = error_of([&] { run_tune(o, {}, &broken); });
+  EXPECT_EQ(e, "--resume: not a stance tune resume file (no finished generation)");
   // bad methods and populations are named
   other = o;
   other.method = "pso";
