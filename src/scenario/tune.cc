@@ -169,15 +169,29 @@ nlohmann::json tune_fingerprint(const TuneOptions& o) {
 }
 
 // numbers are written in their shortest exact form, so every double reads back unchanged
+nlohmann::json run_to_json(const TuneRun& r) {
+  return {{"score", r.score},
+          {"time_up", r.time_up},
+          {"metric", r.metric ? nlohmann::json(*r.metric) : nlohmann::json(nullptr)},
+          {"fell", r.fell},
+          {"diverged", r.diverged},
+          {"error", r.error}};
+}
+
+TuneRun run_from_json(const nlohmann::json& j) {
+  TuneRun r;
+  r.score = j.at("score").get<double>();
+  r.time_up = j.at("time_up").get<double>();
+  if (!j.at("metric").is_null()) r.metric = j.at("metric").get<double>();
+  r.fell = j.at("fell").get<bool>();
+  r.diverged = j.at("diverged").get<bool>();
+  r.error = j.at("error").get<std::string>();
+  return r;
+}
+
 nlohmann::json candidate_to_json(const TuneCandidate& c) {
   nlohmann::json runs = nlohmann::json::array();
-  for (const auto& r : c.runs)
-    runs.push_back({{"score", r.score},
-                    {"time_up", r.time_up},
-                    {"metric", r.metric ? nlohmann::json(*r.metric) : nlohmann::json(nullptr)},
-                    {"fell", r.fell},
-                    {"diverged", r.diverged},
-                    {"error", r.error}});
+  for (const auto& r : c.runs) runs.push_back(run_to_json(r));
   return {{"generation", c.generation}, {"index", c.index}, {"values", c.values}, {"runs", runs}};
 }
 
@@ -186,16 +200,7 @@ TuneCandidate candidate_from_json(const nlohmann::json& j) {
   c.generation = j.at("generation").get<int>();
   c.index = j.at("index").get<int>();
   c.values = j.at("values").get<std::vector<double>>();
-  for (const auto& r : j.at("runs")) {
-    TuneRun t;
-    t.score = r.at("score").get<double>();
-    t.time_up = r.at("time_up").get<double>();
-    if (!r.at("metric").is_null()) t.metric = r.at("metric").get<double>();
-    t.fell = r.at("fell").get<bool>();
-    t.diverged = r.at("diverged").get<bool>();
-    t.error = r.at("error").get<std::string>();
-    c.runs.push_back(t);
-  }
+  for (const auto& r : j.at("runs")) c.runs.push_back(run_from_json(r));
   aggregate_runs(c);
   return c;
 }
