@@ -234,7 +234,10 @@ int main(int argc, char** argv) {
                        "score per second of the duration not stayed up");
   tune_cmd->add_option("--set", tune.sets, "override for every run: key.path=value")
       ->allow_extra_args(false);
-  tune_cmd->add_option("--out", tune.out_dir, "output folder (tune.csv, best.yaml)")->required();
+  tune_cmd->add_option("--method", tune.method, "search: cem (default) or cmaes");
+  tune_cmd->add_option("--out", tune.out_dir, "output folder (tune.csv, best.yaml)");
+  tune_cmd->add_option("--resume", tune.resume,
+                       "folder of an interrupted tune: go on from its last finished generation");
   tune_cmd->add_flag("--quiet", tune.quiet, "no progress lines");
 
   try {

@@ -641,8 +641,14 @@ int robustness_command(const RobustnessCommand& command) {
   });
 }
 
-int tune_command(const TuneCommand& cmd) {
+namespace {
+constexpr const char* kTunePartial = "tune.partial.json";
+}  // namespace
+
+int tune_command(const TuneCommand& command) {
   return guarded([&] {
+    TuneCommand cmd = command;
+    if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
     TuneOptions o;
     o.scenario = cmd.scenario;
     o.sets = cmd.sets;
@@ -656,26 +662,63 @@ int tune_command(const TuneCommand& cmd) {
     o.duration = cmd.duration;
     o.metric = cmd.metric;
     o.fall_penalty = cmd.fall_penalty;
+    o.method = cmd.method;
+    o.interrupt = &g_interrupt;
     if (cmd.out_dir.empty()) throw InputError("--out: give an output folder");
+    // a resumed tune: the checkpoint of the interrupted one, made with the same options
+    const std::filesystem::path partial = std::filesystem::path(cmd.out_dir) / kTunePartial;
+    nlohmann::json saved;
+    if (!cmd.resume.empty()) {
+      std::ifstream in(partial);
+      if (!in)
+        throw InputError(fmt::format("--resume {}: no {} there (nothing to resume)", cmd.resume,
+                                     kTunePartial));
+      try {
+        saved = nlohmann::json::parse(in);
+      } catch (const nlohmann::json::exception& e) {
+        throw InputError(
+            fmt::format("{}: not a stance tune resume file ({})", partial.string(), e.what()));
+      }
+      check_tune_resume(o, saved, "--resume " + cmd.resume);
+    }
     auto wall0 = std::chrono::steady_clock::now();
-    TuneResult r = run_tune(o, [&](const TuneResult& so_far, int g) {
-      if (cmd.quiet) return;
-      if (g == 0)
-        for (const auto& note : so_far.notes) std::cout << "note: " << note << "\n";
-      const TuneCandidate& best = so_far.candidates[so_far.best];
-      double gen_best = std::numeric_limits<double>::infinity();
-      for (const auto& c : so_far.candidates)
-        if (c.generation == g) gen_best = std::min(gen_best, c.robust_score);
-      std::string metric =
-          o.metric.empty() ? "" : fmt::format(", mean {} {:.4g}", o.metric, best.mean_metric);
-      std::cout << fmt::format(
-                       "generation {}/{}: {} candidates; best robust score {:.6g} (worst time "
-                       "up {:.3f} of {:.3f} s{}); this generation's best {:.6g}\n",
-                       g + 1, so_far.generations, so_far.candidates.size(), best.robust_score,
-                       best.worst_time_up, so_far.duration, metric, gen_best)
-                << std::flush;
-    });
+    InterruptHandler interrupt_handler;
+    bool notes_shown = false;
+    TuneResult r = run_tune(
+        o,
+        [&](const TuneResult& so_far, int g) {
+          // every finished generation is kept: the outputs so far, then the state to resume
+          write_tune_outputs(cmd.out_dir, o, so_far);
+          write_file_atomically(partial, so_far.checkpoint.dump() + "\n");
+          if (cmd.quiet) return;
+          if (!notes_shown)
+            for (const auto& note : so_far.notes) std::cout << "note: " << note << "\n";
+          notes_shown = true;
+          const TuneCandidate& best = so_far.candidates[so_far.best];
+          double gen_best = std::numeric_limits<double>::infinity();
+          for (const auto& c : so_far.candidates)
+            if (c.generation == g) gen_best = std::min(gen_best, c.robust_score);
+          std::string metric =
+              o.metric.empty() ? "" : fmt::format(", mean {} {:.4g}", o.metric, best.mean_metric);
+          std::cout << fmt::format(
+                           "generation {}/{}: {} candidates; best robust score {:.6g} (worst time "
+                           "up {:.3f} of {:.3f} s{}); this generation's best {:.6g}\n",
+                           g + 1, so_far.generations, so_far.candidates.size(), best.robust_score,
+                           best.worst_time_up, so_far.duration, metric, gen_best)
+                    << std::flush;
+        },
+        cmd.resume.empty() ? nullptr : &saved);
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    if (r.interrupted) {
+      if (r.finished_generations == 0)
+        std::cerr << "interrupted before the first generation finished; nothing kept\n";
+      else
+        std::cerr << fmt::format(
+            "interrupted: {} of {} generations done, kept in {}; finish them with the same "
+            "command and --resume {}\n",
+            r.finished_generations, r.generations, partial.string(), cmd.out_dir);
+      return kExitInterrupted;
+    }
     write_tune_outputs(cmd.out_dir, o, r);
     const TuneCandidate& start = r.candidates.front();
     const TuneCandidate& best = r.candidates[r.best];
@@ -694,6 +737,8 @@ int tune_command(const TuneCommand& cmd) {
     if (failed > 0)
       std::cout << fmt::format("{} runs diverged or failed (counted as down at t = 0)\n", failed);
     for (const auto& a : tune_assignments(o, best)) std::cout << "  --set " << a << "\n";
+    std::error_code ec;
+    std::filesystem::remove(partial, ec);
     return kExitOk;
   });
 }

@@ -189,7 +189,11 @@ struct TuneCommand {
   std::string metric;
   double fall_penalty = 100;
   std::vector<std::string> sets;
-  std::string out_dir = "out/tune";
+  std::string method = "cem";  // cem or cmaes
+  std::string out_dir;
+  // the folder of an interrupted tune (its tune.partial.json): the search goes on from its last
+  // finished generation, into that folder
+  std::string resume;
   bool quiet = false;
 };
 int tune_command(const TuneCommand& cmd);

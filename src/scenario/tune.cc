@@ -13,6 +13,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "math/cmaes.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
 #include "scenario/scenario.h"
@@ -144,7 +145,102 @@ std::string csv_number(double v) {
   return std::isfinite(v) ? fmt::format("{:.9g}", v) : "";
 }
 
+// --- the resume file -------------------------------------------------------------------------
+constexpr const char* kCheckpointFormat = "stance tune checkpoint 1";
+
+// what a resumed tune must share with the interrupted one (not threads: results do not depend
+// on them)
+nlohmann::json tune_fingerprint(const TuneOptions& o) {
+  std::vector<std::string> params, neighbours;
+  for (const auto& p : o.params) params.push_back(param_text(p));
+  for (const auto& n : o.neighbours) neighbours.push_back(n.text);
+  return {{"scenario", std::filesystem::absolute(o.scenario).lexically_normal().string()},
+          {"set", o.sets},
+          {"param", params},
+          {"neighbour", neighbours},
+          {"budget", o.budget},
+          {"population", o.population},
+          {"seed", o.seed},
+          {"engine", o.engine},
+          {"duration", o.duration ? nlohmann::json(*o.duration) : nlohmann::json(nullptr)},
+          {"metric", o.metric},
+          {"fall-penalty", o.fall_penalty},
+          {"method", o.method}};
+}
+
+// numbers are written in their shortest exact form, so every double reads back unchanged
+nlohmann::json run_to_json(const TuneRun& r) {
+  return {{"score", r.score},
+          {"time_up", r.time_up},
+          {"metric", r.metric ? nlohmann::json(*r.metric) : nlohmann::json(nullptr)},
+          {"fell", r.fell},
+          {"diverged", r.diverged},
+          {"error", r.error}};
+}
+
+TuneRun run_from_json(const nlohmann::json& j) {
+  TuneRun r;
+  r.score = j.at("score").get<double>();
+  r.time_up = j.at("time_up").get<double>();
+  if (!j.at("metric").is_null()) r.metric = j.at("metric").get<double>();
+  r.fell = j.at("fell").get<bool>();
+  r.diverged = j.at("diverged").get<bool>();
+  r.error = j.at("error").get<std::string>();
+  return r;
+}
+
+nlohmann::json candidate_to_json(const TuneCandidate& c) {
+  nlohmann::json runs = nlohmann::json::array();
+  for (const auto& r : c.runs) runs.push_back(run_to_json(r));
+  return {{"generation", c.generation}, {"index", c.index}, {"values", c.values}, {"runs", runs}};
+}
+
+TuneCandidate candidate_from_json(const nlohmann::json& j) {
+  TuneCandidate c;
+  c.generation = j.at("generation").get<int>();
+  c.index = j.at("index").get<int>();
+  c.values = j.at("values").get<std::vector<double>>();
+  for (const auto& r : j.at("runs")) c.runs.push_back(run_from_json(r));
+  aggregate_runs(c);
+  return c;
+}
+
+// a random generator or distribution as the text its operator<< writes, and back
+template <class T>
+std::string stream_text(const T& value) {
+  std::ostringstream out;
+  out << value;
+  return out.str();
+}
+template <class T>
+void from_text(const std::string& text, T& value) {
+  std::istringstream in(text);
+  in >> value;
+  if (in.fail()) throw std::runtime_error("a random generator state that does not read back");
+}
+
+Eigen::VectorXd to_vector(const nlohmann::json& j, int size) {
+  std::vector<double> v = j.get<std::vector<double>>();
+  if (static_cast<int>(v.size()) != size) throw std::runtime_error("a vector of another size");
+  return Eigen::Map<Eigen::VectorXd>(v.data(), size);
+}
+
 }  // namespace
+
+void check_tune_resume(const TuneOptions& o, const nlohmann::json& checkpoint,
+                       const std::string& where) {
+  if (!checkpoint.is_object() || checkpoint.value("format", "") != kCheckpointFormat ||
+      !checkpoint.contains("options") || !checkpoint["options"].is_object())
+    throw InputError(fmt::format("{}: not a stance tune resume file", where));
+  const nlohmann::json now = tune_fingerprint(o);
+  const nlohmann::json& saved = checkpoint["options"];
+  for (auto it = now.begin(); it != now.end(); ++it) {
+    nlohmann::json was = saved.contains(it.key()) ? saved[it.key()] : nlohmann::json(nullptr);
+    if (was != it.value())
+      throw InputError(fmt::format("{}: option '{}' was {} in the interrupted run, now {}", where,
+                                   it.key(), was.dump(), it.value().dump()));
+  }
+}
 
 TuneParam parse_tune_param(const std::string& text) {
   auto bad = [&](const std::string& why) {
@@ -360,12 +456,19 @@ std::vector<std::string> tune_assignments(const TuneOptions& o, const TuneCandid
 }
 
 TuneResult run_tune(const TuneOptions& o,
-                    const std::function<void(const TuneResult&, int)>& on_generation) {
+                    const std::function<void(const TuneResult&, int)>& on_generation,
+                    const nlohmann::json* resume_from) {
   // --- the arguments -------------------------------------------------------------------------
   if (o.params.empty()) throw InputError("tune: no parameter to search (--param key=lo:hi)");
+  if (o.method != "cem" && o.method != "cmaes")
+    throw InputError(fmt::format("--method '{}': expected cem or cmaes", o.method));
   if (o.budget < 1) throw InputError(fmt::format("--budget {}: expected at least 1", o.budget));
   if (o.population < 1)
     throw InputError(fmt::format("--population {}: expected at least 1", o.population));
+  if (o.method == "cmaes" && o.population < 2)
+    throw InputError(fmt::format(
+        "--population {}: CMA-ES needs at least 2 candidates per generation", o.population));
+  if (resume_from) check_tune_resume(o, *resume_from, "--resume");
   if (o.threads < 0) throw InputError(fmt::format("--threads {}: expected 0 or more", o.threads));
   if (!std::isfinite(o.fall_penalty) || o.fall_penalty < 0)
     throw InputError(fmt::format("--fall-penalty {}: expected a number >= 0", o.fall_penalty));
@@ -452,24 +555,40 @@ TuneResult run_tune(const TuneOptions& o,
     }
 
   // --- the first run: the start's nominal point, which also checks the metric ---------------
-  auto run_one = [&](const std::vector<double>& values, int neighbour) -> TuneRun {
+  // runs stop early on an interrupt; such a run is marked cut and its generation abandoned
+  RunOptions interruptible = run_options;
+  interruptible.interrupt = o.interrupt;
+  auto interrupted = [&] { return o.interrupt && o.interrupt->load(); };
+  auto run_one = [&](const std::vector<double>& values, int neighbour, char& cut) -> TuneRun {
     double duration = result.duration;
     try {
       LoadedScenario loaded = parse_doc(o, run_doc(o, base, values, neighbour));
       duration = o.duration ? *o.duration : loaded.scenario.duration;
-      RunResult r = run_without_timing(loaded, run_options);
+      RunResult r = run_without_timing(loaded, interruptible);
+      cut = r.interrupted;
       return score_run(r, duration, o.metric, o.fall_penalty);
     } catch (const InputError& e) {
       // a candidate its controllers reject scores as failed; anything else is a bug
       return failed_run(e.what(), duration, o.fall_penalty);
     }
   };
+  // a checkpoint is made after a finished generation: it holds at least one
+  const bool resuming = resume_from != nullptr;
+  if (resuming) {
+    auto it = resume_from->find("finished_generations");
+    if (it == resume_from->end() || !it->is_number_integer() || it->get<int>() < 1)
+      throw InputError("--resume: not a stance tune resume file (no finished generation)");
+  }
   TuneRun first;
-  {
+  if (!resuming) {
     double duration = result.duration;
     try {
       LoadedScenario loaded = parse_doc(o, run_doc(o, base, start, -1));
-      RunResult r = run_without_timing(loaded, run_options);
+      RunResult r = run_without_timing(loaded, interruptible);
+      if (r.interrupted) {
+        result.interrupted = true;
+        return result;
+      }
       if (!o.metric.empty() && !r.diverged && !metric_at(r.metrics, o.metric)) {
         std::vector<std::string> paths;
         metric_paths(r.metrics, "", paths);
@@ -488,23 +607,115 @@ TuneResult run_tune(const TuneOptions& o,
     }
   }
 
-  // --- the search ----------------------------------------------------------------------------
+  // --- the search state ----------------------------------------------------------------------
   const int d = static_cast<int>(o.params.size());
+  const bool cmaes = o.method == "cmaes";
   std::mt19937_64 rng(o.seed);
   std::uniform_real_distribution<double> uniform(0.0, 1.0);
   std::normal_distribution<double> normal(0.0, 1.0);
-  std::vector<std::vector<double>> units;  // per candidate, the unit coordinates
+  Eigen::VectorXd start_unit(d);
+  for (int k = 0; k < d; ++k) start_unit[k] = std::clamp(to_unit(o.params[k], start[k]), 0.0, 1.0);
+  // cem: per candidate, the unit coordinates; the mean and spread of the next generation
+  std::vector<std::vector<double>> units;
   std::vector<double> mean(d), sigma(d, 0.3);
+  const int elite_count = std::max(2, (o.population + 3) / 4);
+  // cmaes: lambda is the population (at least 2, checked above)
+  std::optional<Cmaes> es;
+  if (cmaes)
+    es.emplace(start_unit, 0.3, o.population, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d));
   const int generations = (o.budget + o.population - 1) / o.population;
   result.generations = generations;
-  const int elite_count = std::max(2, (o.population + 3) / 4);
 
-  for (int g = 0; g < generations; ++g) {
+  // the search state as JSON, after a finished generation
+  auto checkpoint = [&]() {
+    nlohmann::json search = {{"rng", stream_text(rng)}};
+    if (cmaes) {
+      const CmaesState& s = es->state();
+      search["mean"] = std::vector<double>(s.mean.data(), s.mean.data() + s.mean.size());
+      search["sigma"] = s.sigma;
+      search["C"] = std::vector<double>(s.C.data(), s.C.data() + s.C.size());
+      search["p_sigma"] = std::vector<double>(s.p_sigma.data(), s.p_sigma.data() + d);
+      search["p_c"] = std::vector<double>(s.p_c.data(), s.p_c.data() + d);
+      search["generation"] = s.generation;
+    } else {
+      search["normal"] = stream_text(normal);
+      search["mean"] = mean;
+      search["sigma"] = sigma;
+      search["units"] = units;
+    }
+    nlohmann::json candidates = nlohmann::json::array();
+    for (const auto& c : result.candidates) candidates.push_back(candidate_to_json(c));
+    return nlohmann::json{{"format", kCheckpointFormat},
+                          {"options", tune_fingerprint(o)},
+                          {"finished_generations", result.finished_generations},
+                          {"best", result.best},
+                          {"candidates", candidates},
+                          {"search", search}};
+  };
+  auto best_yaml = [&] {
+    YAML::Node best_doc = run_doc(o, base, result.candidates[result.best].values, -1);
+    YAML::Emitter out;
+    out << best_doc;
+    return std::string(out.c_str());
+  };
+
+  // a resumed search: the finished generations and the state after them, exactly as saved
+  if (resuming) {
+    try {
+      const nlohmann::json& cp = *resume_from;
+      for (const auto& c : cp.at("candidates")) result.candidates.push_back(candidate_from_json(c));
+      result.best = cp.at("best").get<int>();
+      result.finished_generations = cp.at("finished_generations").get<int>();
+      if (result.candidates.empty() || result.best < 0 ||
+          result.best >= static_cast<int>(result.candidates.size()) ||
+          result.finished_generations > generations)
+        throw std::runtime_error("inconsistent candidates");
+      const nlohmann::json& search = cp.at("search");
+      from_text(search.at("rng").get<std::string>(), rng);
+      if (cmaes) {
+        CmaesState s;
+        s.mean = to_vector(search.at("mean"), d);
+        s.sigma = search.at("sigma").get<double>();
+        Eigen::VectorXd c = to_vector(search.at("C"), d * d);
+        s.C = Eigen::Map<Eigen::MatrixXd>(c.data(), d, d);
+        s.p_sigma = to_vector(search.at("p_sigma"), d);
+        s.p_c = to_vector(search.at("p_c"), d);
+        s.generation = search.at("generation").get<int>();
+        es->set_state(s);
+      } else {
+        from_text(search.at("normal").get<std::string>(), normal);
+        mean = search.at("mean").get<std::vector<double>>();
+        sigma = search.at("sigma").get<std::vector<double>>();
+        units = search.at("units").get<std::vector<std::vector<double>>>();
+        if (static_cast<int>(mean.size()) != d || static_cast<int>(sigma.size()) != d ||
+            units.size() != result.candidates.size())
+          throw std::runtime_error("a search state of another size");
+      }
+    } catch (const std::exception& e) {
+      throw InputError(fmt::format("--resume: not a stance tune resume file ({})", e.what()));
+    }
+    result.checkpoint = *resume_from;
+    result.scenario_yaml = best_yaml();
+  }
+
+  // --- the search ----------------------------------------------------------------------------
+  for (int g = result.finished_generations; g < generations; ++g) {
+    if (interrupted()) {
+      result.interrupted = true;
+      break;
+    }
     const int count = std::min(o.population, o.budget - g * o.population);
     std::vector<std::vector<double>> u(count, std::vector<double>(d));
-    if (g == 0) {
+    Eigen::MatrixXd drawn;  // cmaes: the generation's points, one per column
+    if (cmaes) {
+      drawn = es->ask(rng);
+      // the start takes the first place of generation 0
+      if (g == 0) drawn.col(0) = start_unit;
+      for (int c = 0; c < count; ++c)
+        for (int k = 0; k < d; ++k) u[c][k] = drawn(k, c);
+    } else if (g == 0) {
       // the start, then a Latin-hypercube sample of the box
-      for (int k = 0; k < d; ++k) u[0][k] = std::clamp(to_unit(o.params[k], start[k]), 0.0, 1.0);
+      for (int k = 0; k < d; ++k) u[0][k] = start_unit[k];
       const int m = count - 1;
       for (int k = 0; k < d && m > 0; ++k) {
         std::vector<int> strata(m);
@@ -534,44 +745,57 @@ TuneResult run_tune(const TuneOptions& o,
         gen[c].values[k] = (g == 0 && c == 0) ? start[k] : from_unit(o.params[k], u[c][k]);
       gen[c].runs.resize(runs_per);
     }
+    std::vector<char> cut(count * runs_per, 0);
     parallel_for(count * runs_per, o.threads, [&](int job) {
       const int c = job / runs_per, j = job % runs_per;
       if (g == 0 && c == 0 && j == 0)
         gen[c].runs[j] = first;
       else
-        gen[c].runs[j] = run_one(gen[c].values, j - 1);
+        gen[c].runs[j] = run_one(gen[c].values, j - 1, cut[job]);
     });
+    // a generation with a run cut short is abandoned: a resumed search runs it again
+    if (std::find(cut.begin(), cut.end(), 1) != cut.end()) {
+      result.interrupted = true;
+      break;
+    }
     for (int c = 0; c < count; ++c) {
       aggregate_runs(gen[c]);
       result.candidates.push_back(gen[c]);
-      units.push_back(u[c]);
       const TuneCandidate& best = result.candidates[result.best];
       if (result.candidates.back().robust_score < best.robust_score)
         result.best = static_cast<int>(result.candidates.size()) - 1;
     }
 
-    // the elite so far: mean and spread of the next generation
-    std::vector<int> order(result.candidates.size());
-    for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
-    std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-      return result.candidates[a].robust_score < result.candidates[b].robust_score;
-    });
-    const int e = std::min(elite_count, static_cast<int>(order.size()));
-    for (int k = 0; k < d; ++k) {
-      double s = 0, ss = 0;
-      for (int i = 0; i < e; ++i) s += units[order[i]][k];
-      mean[k] = s / e;
-      for (int i = 0; i < e; ++i) ss += std::pow(units[order[i]][k] - mean[k], 2);
-      double spread = e > 1 ? std::sqrt(ss / (e - 1)) : sigma[k];
-      sigma[k] = std::max(0.02, 0.5 * sigma[k] + 0.5 * spread);
+    if (cmaes) {
+      // the optimiser learns from full generations only; a short last one ends the search
+      if (count == o.population) {
+        std::vector<double> scores(count);
+        for (int c = 0; c < count; ++c) scores[c] = gen[c].robust_score;
+        es->tell(drawn, scores);
+      }
+    } else {
+      for (int c = 0; c < count; ++c) units.push_back(u[c]);
+      // the elite so far: mean and spread of the next generation
+      std::vector<int> order(result.candidates.size());
+      for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
+      std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
+        return result.candidates[a].robust_score < result.candidates[b].robust_score;
+      });
+      const int e = std::min(elite_count, static_cast<int>(order.size()));
+      for (int k = 0; k < d; ++k) {
+        double s = 0, ss = 0;
+        for (int i = 0; i < e; ++i) s += units[order[i]][k];
+        mean[k] = s / e;
+        for (int i = 0; i < e; ++i) ss += std::pow(units[order[i]][k] - mean[k], 2);
+        double spread = e > 1 ? std::sqrt(ss / (e - 1)) : sigma[k];
+        sigma[k] = std::max(0.02, 0.5 * sigma[k] + 0.5 * spread);
+      }
     }
+    result.finished_generations = g + 1;
+    result.checkpoint = checkpoint();
+    result.scenario_yaml = best_yaml();
     if (on_generation) on_generation(result, g);
   }
-
-  YAML::Node best_doc = run_doc(o, base, result.candidates[result.best].values, -1);
-  YAML::Emitter out;
-  out << best_doc;
-  result.scenario_yaml = out.c_str();
   return result;
 }
 

@@ -7,12 +7,21 @@
 // failed) and metric is a number from RunResult::metrics (0 without --metric). A candidate's
 // robust score is the maximum over its runs: the nominal point and every neighbour.
 //
-// Search: a cross-entropy method in the box normalised to [0, 1] per parameter (log-scaled where
-// asked). Generation 0 is the scenario's current point followed by a Latin-hypercube sample of
-// the box; later generations sample a Gaussian around the mean of the elite candidates so far,
-// with a spread that shrinks to theirs. All random numbers come from one std::mt19937_64 seeded
-// by `seed` on the calling thread, and the runs of a generation share nothing, so the result is
-// identical for any thread count.
+// Search, in the box normalised to [0, 1] per parameter (log-scaled where asked), by one of:
+//  - "cem", a cross-entropy method (the default): generation 0 is the scenario's current point
+//    followed by a Latin-hypercube sample of the box; later generations sample a Gaussian
+//    around the mean of the elite candidates so far, with a spread that shrinks to theirs;
+//  - "cmaes", CMA-ES (math/cmaes.h) started at the scenario's current point with step 0.3 of
+//    the box and lambda = population; candidate 0 of generation 0 is the start itself. Points
+//    outside the box are drawn again (up to 10 times), then clamped. A last generation cut
+//    short by the budget is evaluated but not told to the optimiser (nothing follows it).
+// All random numbers come from one std::mt19937_64 seeded by `seed` on the calling thread, and
+// the runs of a generation share nothing, so the result is identical for any thread count.
+//
+// Resuming: after each generation TuneResult::checkpoint holds everything needed to go on (the
+// options that matter, every candidate with its runs, the optimiser's state and the generator's);
+// run_tune given it continues with the next generation and ends with the same result as an
+// uninterrupted search.
 //
 // Outputs (write_tune_outputs):
 //  - tune.csv:           one row per candidate: generation, index, each value, robust score,
@@ -21,6 +30,9 @@
 //  - best_scenario.yaml: the scenario (after --set) with the best point applied
 #pragma once
 
+#include <nlohmann/json.hpp>
+
+#include <atomic>
 #include <functional>
 #include <optional>
 #include <string>
@@ -80,6 +92,10 @@ struct TuneOptions {
   std::optional<double> duration;  // s, overrides the scenario's
   std::string metric;              // dotted path into RunResult::metrics; empty: none
   double fall_penalty = 100;       // score per second of the duration not stayed up
+  std::string method = "cem";      // "cem" or "cmaes"
+  // set (by a signal handler): no new generation starts, the running one is abandoned (its
+  // cut-short runs are not scored) and run_tune returns with TuneResult::interrupted
+  const std::atomic<bool>* interrupt = nullptr;
 };
 
 // the score of one run
@@ -113,10 +129,13 @@ void aggregate_runs(TuneCandidate& c);
 struct TuneResult {
   std::vector<TuneCandidate> candidates;  // in evaluation order; candidates[0] is the start
   int best = 0;                           // index into candidates
-  int generations = 0;
-  double duration = 0;             // s, of the nominal run
-  std::vector<std::string> notes;  // e.g. a start value outside its range, clamped
-  std::string scenario_yaml;       // the scenario after --set and the best point, as YAML
+  int generations = 0;                    // planned: ceil(budget / population)
+  int finished_generations = 0;           // done (less than generations only when interrupted)
+  bool interrupted = false;               // stopped by TuneOptions::interrupt
+  double duration = 0;                    // s, of the nominal run
+  std::vector<std::string> notes;         // e.g. a start value outside its range, clamped
+  std::string scenario_yaml;              // the scenario after --set and the best point, as YAML
+  nlohmann::json checkpoint;              // after the last finished generation: the resume state
 };
 
 // the `--set` assignments of a candidate, "key=value" with the shortest exact number text
@@ -124,10 +143,19 @@ std::vector<std::string> tune_assignments(const TuneOptions& o, const TuneCandid
 
 // validates everything (params, keys, neighbours, metric, engine) before the long work and
 // throws InputError naming the argument; then searches. on_generation (optional) is called
-// after each generation with the result so far.
+// after each generation with the result so far (its checkpoint and scenario_yaml filled in).
+// resume_from (optional) is a checkpoint of an interrupted search with the same options
+// (check_tune_resume): its generations are kept and the search goes on from there.
 TuneResult run_tune(
     const TuneOptions& options,
-    const std::function<void(const TuneResult& so_far, int generation)>& on_generation = {});
+    const std::function<void(const TuneResult& so_far, int generation)>& on_generation = {},
+    const nlohmann::json* resume_from = nullptr);
+
+// throws InputError "--resume <where>: option 'x' was A in the interrupted run, now B" when a
+// checkpoint was made with other options (threads do not count), or "<where>: not a stance tune
+// resume file" when it is not one
+void check_tune_resume(const TuneOptions& options, const nlohmann::json& checkpoint,
+                       const std::string& where);
 
 // writes tune.csv, best.yaml and best_scenario.yaml into dir (created if needed)
 void write_tune_outputs(const std::string& dir, const TuneOptions& options,

@@ -6,6 +6,7 @@
 
 #include <yaml-cpp/yaml.h>
 
+#include <atomic>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -209,6 +210,130 @@ TEST(Tune, FindsGainsThatStandFromOnesThatFall) {
             "mean_metric,failed_runs");
   EXPECT_EQ(csv[0], csv[1]);
   EXPECT_EQ(best[0], best[1]);
+}
+
+// CMA-ES from the same soft start: it finds gains that stand on the nominal run and the
+// neighbour, and its tune.csv does not depend on the thread count
+TEST(Tune, FindsGainsThatStandWithCmaes) {
+  TuneOptions o = stand_options();
+  o.method = "cmaes";
+  std::string csv[2];
+  for (int threads : {1, 2}) {
+    o.threads = threads;
+    TuneResult r = run_tune(o);
+    ASSERT_EQ(r.candidates.size(), 12u);
+    const TuneCandidate& start = r.candidates.front();
+    const TuneCandidate& b = r.candidates[r.best];
+    EXPECT_EQ(start.values, (std::vector<double>{40, 4}));
+    EXPECT_LT(start.worst_time_up, 1.0);
+    EXPECT_DOUBLE_EQ(b.worst_time_up, 1.5);
+    EXPECT_LT(b.robust_score, 1.0);
+    for (const auto& c : r.candidates)
+      for (size_t k = 0; k < c.values.size(); ++k) {
+        EXPECT_GE(c.values[k], o.params[k].lo);
+        EXPECT_LE(c.values[k], o.params[k].hi);
+      }
+    auto dir = std::filesystem::temp_directory_path() / "stance_tests" /
+               ("tune_cmaes_threads_" + std::to_string(threads));
+    write_tune_outputs(dir.string(), o, r);
+    csv[threads - 1] = read_all(dir / "tune.csv");
+  }
+  EXPECT_EQ(csv[0], csv[1]);
+}
+
+// the arm of pd_hold, scored on its tracking error: cheap runs for the resume tests
+TuneOptions arm_options(const std::string& method) {
+  TuneOptions o;
+  o.scenario = test::source_dir() + "/scenarios/pd_hold.yaml";
+  o.params = {parse_tune_param("controllers.0.kp=5:200:log"),
+              parse_tune_param("controllers.0.kd=0.1:20:log")};
+  o.neighbours = {parse_neighbour("controllers.0.kp*=0.8")};
+  o.duration = 0.3;
+  o.budget = 14;  // the last generation is cut short by the budget
+  o.population = 4;
+  o.seed = 3;
+  o.threads = 2;
+  o.metric = "com_displacement_m+0.01*torque_rms";
+  o.method = method;
+  return o;
+}
+
+std::string outputs_of(const TuneOptions& o, const TuneResult& r, const std::string& name) {
+  auto dir = std::filesystem::temp_directory_path() / "stance_tests" / name;
+  write_tune_outputs(dir.string(), o, r);
+  return read_all(dir / "tune.csv") + read_all(dir / "best.yaml") +
+         read_all(dir / "best_scenario.yaml");
+}
+
+// stopped after each generation in turn and resumed from its checkpoint (as read back from
+// text), a search writes exactly the files of an uninterrupted one, for both methods
+TEST(Tune, ResumedSearchEqualsUninterrupted) {
+  for (const std::string method : {"cem", "cmaes"}) {
+    TuneOptions o = arm_options(method);
+    TuneResult whole = run_tune(o);
+    ASSERT_EQ(whole.generations, 4);
+    ASSERT_EQ(whole.finished_generations, 4);
+    EXPECT_FALSE(whole.interrupted);
+    const std::string expected = outputs_of(o, whole, "tune_whole_" + method);
+    for (int stop_after : {1, 3}) {
+      std::atomic<bool> stop{false};
+      o.interrupt = &stop;
+      TuneResult part = run_tune(o, [&](const TuneResult&, int g) {
+        if (g + 1 == stop_after) stop = true;
+      });
+      EXPECT_TRUE(part.interrupted);
+      ASSERT_EQ(part.finished_generations, stop_after);
+      EXPECT_EQ(part.candidates.size(), static_cast<size_t>(4 * stop_after));
+      nlohmann::json checkpoint = nlohmann::json::parse(part.checkpoint.dump());
+      o.interrupt = nullptr;
+      o.threads = 1;  // threads are not part of the search: a resume may change them
+      int calls = 0;
+      TuneResult resumed = run_tune(
+          o, [&](const TuneResult&, int) { ++calls; }, &checkpoint);
+      o.threads = 2;
+      EXPECT_EQ(calls, 4 - stop_after);
+      EXPECT_FALSE(resumed.interrupted);
+      EXPECT_EQ(outputs_of(o, resumed, "tune_resumed_" + method), expected)
+          << method << " stopped after generation " << stop_after;
+      EXPECT_EQ(resumed.checkpoint, whole.checkpoint) << method;
+    }
+  }
+}
+
+TEST(Tune, ResumeRefusesOtherOptions) {
+  TuneOptions o = arm_options("cmaes");
+  o.budget = 4;
+  TuneResult r = run_tune(o);
+  TuneOptions other = o;
+  other.seed = 4;
+  std::string e = error_of([&] { check_tune_resume(other, r.checkpoint, "--resume out/t"); });
+  EXPECT_EQ(e, "--resume out/t: option 'seed' was 3 in the interrupted run, now 4");
+  other = o;
+  other.method = "cem";
+  e = error_of([&] { run_tune(other, {}, &r.checkpoint); });
+  EXPECT_EQ(e, "--resume: option 'method' was \"cmaes\" in the interrupted run, now \"cem\"");
+  other = o;
+  other.threads = 1;  // not an option of the search
+  EXPECT_EQ(error_of([&] { check_tune_resume(other, r.checkpoint, "x"); }), "");
+  e = error_of([&] { check_tune_resume(o, nlohmann::json{{"cells", 1}}, "--resume d"); });
+  EXPECT_EQ(e, "--resume d: not a stance tune resume file");
+  // a damaged checkpoint is named, not a crash
+  nlohmann::json broken = r.checkpoint;
+  broken["search"].erase("rng");
+  e = error_of([&] { run_tune(o, {}, &broken); });
+  EXPECT_EQ(e.rfind("--resume: not a stance tune resume file (", 0), 0u) << e;
+  broken = r.checkpoint;
+  broken["finished_generations"] = 0;
+  e = error_of([&] { run_tune(o, {}, &broken); });
+  EXPECT_EQ(e, "--resume: not a stance tune resume file (no finished generation)");
+  // bad methods and populations are named
+  other = o;
+  other.method = "pso";
+  EXPECT_EQ(error_of([&] { run_tune(other); }), "--method 'pso': expected cem or cmaes");
+  other = o;
+  other.population = 1;
+  EXPECT_EQ(error_of([&] { run_tune(other); }),
+            "--population 1: CMA-ES needs at least 2 candidates per generation");
 }
 
 }  // namespace
