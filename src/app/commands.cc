@@ -687,6 +687,8 @@ int tune_command(const TuneCommand& command) {
     TuneResult r = run_tune(
         o,
         [&](const TuneResult& so_far, int g) {
+          // under mpirun every rank holds the same result; rank 0 writes and reports
+          if (!BatchRanks::get().root()) return;
           // every finished generation is kept: the outputs so far, then the state to resume
           write_tune_outputs(cmd.out_dir, o, so_far);
           write_file_atomically(partial, so_far.checkpoint.dump() + "\n");
@@ -709,6 +711,7 @@ int tune_command(const TuneCommand& command) {
         },
         cmd.resume.empty() ? nullptr : &saved);
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    if (!BatchRanks::get().root()) return r.interrupted ? kExitInterrupted : kExitOk;
     if (r.interrupted) {
       if (r.finished_generations == 0)
         std::cerr << "interrupted before the first generation finished; nothing kept\n";

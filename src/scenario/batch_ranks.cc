@@ -52,7 +52,8 @@ BatchRanks::~BatchRanks() {
 
 void BatchRanks::distributed_for(int n, int threads, const std::function<void(int)>& job,
                                  const std::function<std::string(int)>& encode,
-                                 const std::function<void(int, const std::string&)>& decode) {
+                                 const std::function<void(int, const std::string&)>& decode,
+                                 bool every_rank) {
   if (size_ == 1) {
     parallel_for(n, threads, job);
     return;
@@ -77,10 +78,14 @@ void BatchRanks::distributed_for(int n, int threads, const std::function<void(in
   int failed = error ? 1 : 0, any_failed = 0;
   MPI_Allreduce(&failed, &any_failed, 1, MPI_INT, MPI_MAX, MPI_COMM_WORLD);
   int length = static_cast<int>(packed.size());
-  std::vector<int> lengths(root() ? size_ : 0), offsets(root() ? size_ : 0);
-  MPI_Gather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
+  const bool receives = every_rank || root();
+  std::vector<int> lengths(receives ? size_ : 0), offsets(receives ? size_ : 0);
+  if (every_rank)
+    MPI_Allgather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, MPI_COMM_WORLD);
+  else
+    MPI_Gather(&length, 1, MPI_INT, lengths.data(), 1, MPI_INT, 0, MPI_COMM_WORLD);
   std::string all;
-  if (root()) {
+  if (receives) {
     int total = 0;
     for (int r = 0; r < size_; ++r) {
       offsets[r] = total;
@@ -88,10 +93,15 @@ void BatchRanks::distributed_for(int n, int threads, const std::function<void(in
     }
     all.resize(total);
   }
-  MPI_Gatherv(packed.data(), length, MPI_CHAR, all.data(), lengths.data(), offsets.data(),
-              MPI_CHAR, 0, MPI_COMM_WORLD);
-  if (root()) {
-    for (int r = 1; r < size_; ++r) {
+  if (every_rank)
+    MPI_Allgatherv(packed.data(), length, MPI_CHAR, all.data(), lengths.data(), offsets.data(),
+                   MPI_CHAR, MPI_COMM_WORLD);
+  else
+    MPI_Gatherv(packed.data(), length, MPI_CHAR, all.data(), lengths.data(), offsets.data(),
+                MPI_CHAR, 0, MPI_COMM_WORLD);
+  if (receives) {
+    for (int r = 0; r < size_; ++r) {
+      if (r == rank_) continue;
       size_t at = offsets[r];
       const size_t end = at + lengths[r];
       while (at < end) {

@@ -28,9 +28,12 @@ class BatchRanks {
   // rank's indices is gathered at rank 0, which calls decode(i, text) for the other ranks' (an
   // empty text: that item did not finish). An exception in this rank's jobs is rethrown after
   // the gather; one in another rank's makes every rank throw.
+  // every_rank: every rank decodes the others' items (for work whose next step needs all the
+  // results on every rank, as a tuner's next generation does)
   void distributed_for(int n, int threads, const std::function<void(int)>& job,
                        const std::function<std::string(int)>& encode,
-                       const std::function<void(int, const std::string&)>& decode);
+                       const std::function<void(int, const std::string&)>& decode,
+                       bool every_rank = false);
 
   ~BatchRanks();
   BatchRanks(const BatchRanks&) = delete;

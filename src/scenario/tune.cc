@@ -16,6 +16,7 @@
 #include "math/cmaes.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
+#include "scenario/batch_ranks.h"
 #include "scenario/scenario.h"
 #include "scenario/sweep.h"
 
@@ -746,13 +747,28 @@ TuneResult run_tune(const TuneOptions& o,
       gen[c].runs.resize(runs_per);
     }
     std::vector<char> cut(count * runs_per, 0);
-    parallel_for(count * runs_per, o.threads, [&](int job) {
-      const int c = job / runs_per, j = job % runs_per;
-      if (g == 0 && c == 0 && j == 0)
-        gen[c].runs[j] = first;
-      else
-        gen[c].runs[j] = run_one(gen[c].values, j - 1, cut[job]);
-    });
+    // over threads, and over MPI ranks under mpirun: every rank needs every score, since the
+    // next generation is drawn from them (each rank draws the same, from the same seed)
+    BatchRanks::get().distributed_for(
+        count * runs_per, o.threads,
+        [&](int job) {
+          const int c = job / runs_per, j = job % runs_per;
+          if (g == 0 && c == 0 && j == 0)
+            gen[c].runs[j] = first;
+          else
+            gen[c].runs[j] = run_one(gen[c].values, j - 1, cut[job]);
+        },
+        [&](int job) {
+          return nlohmann::json{{"run", run_to_json(gen[job / runs_per].runs[job % runs_per])},
+                                {"cut", cut[job] != 0}}
+              .dump();
+        },
+        [&](int job, const std::string& text) {
+          const nlohmann::json j = nlohmann::json::parse(text);
+          gen[job / runs_per].runs[job % runs_per] = run_from_json(j.at("run"));
+          cut[job] = j.at("cut").get<bool>() ? 1 : 0;
+        },
+        /*every_rank=*/true);
     // a generation with a run cut short is abandoned: a resumed search runs it again
     if (std::find(cut.begin(), cut.end(), 1) != cut.end()) {
       result.interrupted = true;

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# mpirun -np 2 spreads sweep and robustness over two ranks (threads inside each): the files rank 0
+# mpirun -np 2 spreads sweep, robustness and tune over two ranks (threads inside each): the files rank 0
 # writes equal a threaded single-process run's, byte for byte; and a plain run never starts MPI.
 set -u
 stance=$1
@@ -34,6 +34,21 @@ for threads in 1 2; do
   for f in robustness.csv thresholds.csv summary.json; do
     cmp -s "$tmp/map_threads/$f" "$tmp/map_mpi$threads/$f" ||
       fail "robustness $f differs under mpirun with $threads threads per rank"
+  done
+done
+
+# tune: every rank draws the same candidates and gathers every score; rank 0 writes
+for method in cem cmaes; do
+  tune=(tune scenarios/pd_hold.yaml --param controllers.0.kp=20:120 --param controllers.0.kd=1:10
+    --neighbour "controllers.0.kp*=0.8" --budget 12 --population 4 --duration 1.5 --quiet
+    --method $method)
+  "$stance" "${tune[@]}" --threads 2 --out "$tmp/tune_threads_$method" >/dev/null ||
+    fail "threaded tune ($method)"
+  "${mpi[@]}" "$stance" "${tune[@]}" --threads 1 --out "$tmp/tune_mpi_$method" >"$tmp/mpi.txt" \
+    2>&1 || fail "mpirun tune ($method): $(tail -3 "$tmp/mpi.txt")"
+  for f in tune.csv best.yaml best_scenario.yaml; do
+    cmp -s "$tmp/tune_threads_$method/$f" "$tmp/tune_mpi_$method/$f" ||
+      fail "tune ($method) $f differs under mpirun"
   done
 done
 
