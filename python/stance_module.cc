@@ -1120,8 +1120,9 @@ wall-clock ones, error: non-empty where that run's input was bad).)");
          const std::vector<std::string>& neighbours, int budget, int population,
          unsigned long long seed, const std::string& metric, double fall_penalty,
          const py::object& overrides, const std::string& engine, std::optional<double> duration,
-         int threads) {
+         int threads, const std::string& method) {
         TuneOptions o;
+        o.method = method;
         o.scenario = path;
         o.sets = override_list(overrides);
         for (const auto& p : params) o.params.push_back(parse_tune_param(p));
@@ -1168,7 +1169,9 @@ wall-clock ones, error: non-empty where that run's input was bad).)");
       py::arg("budget") = 40, py::arg("population") = 8, py::arg("seed") = 1,
       py::arg("metric") = "", py::arg("fall_penalty") = 100.0, py::arg("overrides") = py::none(),
       py::arg("engine") = "", py::arg("duration") = std::nullopt, py::arg("threads") = 0,
-      R"(`stance tune`: a seeded cross-entropy search over params ("key=lo:hi[:log]"), each
+      py::arg("method") = "cem",
+      R"(`stance tune`: a seeded search over params ("key=lo:hi[:log]"), method "cem" (the
+cross-entropy method) or "cmaes" (CMA-ES), each
 candidate scored by its worst run over the nominal setting and the neighbours ("k*=0.85,k2=v"),
 the GIL released; the same results for any thread count. Returns a dict: values (candidates x
 params), robust_score, worst_time_up, mean_metric, generation, failed_runs (numpy arrays in

@@ -158,17 +158,18 @@ def test_run_releases_the_gil():
     assert len(seen) > 10
 
 
-def test_tune_returns_the_cli_table(tmp):
+@pytest.mark.parametrize("method", ["cem", "cmaes"])
+def test_tune_returns_the_cli_table(tmp, method):
     path = SCENARIOS / "biped_stand.yaml"
     args = dict(params=["controllers.0.kp=20:1000:log", "controllers.0.kd=2:100:log"],
                 neighbours=["controllers.0.kp*=0.8,controllers.0.kd*=0.8"], budget=4,
                 population=2, duration=0.5, threads=2, metric="com_displacement_m",
-                overrides={"controllers.0.kp": 40, "controllers.0.kd": 4})
+                overrides={"controllers.0.kp": 40, "controllers.0.kd": 4}, method=method)
     rc, _, err = run_cli("tune", path, "--param", args["params"][0], "--param", args["params"][1],
                          "--neighbour", args["neighbours"][0], "--set", "controllers.0.kp=40",
                          "--set", "controllers.0.kd=4", "--budget", 4, "--population", 2,
                          "--duration", 0.5, "--threads", 2, "--metric", "com_displacement_m",
-                         "--out", tmp)
+                         "--method", method, "--out", tmp)
     assert rc == 0, err
     t = stance.tune(str(path), **args)
     table = np.genfromtxt(tmp / "tune.csv", delimiter=",", names=True)
