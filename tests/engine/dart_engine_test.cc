@@ -657,6 +657,31 @@ TEST(DartEngine, ModelsDartWouldCrashOnAreRejectedWithFileAndLine) {
   EXPECT_NE(message.find("size"), std::string::npos) << message;
 }
 
+// a carriage return between the numbers of a capsule's fromto: MuJoCo reads it as a separator,
+// DART 6.12's parser read a zero length and its CapsuleShape asserted (found by fuzz_model); the
+// DART path now reads it as the spaced file
+TEST(DartEngine, WhitespaceInsideAttributesReadsAsSpaces) {
+  auto arm = [](const std::string& name, const std::string& separator) {
+    WorldSpec spec;
+    spec.models.push_back(
+        {write_temp(name, "<mujoco><worldbody><body name=\"b\"><joint name=\"j\" type=\"hinge\"/>"
+                          "<geom type=\"capsule\" fromto=\"0 0 0" + separator +
+                              "0.15 0 0\" size=\"0.03\" mass=\"0.5\"/></body></worldbody>"
+                              "</mujoco>\n"),
+         {}});
+    return make_dart_engine(spec);
+  };
+  auto spaced = arm("spaced.xml", " ");
+  auto returned = arm("returned.xml", "\t\r");
+  ASSERT_EQ(returned->nv(), 1);
+  EXPECT_EQ(returned->total_mass(), spaced->total_mass());
+  spaced->forward();
+  returned->forward();
+  // the same capsule: 0.15 m long, not zero
+  EXPECT_EQ(returned->body_com(0), spaced->body_com(0));
+  EXPECT_EQ(returned->body_pose(0).pos, spaced->body_pose(0).pos);
+}
+
 // dart-doc's soft-body and mesh worlds load as they did before the checks
 TEST(DartEngine, DartDocSoftBodyMeshAndShapeWorldsLoad) {
   if (!std::filesystem::exists("/usr/share/doc/dart/data/skel/softBodies.skel"))

@@ -244,6 +244,25 @@ void collect_inertials(const std::string& shown_name, const tinyxml2::XMLElement
   }
 }
 
+// tabs, carriage returns and newlines in attribute values -> spaces: MuJoCo reads them as the
+// separators they are, DART 6.12's MJCF parser misreads a number after one (a capsule's fromto
+// with "\r0.15" became a zero length, and CapsuleShape asserts); true when anything changed
+bool normalize_attribute_whitespace(tinyxml2::XMLElement* parent) {
+  bool changed = false;
+  for (tinyxml2::XMLElement* e = parent->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
+      std::string value = a->Value();
+      if (value.find_first_of("\t\r\n") == std::string::npos) continue;
+      for (char& c : value)
+        if (c == '\t' || c == '\r' || c == '\n') c = ' ';
+      e->SetAttribute(a->Name(), value.c_str());
+      changed = true;
+    }
+    changed = normalize_attribute_whitespace(e) || changed;
+  }
+  return changed;
+}
+
 // <freejoint/> (MuJoCo's shorthand) -> <joint type="free"/>, which DART 6.12's parser knows;
 // true when anything changed
 bool expand_freejoints(tinyxml2::XMLElement* parent) {
@@ -286,6 +305,7 @@ MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& f
   if (const tinyxml2::XMLElement* worldbody = root->FirstChildElement("worldbody"))
     collect_inertials(shown_name, worldbody, out.inertials);
   bool patched = expand_freejoints(doc.RootElement());
+  patched = normalize_attribute_whitespace(doc.RootElement()) || patched;
   if (!root->FirstChildElement("default")) {
     tinyxml2::XMLElement* fill = doc.NewElement("default");
     doc.RootElement()->InsertFirstChild(fill);
