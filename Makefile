@@ -5,8 +5,8 @@
 #   make test-fast   the unit and cli tests only (labels: unit, physics, cli, viz)
 #   make install     headers, libraries, the stance binary, find_package(stance) and the Python
 #                    module (PREFIX/lib/python3.X/dist-packages) into PREFIX
-#   make test-sanitize   clang ASan+UBSan tree (build-sanitize/): the unit and cli tests, then
-#                        each fuzzer FUZZ_SECONDS (30) seconds
+#   make test-sanitize   clang ASan+UBSan tree (build-sanitize/): the readers' unit tests and the
+#                        cli tests, then each fuzzer a fixed ~30 s budget (FUZZ_RUN=ci; or seconds)
 #   make fuzz SECONDS=N  each fuzzer N seconds (default 60) in the same tree
 # CMAKE_FLAGS go to cmake's configure (e.g. CMAKE_FLAGS=-DSTANCE_WITH_PYTHON=ON)
 .DEFAULT_GOAL := build
@@ -17,7 +17,9 @@ PREFIX ?= /usr/local
 CMAKE_FLAGS ?=
 
 SANITIZE_BUILD ?= build-sanitize
-FUZZ_SECONDS ?= 30
+# ci: a fixed number of executions per target (about 30 s each) with seed 1, the same everywhere;
+# a number: seconds per target, from a random seed
+FUZZ_RUN ?= ci
 SECONDS ?= 60
 
 .PHONY: demo test test-fast build install deps bench bench-python clean format eval-track \
@@ -58,7 +60,7 @@ test-sanitize: sanitize-build
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --output-on-failure -j$(JOBS) -L '^(unit|cli)$$' \
 	    -E '^(cli\.find_package|DartEngine\.AgreesWithMujocoOnAnMjcfChain)$$'
-	bash tests/fuzz/run.sh $(SANITIZE_BUILD) $(FUZZ_SECONDS)
+	bash tests/fuzz/run.sh $(SANITIZE_BUILD) $(FUZZ_RUN)
 
 fuzz: sanitize-build
 	bash tests/fuzz/run.sh $(SANITIZE_BUILD) $(SECONDS)

@@ -1199,7 +1199,21 @@ std::string join_numbers(const std::vector<double>& v) {
 }  // namespace
 
 void check_skel_for_dart(const std::string& path) {
-  read_skel_file(SkelInput{path});
+  const SkelFile file = read_skel_file(SkelInput{path});
+  // DART's SkelParser builds each body from the joint that makes it a child; a body without one
+  // is left half made and DART then aborts or crashes (found by fuzz_model). The MuJoCo
+  // translation takes such a body as a root of its own.
+  for (const Skeleton& s : file.skeletons) {
+    std::set<std::string> children;
+    for (const Joint& j : s.joints) children.insert(j.child);
+    for (const Body& b : s.bodies)
+      if (children.count(b.name) == 0)
+        throw InputError(located(
+            file.path, b.line,
+            fmt::format("body '{}' is no joint's <child> in skeleton '{}' (DART needs a joint "
+                        "for every body; a weld joint fixes it to its parent)",
+                        b.name, s.name)));
+  }
 }
 
 SkelTranslation skel_to_mjcf(const std::vector<SkelInput>& files) {

@@ -642,6 +642,19 @@ TEST(DartEngine, ModelsDartWouldCrashOnAreRejectedWithFileAndLine) {
   EXPECT_NE(message.find("mesh.skel:4: <mesh> is missing <file_name>"), std::string::npos)
       << message;
 
+  // a body no joint makes a child: DART's SkelParser left it half made and crashed (fuzz_model)
+  std::string loose = write_temp("loose.skel", R"(<skel><world>
+<skeleton name="s">
+<body name="a"><inertia><mass>1</mass></inertia></body>
+<body name="b"><inertia><mass>1</mass></inertia></body>
+<joint type="free" name="j"><parent>world</parent><child>a</child></joint>
+</skeleton></world></skel>
+)");
+  message = dart_load_error(loose);
+  EXPECT_NE(message.find("loose.skel:4: body 'b' is no joint's <child> in skeleton 's'"),
+            std::string::npos)
+      << message;
+
   // MJCF: MuJoCo's compiler sees it before DART's parser (whose SphereShape asserts)
   std::string sphere = write_temp("sphere.xml", R"(<mujoco>
 <worldbody>
@@ -655,6 +668,22 @@ TEST(DartEngine, ModelsDartWouldCrashOnAreRejectedWithFileAndLine) {
   message = dart_load_error(sphere);
   EXPECT_NE(message.find("sphere.xml:5: "), std::string::npos) << message;
   EXPECT_NE(message.find("size"), std::string::npos) << message;
+
+  // vectors DART reads with a fixed size (its toVector3d asserts; MuJoCo reads what is there;
+  // found by fuzz_model in a CI run)
+  for (const auto& [attribute, expected] : std::vector<std::pair<std::string, std::string>>{
+           {"axis=\"0 -10 \"", "axes.xml:5: <joint> axis: expected 3 numbers, got '0 -10 '"},
+           // these two MuJoCo's compiler rejects first, at the same line
+           {"axis=\"0 1 z\"", "axes.xml:5: XML Error: problem reading attribute 'axis'"},
+           {"pos=\"0 0 0 1\"", "axes.xml:5: XML Error: attribute 'pos' has too much data"}}) {
+    std::string axes = write_temp("axes.xml", "<mujoco>\n<worldbody>\n<body name=\"b\">\n"
+                                              "<geom type=\"sphere\" size=\"0.1\"/>\n"
+                                              "<joint name=\"j\" type=\"hinge\" " +
+                                                  attribute + "/>\n</body>\n</worldbody>\n"
+                                                              "</mujoco>\n");
+    message = dart_load_error(axes);
+    EXPECT_NE(message.find(expected), std::string::npos) << message;
+  }
 }
 
 // a carriage return between the numbers of a capsule's fromto: MuJoCo reads it as a separator,

@@ -1,7 +1,10 @@
 #!/usr/bin/env bash
 # run.sh BUILD SECONDS [TARGET...]: runs each libFuzzer target of a STANCE_SANITIZE tree.
 #   SECONDS > 0: mutate for that long from the seeds (a working corpus in BUILD/fuzz/corpus/);
-#   SECONDS = 0: run the seeds once (the ctest fuzz.<target>.seeds tests).
+#   SECONDS = 0: run the seeds once (the ctest fuzz.<target>.seeds tests);
+#   SECONDS = ci: a fixed number of executions per target (about 30 s each on a 2-core machine)
+#                 from the seeds alone with seed 1, so that a CI run mutates the same inputs on
+#                 every machine: what passed here passes there (make test-sanitize).
 # Seeds: the files under tests/fuzz/corpus/<target>/ (the inputs that crashed stance before)
 # plus the shipped files: models, scenarios, joint maps and dart-doc's .skel worlds.
 # Fails on the first crash, leak or sanitizer report; prints executions per target.
@@ -51,7 +54,7 @@ for target in "${targets[@]}"; do
   seeds=$build/fuzz/seeds/$target
   make_seeds "$target" "$seeds"
   log=$build/fuzz/$target.log
-  if [ "$seconds" -eq 0 ]; then
+  if [ "$seconds" = 0 ]; then
     ./fuzz_"$target" -runs=0 -artifact_prefix=crashes/"$target"- "$seeds" >"$log" 2>&1 || {
       tail -40 "$log"
       echo "fuzz $target: FAILED on its seeds"
@@ -61,9 +64,22 @@ for target in "${targets[@]}"; do
     continue
   fi
   work=$build/fuzz/corpus/$target
+  budget=(-max_total_time="$seconds")
+  if [ "$seconds" = ci ]; then
+    work=$build/fuzz/corpus-ci/$target
+    rm -rf "$work"
+    case $target in
+      bvh) runs=300000 ;;
+      scenario) runs=40000 ;;
+      skel) runs=35000 ;;
+      joint_map) runs=55000 ;;
+      model) runs=10000 ;;
+    esac
+    budget=(-runs=$runs -seed=1)
+  fi
   mkdir -p "$work"
   start=$(date +%s)
-  ./fuzz_"$target" -max_total_time="$seconds" -timeout=30 -rss_limit_mb=3072 -print_final_stats=1 \
+  ./fuzz_"$target" "${budget[@]}" -timeout=30 -rss_limit_mb=3072 -print_final_stats=1 \
     -artifact_prefix=crashes/"$target"- "$work" "$seeds" >"$log" 2>&1 || {
     tail -60 "$log"
     echo "fuzz $target: CRASHED (artifact in $build/fuzz/crashes/)"

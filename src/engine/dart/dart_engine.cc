@@ -22,6 +22,7 @@
 //    ignores them), a missing <default> is supplied (the parser asserts on it), <freejoint/>
 //    becomes <joint type="free"/> (the parser skips the shorthand and welds the body), and
 //    <inertial> diaginertia/fullinertia/quat are applied (the parser leaves a unit moment).
+#include <fmt/format.h>
 #include <tinyxml2.h>
 #include <dart/dart.hpp>
 #include <dart/utils/mjcf/MjcfParser.hpp>
@@ -263,6 +264,44 @@ bool normalize_attribute_whitespace(tinyxml2::XMLElement* parent) {
   return changed;
 }
 
+// the numeric vectors DART 6.12's MJCF parser reads with a fixed size (its toVector3d and kin
+// assert on any other count, where MuJoCo reads what is there): every one must hold exactly that
+// many finite numbers; a geom's or site's `size` holds 1 to 3
+void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLElement* parent) {
+  static const std::map<std::string, int> kCounts = {
+      {"pos", 3},      {"axis", 3},     {"euler", 3},   {"zaxis", 3},   {"gravity", 3},
+      {"diaginertia", 3}, {"quat", 4}, {"axisangle", 4}, {"xyaxes", 6}, {"fromto", 6},
+      {"fullinertia", 6}, {"range", 2}};
+  for (const tinyxml2::XMLElement* e = parent->FirstChildElement(); e;
+       e = e->NextSiblingElement()) {
+    for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
+      const std::string name = a->Name();
+      const auto it = kCounts.find(name);
+      const bool shape = std::strcmp(e->Name(), "geom") == 0 || std::strcmp(e->Name(), "site") == 0;
+      if (it == kCounts.end() && !(name == "size" && shape)) continue;
+      std::istringstream in(a->Value());
+      std::string token;
+      int count = 0;
+      while (in >> token) {
+        char* end = nullptr;
+        const double x = std::strtod(token.c_str(), &end);
+        if (*end != '\0' || !std::isfinite(x))
+          throw InputError(located(shown_name, e->GetLineNum(),
+                                   fmt::format("<{}> {}: '{}' is not a finite number", e->Name(),
+                                               name, token)));
+        ++count;
+      }
+      const bool ok = it != kCounts.end() ? count == it->second : count >= 1 && count <= 3;
+      if (!ok)
+        throw InputError(located(
+            shown_name, e->GetLineNum(),
+            fmt::format("<{}> {}: expected {} numbers, got '{}'", e->Name(), name,
+                        it != kCounts.end() ? std::to_string(it->second) : "1 to 3", a->Value())));
+    }
+    check_vector_attributes(shown_name, e);
+  }
+}
+
 // <freejoint/> (MuJoCo's shorthand) -> <joint type="free"/>, which DART 6.12's parser knows;
 // true when anything changed
 bool expand_freejoints(tinyxml2::XMLElement* parent) {
@@ -306,6 +345,7 @@ MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& f
     collect_inertials(shown_name, worldbody, out.inertials);
   bool patched = expand_freejoints(doc.RootElement());
   patched = normalize_attribute_whitespace(doc.RootElement()) || patched;
+  check_vector_attributes(shown_name, doc.RootElement());
   if (!root->FirstChildElement("default")) {
     tinyxml2::XMLElement* fill = doc.NewElement("default");
     doc.RootElement()->InsertFirstChild(fill);
