@@ -531,10 +531,43 @@ void write_robustness_outputs(const std::string& dir, const RobustnessOptions& o
   write_file_atomically(folder / "summary.json", s.dump(2) + "\n");
 }
 
+namespace {
+// two directions (a planar model's senses, or --directions 2): a polar plot of two points says
+// little, so bars: the threshold per phase, one bar per direction
+std::string plot_two_directions(const std::filesystem::path& folder, const RobustnessResult& r) {
+  {
+    AtomicFile file(folder / "robustness_bars.dat");
+    std::ostream& out = file.stream();
+    for (size_t p = 0; p < r.phase_fractions.size(); ++p) {
+      const std::string label = r.walker ? fmt::format("phase {:g}", r.phase_fractions[p])
+                                         : fmt::format("push at {:g} s", r.push_starts[p]);
+      out << fmt::format("\"{}\" {} {}\n", label, r.cell(0, p).threshold,
+                         r.cell(1, p).threshold);
+    }
+    file.commit();
+  }
+  double top = 1;
+  for (const auto& c : r.cells) top = std::max(top, c.threshold);
+  const std::string script = fmt::format(
+      "set terminal pngcairo size 800,520 enhanced font 'sans,11'\n"
+      "set output png\n"
+      "set title \"{} on {}: largest push survived{}\" noenhanced\n"
+      "set style data histograms\nset style histogram clustered gap 1\n"
+      "set style fill solid 0.85 border -1\nset boxwidth 0.9\n"
+      "set yrange [0:{}]\nset ylabel 'N'\nset grid ytics\nset key top right\n"
+      "plot 'robustness_bars.dat' using 2:xtic(1) title '{:g} degrees' lc rgb '#1f77b4', "
+      "'' using 3 title '{:g} degrees' lc rgb '#ff7f0e'\n",
+      r.scenario, r.engine, r.planar ? " (planar: its two senses)" : "", std::ceil(top * 1.15),
+      r.angles_deg[0], r.angles_deg[1]);
+  return render_gnuplot(folder.string(), "robustness.gp", script, "robustness.png");
+}
+}  // namespace
+
 std::string plot_robustness(const std::string& dir, const RobustnessResult& r) {
   namespace fs = std::filesystem;
   const fs::path folder = fs::absolute(dir);
   fs::create_directories(folder);
+  if (r.directions.size() == 2) return plot_two_directions(folder, r);
   // one block per phase, the first direction repeated to close the curve
   {
     AtomicFile file(folder / "robustness_polar.dat");

@@ -125,7 +125,8 @@ RobustnessCell cell_from_json(const nlohmann::json& j);
 // robustness.csv, thresholds.csv and summary.json into dir (created if needed)
 void write_robustness_outputs(const std::string& dir, const RobustnessOptions& options,
                               const RobustnessResult& result);
-// robustness.png (and its .gp): threshold against direction, one curve per phase (gnuplot).
+// robustness.png (and its .gp): threshold against direction, one curve per phase (gnuplot); with
+// two directions (a planar model) bars per phase instead.
 // Returns the PNG path; InputError when gnuplot is missing or fails.
 std::string plot_robustness(const std::string& dir, const RobustnessResult& result);
 
