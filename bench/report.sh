@@ -46,11 +46,11 @@ fi
 
 run_bench rest '-^BM_Biped' "$min_time"
 
-# batch runs per second: 48 runs of the planar SIMBICON walk (4 s each) as a sweep on 1 and 2
+# batch runs per second: 144 runs of the planar SIMBICON walk (4 s each) as a sweep on 1 and 2
 # threads and, when the build has MPI, on 2 ranks of 1 thread, one right after the other
 stance=$build/stance
 batch=(sweep "$root/scenarios/simbicon_walk.yaml" --param controllers.0.gait.states.0.cv
-  --from 0.1 --to 0.3 --steps 48 --duration 4 --quiet)
+  --from 0.1 --to 0.3 --steps 144 --duration 4 --quiet)
 wall_of() {  # the command's wall time in seconds
   local t0 t1
   t0=$(date +%s.%N)
@@ -61,7 +61,7 @@ wall_of() {  # the command's wall time in seconds
 if [ -x "$stance" ]; then
   echo "report.sh: batch runs, 1 and 2 threads, 2 MPI ranks" >&2
   {
-    echo "runs 48"
+    echo "runs 144"
     echo "threads1 $(wall_of "$stance" "${batch[@]}" --threads 1 --out "$tmp/b1")"
     echo "threads2 $(wall_of "$stance" "${batch[@]}" --threads 2 --out "$tmp/b2")"
     if command -v mpirun >/dev/null && grep -q 'STANCE_WITH_MPI:BOOL=ON' "$build/CMakeCache.txt"; then
@@ -229,7 +229,7 @@ if os.path.exists(batch_file):
         r = rate(key)
         if r is not None and one:
             parts.append(f"{label} {fmt(r)} runs/s ({pct(r / (workers * one))} efficiency)")
-    rows.append(("Batch runs per second (48 runs of the planar SIMBICON walk, 4 s each, as a "
+    rows.append(("Batch runs per second (144 runs of the planar SIMBICON walk, 4 s each, as a "
                  "sweep; goal: 90% efficiency)", "; ".join(parts)))
 
 cpu = [get(n, "cpu_per_wall") for n in ("BM_BipedStandMujoco", "BM_BipedStandDart")]
