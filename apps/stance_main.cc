@@ -205,7 +205,8 @@ int main(int argc, char** argv) {
   robustness_cmd->add_option("--duration", robustness.duration, "seconds per run");
   robustness_cmd->add_option("--set", robustness.sets, "override: key.path=value")
       ->allow_extra_args(false);
-  robustness_cmd->add_option("--threads", robustness.threads, "worker threads (default: all cores)");
+  robustness_cmd->add_option("--threads", robustness.threads,
+                             "worker threads (default: all cores)");
   robustness_cmd->add_option("--out", robustness.out_dir,
                              "output folder (robustness.csv, thresholds.csv, summary.json, PNG)");
   robustness_cmd->add_option("--resume", robustness.resume,

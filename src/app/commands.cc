@@ -369,9 +369,9 @@ nlohmann::json read_partial(const std::string& dir, const char* partial_name,
     saved = nlohmann::json::parse(in);
     for (auto it = fingerprint.begin(); it != fingerprint.end(); ++it)
       if (saved.at("options").at(it.key()) != it.value())
-        throw InputError(fmt::format("--resume {}: option '{}' was {} in the interrupted run, now {}",
-                                     dir, it.key(), saved.at("options").at(it.key()).dump(),
-                                     it.value().dump()));
+        throw InputError(
+            fmt::format("--resume {}: option '{}' was {} in the interrupted run, now {}", dir,
+                        it.key(), saved.at("options").at(it.key()).dump(), it.value().dump()));
     (void)saved.at("done");
   } catch (const nlohmann::json::exception& e) {
     throw InputError(
@@ -409,8 +409,8 @@ int sweep_command(const SweepCommand& command) {
         for (auto it = saved["done"].begin(); it != saved["done"].end(); ++it)
           finished[std::stoi(it.key())] = sweep_point_from_json(it.value());
       } catch (const std::exception& e) {
-        throw InputError(fmt::format("{}: a point does not read back ({})", partial.string(),
-                                     e.what()));
+        throw InputError(
+            fmt::format("{}: a point does not read back ({})", partial.string(), e.what()));
       }
     }
     auto wall0 = std::chrono::steady_clock::now();
@@ -435,8 +435,8 @@ int sweep_command(const SweepCommand& command) {
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
     // under mpirun, rank 0 gathered every result and writes; the others are done
     if (!BatchRanks::get().root()) return kExitOk;
-    const long unfinished = std::count_if(points.begin(), points.end(),
-                                          [](const SweepPoint& p) { return !p.done; });
+    const long unfinished =
+        std::count_if(points.begin(), points.end(), [](const SweepPoint& p) { return !p.done; });
     if (unfinished > 0) {
       std::cerr << fmt::format(
           "interrupted: {} of {} runs done, kept in {}; finish them with the same command and "
@@ -671,8 +671,8 @@ int tune_command(const TuneCommand& command) {
     if (!cmd.resume.empty()) {
       std::ifstream in(partial);
       if (!in)
-        throw InputError(fmt::format("--resume {}: no {} there (nothing to resume)", cmd.resume,
-                                     kTunePartial));
+        throw InputError(
+            fmt::format("--resume {}: no {} there (nothing to resume)", cmd.resume, kTunePartial));
       try {
         saved = nlohmann::json::parse(in);
       } catch (const nlohmann::json::exception& e) {

@@ -155,11 +155,11 @@ struct RobustnessCommand {
   std::string body;
   int directions = 8;
   int phases = 4;
-  double push_duration = 0.2;  // s
-  double max_force = 800;      // N
-  double tolerance = 2;        // N
-  double at = 2.0;             // s
-  double phase_spacing = 0.25;  // s
+  double push_duration = 0.2;    // s
+  double max_force = 800;        // N
+  double tolerance = 2;          // N
+  double at = 2.0;               // s
+  double phase_spacing = 0.25;   // s
   double recovery_window = 3.0;  // s
   int max_steps = 3;
   std::string point = "com";

@@ -128,8 +128,8 @@ class GaitObserver final : public StepObserver {
 struct Interrupted {};
 
 int count_in(const std::vector<double>& times, double from, double to) {
-  return static_cast<int>(std::count_if(times.begin(), times.end(),
-                                        [&](double t) { return t >= from && t <= to; }));
+  return static_cast<int>(
+      std::count_if(times.begin(), times.end(), [&](double t) { return t >= from && t <= to; }));
 }
 
 void validate(const RobustnessOptions& o) {
@@ -161,7 +161,8 @@ void validate(const RobustnessOptions& o) {
 }  // namespace
 
 PushOutcome push_outcome(std::optional<double> fall_time, double push_start, bool stepped) {
-  if (fall_time) return *fall_time < push_start ? PushOutcome::kFellBefore : PushOutcome::kFellAfter;
+  if (fall_time)
+    return *fall_time < push_start ? PushOutcome::kFellBefore : PushOutcome::kFellAfter;
   return stepped ? PushOutcome::kManySteps : PushOutcome::kSuccess;
 }
 
@@ -358,7 +359,8 @@ RobustnessResult run_robustness(
   std::vector<double> after;
   for (double t : baseline.touchdowns)
     if (t >= o.at) after.push_back(t);
-  result.walker = after.size() >= 2 && !(result.unpushed_fall_time && *result.unpushed_fall_time < after[1]);
+  result.walker =
+      after.size() >= 2 && !(result.unpushed_fall_time && *result.unpushed_fall_time < after[1]);
   for (int j = 0; j < o.phases; ++j) {
     const double fraction = static_cast<double>(j) / o.phases;
     result.phase_fractions.push_back(fraction);
@@ -368,13 +370,12 @@ RobustnessResult run_robustness(
       result.push_starts.push_back(o.at + j * o.phase_spacing_s);
   }
   if (result.walker) result.step_period_s = after[1] - after[0];
-  const double needed =
-      *std::max_element(result.push_starts.begin(), result.push_starts.end()) + o.push_duration +
-      o.recovery_window_s;
+  const double needed = *std::max_element(result.push_starts.begin(), result.push_starts.end()) +
+                        o.push_duration + o.recovery_window_s;
   if (needed > duration + 1e-9) {
-    result.notes.push_back(fmt::format(
-        "runs lengthened from {} s to {} s: the last push and its {} s recovery window", duration,
-        needed, o.recovery_window_s));
+    result.notes.push_back(
+        fmt::format("runs lengthened from {} s to {} s: the last push and its {} s recovery window",
+                    duration, needed, o.recovery_window_s));
     duration = needed;
     run_baseline();
   }
@@ -386,8 +387,8 @@ RobustnessResult run_robustness(
   int done = 0;
   for (const auto& c : finished) {
     if (c.direction < 0 || c.direction >= nd || c.phase < 0 || c.phase >= np)
-      throw InputError(fmt::format("--resume: direction {} phase {} is not in this map",
-                                   c.direction, c.phase));
+      throw InputError(
+          fmt::format("--resume: direction {} phase {} is not in this map", c.direction, c.phase));
     RobustnessCell& cell = result.cells[c.direction * np + c.phase];
     if (!cell.done) ++done;
     cell = c;
@@ -403,7 +404,8 @@ RobustnessResult run_robustness(
     cell.direction = index / np;
     cell.phase = index % np;
     const double start = result.push_starts[cell.phase];
-    const double window_from = start + o.push_duration, window_to = window_from + o.recovery_window_s;
+    const double window_from = start + o.push_duration,
+                 window_to = window_from + o.recovery_window_s;
     const int baseline_steps = count_in(baseline.touchdowns, window_from, window_to);
     auto trial = [&](double force) {
       RobustnessTrial t;
@@ -470,7 +472,6 @@ RobustnessResult run_robustness(
   if (!result.interrupted && stopped) result.interrupted = true;
   return result;
 }
-
 
 void write_robustness_outputs(const std::string& dir, const RobustnessOptions& o,
                               const RobustnessResult& r) {
@@ -541,8 +542,7 @@ std::string plot_two_directions(const std::filesystem::path& folder, const Robus
     for (size_t p = 0; p < r.phase_fractions.size(); ++p) {
       const std::string label = r.walker ? fmt::format("phase {:g}", r.phase_fractions[p])
                                          : fmt::format("push at {:g} s", r.push_starts[p]);
-      out << fmt::format("\"{}\" {} {}\n", label, r.cell(0, p).threshold,
-                         r.cell(1, p).threshold);
+      out << fmt::format("\"{}\" {} {}\n", label, r.cell(0, p).threshold, r.cell(1, p).threshold);
     }
     file.commit();
   }
@@ -602,9 +602,10 @@ std::string plot_robustness(const std::string& dir, const RobustnessResult& r) {
   for (size_t p = 0; p < r.phase_fractions.size(); ++p) {
     const std::string label = r.walker ? fmt::format("phase {:g}", r.phase_fractions[p])
                                        : fmt::format("push at {:g} s", r.push_starts[p]);
-    script += fmt::format("{}'robustness_polar.dat' index {} using 1:2 with linespoints lw 2 pt 7 "
-                          "title '{}'",
-                          p ? ", " : "", p, label);
+    script += fmt::format(
+        "{}'robustness_polar.dat' index {} using 1:2 with linespoints lw 2 pt 7 "
+        "title '{}'",
+        p ? ", " : "", p, label);
   }
   script += "\n";
   return render_gnuplot(folder.string(), "robustness.gp", script, "robustness.png");

@@ -90,16 +90,16 @@ struct RobustnessResult {
   std::string scenario, engine;
   bool walker = false;
   bool planar = false;
-  double step_period_s = 0;  // walkers: t1 - t0
-  double duration_s = 0;     // of every run
-  std::vector<std::string> feet;               // one name per foot (its top body)
-  std::vector<Eigen::Vector3d> directions;     // unit, world frame
-  std::vector<double> angles_deg;              // of each direction in the horizontal plane
-  std::vector<double> phase_fractions;         // j / n
-  std::vector<double> push_starts;             // s, per phase
-  std::optional<double> unpushed_fall_time;    // s
-  std::vector<RobustnessCell> cells;           // direction-major: cell(d, p) = d * phases + p
-  std::vector<std::string> notes;              // what the command chose and why
+  double step_period_s = 0;                  // walkers: t1 - t0
+  double duration_s = 0;                     // of every run
+  std::vector<std::string> feet;             // one name per foot (its top body)
+  std::vector<Eigen::Vector3d> directions;   // unit, world frame
+  std::vector<double> angles_deg;            // of each direction in the horizontal plane
+  std::vector<double> phase_fractions;       // j / n
+  std::vector<double> push_starts;           // s, per phase
+  std::optional<double> unpushed_fall_time;  // s
+  std::vector<RobustnessCell> cells;         // direction-major: cell(d, p) = d * phases + p
+  std::vector<std::string> notes;            // what the command chose and why
   bool interrupted = false;  // stopped by RobustnessOptions::interrupt: some cells not done
 
   const RobustnessCell& cell(int direction, int phase) const {

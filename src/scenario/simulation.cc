@@ -133,8 +133,8 @@ void parse_push_point(const std::string& text, std::string& point, Eigen::Vector
 bool push_point_is_origin(const std::string& point, const std::string& where) {
   if (point == "com") return false;
   if (point == "origin") return true;
-  throw InputError(fmt::format("{}: '{}' is not a push point (com or origin, plus an offset)",
-                               where, point));
+  throw InputError(
+      fmt::format("{}: '{}' is not a push point (com or origin, plus an offset)", where, point));
 }
 
 namespace {

@@ -16,9 +16,9 @@
 #include <thread>
 
 #include "core/atomic_file.h"
-#include "scenario/batch_ranks.h"
 #include "core/error.h"
 #include "params/yaml_params.h"
+#include "scenario/batch_ranks.h"
 #include "scenario/scenario.h"
 
 namespace stance {

@@ -676,11 +676,13 @@ TEST(DartEngine, ModelsDartWouldCrashOnAreRejectedWithFileAndLine) {
            // these two MuJoCo's compiler rejects first, at the same line
            {"axis=\"0 1 z\"", "axes.xml:5: XML Error: problem reading attribute 'axis'"},
            {"pos=\"0 0 0 1\"", "axes.xml:5: XML Error: attribute 'pos' has too much data"}}) {
-    std::string axes = write_temp("axes.xml", "<mujoco>\n<worldbody>\n<body name=\"b\">\n"
-                                              "<geom type=\"sphere\" size=\"0.1\"/>\n"
-                                              "<joint name=\"j\" type=\"hinge\" " +
-                                                  attribute + "/>\n</body>\n</worldbody>\n"
-                                                              "</mujoco>\n");
+    std::string axes = write_temp("axes.xml",
+                                  "<mujoco>\n<worldbody>\n<body name=\"b\">\n"
+                                  "<geom type=\"sphere\" size=\"0.1\"/>\n"
+                                  "<joint name=\"j\" type=\"hinge\" " +
+                                      attribute +
+                                      "/>\n</body>\n</worldbody>\n"
+                                      "</mujoco>\n");
     message = dart_load_error(axes);
     EXPECT_NE(message.find(expected), std::string::npos) << message;
   }
@@ -693,10 +695,12 @@ TEST(DartEngine, WhitespaceInsideAttributesReadsAsSpaces) {
   auto arm = [](const std::string& name, const std::string& separator) {
     WorldSpec spec;
     spec.models.push_back(
-        {write_temp(name, "<mujoco><worldbody><body name=\"b\"><joint name=\"j\" type=\"hinge\"/>"
-                          "<geom type=\"capsule\" fromto=\"0 0 0" + separator +
-                              "0.15 0 0\" size=\"0.03\" mass=\"0.5\"/></body></worldbody>"
-                              "</mujoco>\n"),
+        {write_temp(name,
+                    "<mujoco><worldbody><body name=\"b\"><joint name=\"j\" type=\"hinge\"/>"
+                    "<geom type=\"capsule\" fromto=\"0 0 0" +
+                        separator +
+                        "0.15 0 0\" size=\"0.03\" mass=\"0.5\"/></body></worldbody>"
+                        "</mujoco>\n"),
          {}});
     return make_dart_engine(spec);
   };
@@ -725,8 +729,7 @@ TEST(DartEngine, DartDocSoftBodyMeshAndShapeWorldsLoad) {
     EXPECT_GT(e->nv(), 0) << file;
     // DART 6.12's soft contact can blow up on the first step on some CPUs (its LCP
     // solver then asserts, seen on CI), so only the rigid worlds are stepped here.
-    if (std::string(file).rfind("soft", 0) == 0)
-      continue;
+    if (std::string(file).rfind("soft", 0) == 0) continue;
     e->step();
     Eigen::VectorXd q(e->nq());
     e->get_positions(q);

@@ -156,8 +156,8 @@ TEST(RobustnessMap, PlusMinusXEqualPushThreshold) {
 
 // with the joints unpowered the biped is down before a push at 2 s: every trial is outcome 1
 TEST(RobustnessMap, APushAfterAFallIsOutcomeOne) {
-  const LoadedScenario loaded = load_scenario(
-      kScenarios + "biped_stand.yaml", {"controllers.0.kp=0", "controllers.0.kd=0"});
+  const LoadedScenario loaded =
+      load_scenario(kScenarios + "biped_stand.yaml", {"controllers.0.kp=0", "controllers.0.kd=0"});
   RobustnessOptions o = small_map(2.0);
   o.engine = "mujoco";
   const RobustnessResult map = run_robustness(loaded, o);
