@@ -80,7 +80,7 @@ bench: deps $(BUILD)/CMakeCache.txt
 eval-track: build
 	@bash scripts/eval_track.sh $(BUILD)
 
-# the README's robustness maps (docs/img/robustness_*.png; about 5 minutes on 2 cores)
+# the README's robustness maps (docs/img/robustness_*.png; 11 minutes measured on 2 busy cores)
 robustness-maps: build
 	@bash scripts/robustness_maps.sh $(STANCE)
 
