@@ -50,22 +50,28 @@ void write_png(const std::string& path, int width, int height, const unsigned ch
 }
 
 namespace {
-// an ffmpeg process reading raw rgb frames on its stdin
+// an ffmpeg process reading raw rgb frames on its stdin; it writes the hidden temporary beside
+// the target, which close() renames into place, so a killed recording never leaves half an MP4
 class FfmpegPipe {
  public:
-  FfmpegPipe(const std::string& path, int width, int height, double fps) {
+  FfmpegPipe(const std::string& path, int width, int height, double fps)
+      : path_(path), tmp_(temporary_path_for(path)) {
     make_parent_folder(path);
+    remove_stale_temporaries(tmp_.parent_path());
     // one encoder thread and bitexact flags: the same frames give the same file
     std::string cmd = fmt::format(
         "ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -s {}x{} -r {} -i - -c:v libx264 "
         "-preset veryfast -crf 20 -pix_fmt yuv420p -threads 1 -fflags +bitexact "
-        "-flags:v +bitexact -movflags +faststart '{}'",
-        width, height, fps, path);
+        "-flags:v +bitexact -movflags +faststart -f mp4 '{}'",
+        width, height, fps, tmp_.string());
     pipe_ = popen(cmd.c_str(), "w");
     if (!pipe_) throw EnvironmentError("cannot start ffmpeg (is it installed?)");
   }
   ~FfmpegPipe() {
-    if (pipe_) pclose(pipe_);
+    if (!pipe_) return;
+    pclose(pipe_);
+    std::error_code ignored;
+    std::filesystem::remove(tmp_, ignored);
   }
   void write(const std::vector<unsigned char>& rgb) {
     if (std::fwrite(rgb.data(), 1, rgb.size(), pipe_) != rgb.size())
@@ -74,10 +80,16 @@ class FfmpegPipe {
   void close() {
     int status = pclose(pipe_);
     pipe_ = nullptr;
-    if (status != 0) throw EnvironmentError(fmt::format("ffmpeg failed (status {})", status));
+    if (status != 0) {
+      std::error_code ignored;
+      std::filesystem::remove(tmp_, ignored);
+      throw EnvironmentError(fmt::format("ffmpeg failed (status {})", status));
+    }
+    rename_into_place(tmp_, path_);
   }
 
  private:
+  std::filesystem::path path_, tmp_;
   FILE* pipe_ = nullptr;
 };
 }  // namespace

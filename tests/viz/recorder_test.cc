@@ -118,6 +118,9 @@ TEST_F(RecorderTest, Mp4HasTheExpectedLength) {
   auto at = probe.find("duration=");
   ASSERT_NE(at, std::string::npos) << probe;
   EXPECT_NEAR(std::stod(probe.substr(at + 9)), 1.0, 0.05) << probe;
+  // ffmpeg wrote a hidden temporary that was renamed into place: none is left beside it
+  for (const auto& entry : std::filesystem::directory_iterator(out_dir()))
+    EXPECT_NE(entry.path().filename().string().rfind(".walk.mp4", 0), 0u) << entry.path();
 }
 
 TEST_F(RecorderTest, SameRunGivesTheSameFrames) {
