@@ -381,10 +381,44 @@ BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
     const double apex = 981 * flight_s * flight_s / 8;  // cm: g T^2 / 8
     return (1 - u) * h0 + u * h1 + 4 * apex * u * (1 - u);
   };
+  // the ankle of leg s ahead of the root, cm along Z, and its rate per unit of phase
+  auto foot_ahead = [&](int s, double phase) {
+    double hip, knee, ankle;
+    leg_angles(phase + (s == 0 ? 0 : pi), hip, knee, ankle);
+    const double a1 = (root_pitch(phase) + hip) * pi / 180, a2 = a1 + knee * pi / 180;
+    return -44 * std::sin(a1) - 42 * std::sin(a2);
+  };
+  auto foot_ahead_rate = [&](int s, double phase) {
+    const double h = 1e-6;
+    return (foot_ahead(s, phase + h) - foot_ahead(s, phase - h)) / (2 * h);
+  };
+  // a run's root advance: over the stance foot planted on the floor, at the take-off speed in
+  // flight; `advance` is one step's, mid-stance to mid-stance
+  const double w_run = pi * o.stance_fraction;
+  auto run_forward_from = [&](long k, double phase, double advance) {
+    const int s = k % 2 == 0 ? 1 : 0;  // the right leg stands at even multiples of pi
+    const double planted = k * advance + foot_ahead(s, k * pi);
+    if (phase <= k * pi + w_run) return planted - foot_ahead(s, phase);
+    const double b0 = k * pi + w_run;
+    return planted - foot_ahead(s, b0) - foot_ahead_rate(s, b0) * (phase - b0);
+  };
+  double step_advance = 0;
+  if (o.stance_fraction > 0) {
+    const double landing = pi - w_run;
+    const double at_landing = run_forward_from(0, landing, 0);
+    // the landing foot's place fixes the next stance; mid-stance follows
+    step_advance = at_landing + foot_ahead(0, landing) - foot_ahead(0, pi);
+  }
+  auto run_forward = [&](double phase) {
+    const long k = std::lround(phase / pi);
+    const double d = phase - k * pi;
+    return run_forward_from(d < -w_run ? k - 1 : k, phase, step_advance);
+  };
   for (int f = 0; f < frames; ++f) {
     double phase = 2 * pi * f / (frames - 1);
     std::string row;
-    double z = stride * f / (frames - 1);
+    double z =
+        o.stance_fraction > 0 ? run_forward(phase) - run_forward(0) : stride * f / (frames - 1);
     double y = o.stance_fraction > 0
                    ? run_height(phase)
                    : stand * std::cos(a_hip * 0.7) + o.bounce_cm * std::cos(2 * phase);
@@ -422,7 +456,6 @@ SyntheticWalkOptions synthetic_run_options() {
   o.elbow_deg = 60;
   o.lean_deg = 8;
   o.stance_fraction = 0.25;
-  o.stride_scale = 1.3;
   return o;
 }
 

@@ -147,8 +147,8 @@ class ReferenceMotion {
 // knees, ankles, arms and the root height follow smooth periodic curves; the root advances at
 // the speed the stance leg's swing implies, so the feet slide only a little. Not a captured
 // human walk: a stand-in with the right structure. synthetic_run_options() makes it a run with
-// a flight phase: a shorter cycle, wider hips, bent stance knees, and a root height that keeps
-// the stance foot on the floor and flies ballistically between take-off and landing.
+// a flight phase: a shorter cycle, wider hips, bent stance knees, and a root that moves over the
+// planted stance foot and flies ballistically between take-off and landing.
 struct SyntheticWalkOptions {
   std::string name = "synthetic_walk.bvh";  // the clip's source name
   double period_s = 1.1;                    // one full cycle (two steps)
@@ -162,9 +162,10 @@ struct SyntheticWalkOptions {
   // the root's height oscillation at twice the cycle's frequency (cm): > 0 highest at
   // mid-stance (a walk's vaulting), < 0 lowest at mid-stance (a run's compression)
   double bounce_cm = 1.2;
-  double stride_scale = 1;  // the root's advance per cycle over the stance legs' sweep
-  // > 0: a run; each leg stands this fraction of the cycle (the root height follows the stance
-  // foot, bounce_cm is unused) and the rest between the two stances is flight
+  double stride_scale = 1;  // a walk's root advance per cycle over the stance legs' sweep
+  // > 0: a run; each leg stands this fraction of the cycle and the rest between the two
+  // stances is flight. The root moves over the planted stance foot (its height and advance;
+  // bounce_cm and stride_scale are unused) and flies at its take-off velocity.
   double stance_fraction = 0;
 };
 BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& options = {});

@@ -242,8 +242,30 @@ TEST(SyntheticRun, HasAFlightPhaseAndLoopsSeamlessly) {
     if (std::min(h[0], h[1]) > 0.01) ++flight;
     if (std::min(h[0], h[1]) < 0.005) ++stance;
   }
+  // the stance foot stays planted: its ankle moves along the floor by less than 3 cm while it
+  // is on the floor (the generator plans the root in the sagittal plane, without its yaw sway)
+  const MotionSkeleton& sk = ref.skeleton();
+  std::vector<Eigen::Vector3d> pos;
+  std::vector<Eigen::Quaterniond> rot;
+  double slide = 0;
+  Eigen::Vector3d planted[2];
+  bool on[2] = {false, false};
+  for (int f = 0; f < ref.frame_count(); ++f) {
+    ref.frame_pose(f, pose);
+    double h[2];
+    foot_heights(ref, pose, h);
+    ref.forward_kinematics(pose, pos, rot);
+    for (int side = 0; side < 2; ++side) {
+      const Eigen::Vector3d ankle = pos[sk.find_segment(side == 0 ? "LeftFoot" : "RightFoot")];
+      const bool down = h[side] < 0.005;
+      if (down && !on[side]) planted[side] = ankle;
+      if (down) slide = std::max(slide, (ankle - planted[side]).head<2>().norm());
+      on[side] = down;
+    }
+  }
   std::cout << "synthetic run: " << ref.frame_count() << " frames, " << flight << " in flight, "
-            << stance << " in stance\n";
+            << stance << " in stance; the planted ankle slides " << slide << " m\n";
+  EXPECT_LT(slide, 0.03);
   EXPECT_GE(flight, 4);
   EXPECT_GE(stance, 4);
   // the loop: across the seam the pose changes no more than between two frames inside the clip
