@@ -88,4 +88,10 @@ BENCHMARK(BM_PlannerBipedStand)
     ->UseRealTime()
     ->Iterations(2);
 
+void BM_PlannerMocap(benchmark::State& state) {
+  measure_planner(state, scenario("mocap_track_planner.yaml"), {});
+  state.SetLabel("mocap_track_planner, MuJoCo, 2 ms step");
+}
+BENCHMARK(BM_PlannerMocap)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(2);
+
 }  // namespace
