@@ -452,7 +452,7 @@ void Simulation::start_run() {
   progress_.velocity_sent = out_.dof_velocity;
   states_.clear();
   for (const auto& c : controllers_) states_.push_back(c->make_state(e));
-  progress_.com0 = e.com();
+  progress_.com0 = progress_.com_last = e.com();
   progress_.com_height0 = model_->up.dot(progress_.com0) - model_->scenario.fall.ground_height;
   progress_.min_com_height = progress_.com_height0;
 }
@@ -467,7 +467,7 @@ void Simulation::reset() {
   progress_ = RunProgress{};
   progress_.velocity_sent = out_.dof_velocity;
   for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->reset(*states_[i], e);
-  progress_.com0 = e.com();
+  progress_.com0 = progress_.com_last = e.com();
   progress_.com_height0 = model_->up.dot(progress_.com0) - model_->scenario.fall.ground_height;
   progress_.min_com_height = progress_.com_height0;
 }
@@ -592,7 +592,9 @@ void Simulation::detect_fall() {
   Engine& e = *engine_;
   RunProgress& s = progress_;
   const FallCriterion& fall = model_->scenario.fall;
-  double h = model_->up.dot(e.com()) - fall.ground_height;
+  const Eigen::Vector3d com = e.com();
+  if (com.allFinite()) s.com_last = com;
+  double h = model_->up.dot(com) - fall.ground_height;
   s.min_com_height = std::min(s.min_com_height, h);
   if (!fall.enabled || s.fell) return;
   // a controller that tracks a reference judges the fall against it (a crouch in a clip is no
@@ -659,7 +661,8 @@ RunResult Simulation::result() const {
   m["max_abs_torque"] = s.max_abs_torque;
   m["min_com_height_m"] = s.min_com_height;
   m["com_height_start_m"] = s.com_height0;
-  m["com_displacement_m"] = (e.com() - s.com0).norm();
+  // a diverged engine's state is not finite: the metrics stop at its last finite step
+  m["com_displacement_m"] = ((s.diverged ? s.com_last : e.com()) - s.com0).norm();
   m["realtime_factor"] = 0.0;
   int survived = 0;
   for (const auto& push : model_->pushes) {

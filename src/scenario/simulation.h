@@ -149,6 +149,7 @@ struct RunProgress {
   double diverged_at = 0;
   double com_height0 = 0, min_com_height = 0;
   Eigen::Vector3d com0 = Eigen::Vector3d::Zero();
+  Eigen::Vector3d com_last = Eigen::Vector3d::Zero();  // the last finite COM (after divergence)
   double torque_sq_sum = 0, max_abs_torque = 0;
   long torque_samples = 0;
   Eigen::VectorXd velocity_sent;  // the velocity commands the engine holds, dim nv; NaN: none
@@ -158,7 +159,7 @@ struct RunProgress {
   void serialize(A& a) {
     a(steps), a(fell), a(fall_time), a(fall_reason), a(diverged), a(divergence), a(diverged_at);
     a(com_height0), a(min_com_height), a(com0), a(torque_sq_sum), a(max_abs_torque);
-    a(torque_samples), a(velocity_sent);
+    a(torque_samples), a(velocity_sent), a(com_last);
     plan.serialize(a);
   }
 };

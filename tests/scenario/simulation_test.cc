@@ -304,6 +304,26 @@ TEST_P(NanController, StopsTheRunWithTimeCauseAndOutputs) {
 
 INSTANTIATE_TEST_SUITE_P(Engines, NanController, ::testing::Values("mujoco", "dart"));
 
+// absurd gains blow the engine's state up: the run stops as diverged, and every metric in the
+// summary is still a number (those of the state stop at its last finite step)
+TEST_P(NanController, AnEngineBlowUpLeavesFiniteMetrics) {
+  const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
+                           ("blowup_" + GetParam() + std::to_string(::getpid())))
+                              .string();
+  std::filesystem::remove_all(dir);
+  RunOptions o = quiet(GetParam());
+  o.out_dir = dir;
+  Simulation sim(load_scenario(scenario("pd_hold.yaml"), {"controllers.0.kp=1e12"}), o);
+  RunResult r = sim.run();
+  ASSERT_TRUE(r.diverged);
+  std::ifstream in(dir + "/summary.json");
+  nlohmann::json j = nlohmann::json::parse(in);
+  EXPECT_TRUE(j["diverged"].get<bool>());
+  for (const auto& [key, value] : j["metrics"].items())
+    if (!value.is_object()) EXPECT_TRUE(value.is_number()) << key << ": " << value;
+  std::filesystem::remove_all(dir);
+}
+
 // an interrupt (SIGINT's flag) stops the run before its next step; the outputs say so
 TEST(SimulationLoop, InterruptStopsTheRunAndWritesItsFiles) {
   const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
