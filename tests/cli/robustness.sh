@@ -3,6 +3,8 @@
 # --resume finishes the rest into files equal to an uninterrupted run's, and bad input is one line
 # with exit 2.
 set -u
+# shellcheck source=tests/cli/lib.sh
+. "$(dirname "$0")/lib.sh"
 stance=$1
 tmp=$(mktemp -d)
 pid=
@@ -30,11 +32,7 @@ grep -q '"kind": "walker"' "$tmp/whole/summary.json" || fail "not found to be a 
 # shellcheck disable=SC2086
 "$stance" robustness $map --out "$tmp/cut" >"$tmp/cut.txt" 2>"$tmp/cut.err" &
 pid=$!
-for _ in $(seq 600); do
-  [ -f "$tmp/cut/robustness.partial.json" ] && break
-  kill -0 "$pid" 2>/dev/null || break
-  sleep 0.1
-done
+wait_for_file "$pid" "$tmp/cut/robustness.partial.json"
 kill -INT "$pid" 2>/dev/null
 wait "$pid"
 code=$?

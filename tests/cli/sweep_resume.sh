@@ -2,6 +2,8 @@
 # Ctrl-C on `stance sweep` keeps every finished run (sweep.partial.json), and --resume runs the
 # rest into sweep.csv and points.csv equal to an uninterrupted sweep's.
 set -u
+# shellcheck source=tests/cli/lib.sh
+. "$(dirname "$0")/lib.sh"
 stance=$1
 tmp=$(mktemp -d)
 pid=
@@ -19,11 +21,7 @@ sweep=(sweep scenarios/simbicon_walk.yaml --param controllers.0.gait.states.0.cv
 
 "$stance" "${sweep[@]}" --out "$tmp/cut" >/dev/null 2>"$tmp/cut.err" &
 pid=$!
-for _ in $(seq 600); do
-  [ -f "$tmp/cut/sweep.partial.json" ] && break
-  kill -0 "$pid" 2>/dev/null || break
-  sleep 0.05
-done
+wait_for_file "$pid" "$tmp/cut/sweep.partial.json"
 kill -INT "$pid" 2>/dev/null
 wait "$pid"
 code=$?

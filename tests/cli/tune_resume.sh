@@ -4,6 +4,8 @@
 # is refused (one line, exit 2); --resume DIR finishes the search, and tune.csv, best.yaml and
 # best_scenario.yaml equal those of an uninterrupted run, for both methods.
 set -u
+# shellcheck source=tests/cli/lib.sh
+. "$(dirname "$0")/lib.sh"
 stance=$1
 tmp=$(mktemp -d)
 pids=()
@@ -16,15 +18,6 @@ fail() {
 }
 
 # wait (up to a minute; not a timing check) until the tune $1 has written its first checkpoint
-wait_for_checkpoint() {
-  for _ in $(seq 1200); do
-    [ -f "$2/tune.partial.json" ] && return 0
-    kill -0 "$1" 2>/dev/null || return 1
-    sleep 0.05
-  done
-  return 1
-}
-
 # the arm of pd_hold: 10 generations of cheap runs, each a few tenths of a second
 args=(scenarios/pd_hold.yaml --param controllers.0.kp=5:200:log --param controllers.0.kd=0.1:20:log
   --neighbour "controllers.0.kp*=0.8" --metric "com_displacement_m+0.01*torque_rms"
@@ -42,7 +35,7 @@ for method in cem cmaes; do
     2>"$tmp/stderr" &
   pid=$!
   pids+=("$pid")
-  if ! wait_for_checkpoint "$pid" "$part"; then
+  if ! wait_for_file "$pid" "$part/tune.partial.json"; then
     fail "$method: no tune.partial.json written"
     continue
   fi
