@@ -142,10 +142,7 @@ void WorkerPool::work(int worker) {
 
 // ---- the model
 
-std::shared_ptr<const PlannerModel> make_planner_model(
-    const PlannerParams& params, const SimulationModel& model,
-    std::shared_ptr<const SimulationModel> rollout) {
-  const std::string& where = model.source;
+void check_planner_params(const PlannerParams& params, const std::string& where) {
   auto fail = [&](const std::string& msg) {
     throw InputError(where.empty() ? msg : fmt::format("{}: {}", where, msg));
   };
@@ -157,6 +154,16 @@ std::shared_ptr<const PlannerModel> make_planner_model(
   if (params.interval_s > params.horizon_s)
     fail(fmt::format("planner.interval_s: {} s is longer than planner.horizon_s ({} s)",
                      params.interval_s, params.horizon_s));
+}
+
+std::shared_ptr<const PlannerModel> make_planner_model(
+    const PlannerParams& params, const SimulationModel& model,
+    std::shared_ptr<const SimulationModel> rollout) {
+  const std::string& where = model.source;
+  auto fail = [&](const std::string& msg) {
+    throw InputError(where.empty() ? msg : fmt::format("{}: {}", where, msg));
+  };
+  check_planner_params(params, where);
   auto pm = std::make_shared<PlannerModel>();
   pm->params = params;
   pm->rollout = std::move(rollout);

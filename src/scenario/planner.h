@@ -131,6 +131,10 @@ class Planner {
 
 // resolve a scenario's planner on a simulation model built without one: the dimensions from the
 // controllers (or residual torques), the rollout model. Throws InputError naming planner.* keys.
+// the checks between parameters (method, elites, interval against horizon); throws InputError
+// prefixed with `where` (the scenario file) when not empty
+void check_planner_params(const PlannerParams& params, const std::string& where);
+
 std::shared_ptr<const PlannerModel> make_planner_model(
     const PlannerParams& params, const SimulationModel& model,
     std::shared_ptr<const SimulationModel> rollout);

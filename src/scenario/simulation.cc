@@ -488,6 +488,31 @@ void Simulation::send_velocity_commands(const Eigen::VectorXd& commands) {
   }
 }
 
+void Simulation::set_planner_params(const PlannerParams& params) {
+  if (!model_->plans)
+    throw InputError("planner: this run does not plan; enable it in the scenario");
+  const PlannerModel& old = *model_->planner;
+  if (params.timestep != old.params.timestep)
+    throw InputError("planner.timestep: the rollouts' step is fixed when the run is made");
+  if (params.residual_dofs != old.params.residual_dofs)
+    throw InputError("planner.residual_dofs: the dimensions are fixed when the run is made");
+  check_planner_params(params, "");
+  auto planner = std::make_shared<PlannerModel>(old);
+  planner->params = params;
+  for (PlanDimension& d : planner->dimensions)
+    if (d.controller < 0) d.scale = params.residual_torque;
+  auto model = std::make_shared<SimulationModel>(*model_);
+  model->planner = planner;
+  model_ = std::move(model);
+  planner_.reset();
+  if (params.enabled) {
+    planner_ = std::make_unique<Planner>(model_->planner);
+    progress_.plan.next_plan = time();  // plan at the next step, with the new parameters
+  } else {
+    progress_.plan.knots.resize(0, 0);  // no correction from now on
+  }
+}
+
 // the planner (when it is time), then the controllers with their share of its correction, then
 // the residual torques
 bool Simulation::compute_controls() {

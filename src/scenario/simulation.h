@@ -244,6 +244,11 @@ class Simulation {
   // replace controller i (a live parameter edit); its state is kept when the new model
   // keeps_state_of the old one, else made fresh at the engine's current state
   void replace_controller(size_t i, std::shared_ptr<const Controller> controller);
+  // new planner parameters for the rest of the run (the viewer's sliders): the next plan uses
+  // them, warm-started from the current plan; enabled: false stops planning and drops the
+  // correction. Throws InputError when the run does not plan, or for a change that needs a new
+  // rollout model (timestep); the parameters are checked as the scenario's are.
+  void set_planner_params(const PlannerParams& params);
   const RunProgress& progress() const { return progress_; }
   // what the controllers commanded in the last step (tau already scaled by torque_scale)
   const ControlOutput& last_output() const { return out_; }

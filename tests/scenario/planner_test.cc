@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include "core/error.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
@@ -127,6 +129,61 @@ TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
                                         {"planner.enabled=true", "planner.method=cmaes"}),
                           quiet()),
                InputError);
+}
+
+// the viewer's sliders: new parameters take effect at the next step; the same parameters set at
+// a planning time change nothing, other ones change the run from there on
+TEST(Planner, NewParametersTakeEffectMidRun) {
+  const std::vector<std::string> sets = {
+      "planner.enabled=true", "planner.samples=4", "planner.horizon_s=0.2",
+      "planner.interval_s=0.05", "planner.threads=1",
+      "perturbations=[{body: h_spine, force: [80, 0, 0], start: 0.0, duration: 0.1}]"};
+  const LoadedScenario loaded = load_scenario(scenario("biped_stand.yaml"), sets);
+  auto trace = [&](const std::function<void(Simulation&)>& at_switch) {
+    Simulation sim(loaded, quiet());
+    std::vector<double> out;
+    Eigen::VectorXd q(sim.engine().nq());
+    for (int k = 0; k < 200; ++k) {
+      if (k == 100) at_switch(sim);  // t = 0.1 s: a planning time
+      EXPECT_TRUE(sim.step());
+      sim.engine().get_positions(q);
+      out.insert(out.end(), q.data(), q.data() + q.size());
+    }
+    return out;
+  };
+  const std::vector<double> base = trace([](Simulation&) {});
+  const PlannerParams params = Simulation(loaded, quiet()).model().planner->params;
+  EXPECT_EQ(trace([&](Simulation& sim) { sim.set_planner_params(params); }), base);
+  PlannerParams more = params;
+  more.samples = 8;
+  more.cost.fall = 50;
+  std::vector<double> changed = trace([&](Simulation& sim) {
+    sim.set_planner_params(more);
+    EXPECT_EQ(sim.model().planner->params.samples, 8);
+  });
+  ASSERT_EQ(changed.size(), base.size());
+  const size_t half = base.size() / 2;
+  EXPECT_TRUE(std::equal(base.begin(), base.begin() + half, changed.begin()));
+  EXPECT_NE(changed, base);
+  // switched off: no correction from the next step on
+  PlannerParams off = params;
+  off.enabled = false;
+  trace([&](Simulation& sim) {
+    sim.set_planner_params(off);
+    EXPECT_EQ(sim.planner(), nullptr);
+    sim.step();
+    EXPECT_EQ(sim.correction().squaredNorm(), 0.0);
+  });
+  // what needs a new run is refused, and so are parameters that do not fit together
+  Simulation sim(loaded, quiet());
+  PlannerParams bad = params;
+  bad.timestep = 0.004;
+  EXPECT_THROW(sim.set_planner_params(bad), InputError);
+  bad = params;
+  bad.interval_s = 1;
+  EXPECT_THROW(sim.set_planner_params(bad), InputError);
+  Simulation plain(load_scenario(scenario("biped_stand.yaml")), quiet());
+  EXPECT_THROW(plain.set_planner_params(params), InputError);
 }
 
 TEST(Planner, ARestoredRunPlansAsTheRunThatWentOn) {
