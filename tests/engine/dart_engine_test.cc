@@ -4,6 +4,7 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -686,6 +687,57 @@ TEST(DartEngine, ModelsDartWouldCrashOnAreRejectedWithFileAndLine) {
     message = dart_load_error(axes);
     EXPECT_NE(message.find(expected), std::string::npos) << message;
   }
+
+  // a body welded to its parent body (no joint): DART's reader dereferenced a null joint
+  // (found by fuzz_model; MuJoCo's humanoid.xml has such a head)
+  std::string welded = write_temp("welded.xml", R"(<mujoco>
+<worldbody>
+<body name="upper"><joint name="j" type="hinge"/><geom type="sphere" size="0.1"/>
+<body name="fore" pos="0.4 0 0">
+<geom type="sphere" size="0.1"/>
+</body>
+</body>
+</worldbody>
+</mujoco>
+)");
+  message = dart_load_error(welded);
+  EXPECT_NE(message.find("welded.xml:4: <body name=\"fore\"> has no joint"), std::string::npos)
+      << message;
+}
+
+// what MuJoCo's sample models use and DART 6.12's MJCF reader crashed on: unnamed joints (they
+// get MuJoCo's names, so dofs match across engines), sites (left out on DART) and infinite
+// planes (bounded on DART)
+TEST(DartEngine, UnnamedJointsSitesAndInfinitePlanesLoad) {
+  std::string file = write_temp("sample_like.xml", R"(<mujoco>
+<worldbody>
+<geom type="plane" size="0 0 0.1"/>
+<site name="marker" pos="0 0 1"/>
+<body name="a" pos="0 0 1"><freejoint/><geom type="sphere" size="0.1"/>
+<site pos="0 0 0.1"/>
+<body name="b" pos="0 0 -0.3"><joint type="hinge" axis="0 1 0"/>
+<geom type="capsule" fromto="0 0 0 0 0 -0.3" size="0.05"/>
+<body name="c" pos="0 0 -0.3"><joint name="elbow" type="hinge"/><geom type="sphere" size="0.05"/>
+</body></body>
+</body>
+</worldbody>
+</mujoco>
+)");
+  WorldSpec spec;
+  spec.models.push_back({file, {}});
+  std::unique_ptr<Engine> dart = make_dart_engine(spec);
+  std::unique_ptr<Engine> mujoco = make_engine("mujoco", spec);
+  ASSERT_EQ(dart->nv(), mujoco->nv());
+  // the same names (a free joint's six come in each engine's order: rotations first on DART)
+  std::vector<std::string> dart_names = dart->dof_names(), mujoco_names = mujoco->dof_names();
+  std::sort(dart_names.begin(), dart_names.end());
+  std::sort(mujoco_names.begin(), mujoco_names.end());
+  EXPECT_EQ(dart_names, mujoco_names);
+  EXPECT_EQ(dart->dof_index("joint1"), mujoco->dof_index("joint1"));
+  EXPECT_NEAR(dart->total_mass(), mujoco->total_mass(), 1e-9);
+  // the plane holds the ball up on both engines
+  for (int k = 0; k < 500; ++k) dart->step();
+  EXPECT_GT(dart->body_pose(dart->body_index("a")).pos.z(), 0.05);
 }
 
 // a carriage return between the numbers of a capsule's fromto: MuJoCo reads it as a separator,

@@ -35,9 +35,11 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <limits>
 #include <map>
+#include <set>
 #include <sstream>
 #include <stdexcept>
 #include <unordered_map>
@@ -302,6 +304,95 @@ void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLE
   }
 }
 
+// DART 6.12's MJCF reader dereferences a null joint for a body welded to its parent body (one
+// without <joint>; MuJoCo reads it): such a body is refused with its line. A body directly in
+// <worldbody> may have none (it is welded to the world, which DART handles).
+void check_bodies_have_joints(const std::string& shown_name, const tinyxml2::XMLElement* parent,
+                              bool in_body) {
+  for (const tinyxml2::XMLElement* e = parent->FirstChildElement("body"); e;
+       e = e->NextSiblingElement("body")) {
+    if (in_body && !e->FirstChildElement("joint") && !e->FirstChildElement("freejoint")) {
+      const char* name = e->Attribute("name");
+      throw InputError(located(
+          shown_name, e->GetLineNum(),
+          fmt::format("<body{}> has no joint: DART 6.12's MJCF reader cannot weld a body to its "
+                      "parent body; give it a joint or merge it into its parent",
+                      name ? fmt::format(" name=\"{}\"", name) : "")));
+    }
+    check_bodies_have_joints(shown_name, e, true);
+  }
+}
+
+// DART 6.12's MJCF reader crashes on an unnamed joint: each gets the name MuJoCo's reading gives
+// it in stance ("joint<k>", k its index in the model's joint order, which is the document order
+// under <worldbody>), so that dofs are named alike on both engines; true when any was named
+bool name_unnamed_joints(tinyxml2::XMLElement* worldbody) {
+  std::set<std::string> taken;
+  std::vector<tinyxml2::XMLElement*> joints;
+  std::function<void(tinyxml2::XMLElement*)> collect = [&](tinyxml2::XMLElement* parent) {
+    for (tinyxml2::XMLElement* e = parent->FirstChildElement(); e; e = e->NextSiblingElement()) {
+      if (std::strcmp(e->Name(), "joint") == 0 || std::strcmp(e->Name(), "freejoint") == 0) {
+        joints.push_back(e);
+        if (const char* name = e->Attribute("name")) taken.insert(name);
+      }
+      if (std::strcmp(e->Name(), "body") == 0) collect(e);
+    }
+  };
+  collect(worldbody);
+  bool changed = false;
+  for (size_t k = 0; k < joints.size(); ++k) {
+    if (joints[k]->Attribute("name")) continue;
+    std::string name = fmt::format("joint{}", k);
+    while (taken.count(name)) name += "_";
+    taken.insert(name);
+    joints[k]->SetAttribute("name", name.c_str());
+    changed = true;
+  }
+  return changed;
+}
+
+// DART 6.12's MJCF reader crashes on a <site> in <worldbody> and on one without a type; sites
+// carry no mass or contact, so they are left out of the text DART reads; true when any was
+bool drop_sites(tinyxml2::XMLElement* parent) {
+  bool changed = false;
+  for (tinyxml2::XMLElement* e = parent->FirstChildElement(); e;) {
+    tinyxml2::XMLElement* next = e->NextSiblingElement();
+    if (std::strcmp(e->Name(), "site") == 0) {
+      parent->DeleteChild(e);
+      changed = true;
+    } else {
+      changed = drop_sites(e) || changed;
+    }
+    e = next;
+  }
+  return changed;
+}
+
+// a plane's zero half-size is infinite in MuJoCo, but DART 6.12 builds a box of that size and
+// asserts: such sides become 100 m on DART; true when any plane changed
+bool bound_infinite_planes(tinyxml2::XMLElement* parent) {
+  bool changed = false;
+  for (tinyxml2::XMLElement* e = parent->FirstChildElement(); e; e = e->NextSiblingElement()) {
+    const char* type = e->Attribute("type");
+    if (std::strcmp(e->Name(), "geom") == 0 && type && std::strcmp(type, "plane") == 0) {
+      double size[3] = {0, 0, 0.1};
+      if (const char* text = e->Attribute("size")) {
+        std::istringstream in(text);
+        for (double& x : size)
+          if (!(in >> x)) break;
+      }
+      if (!(size[0] > 0) || !(size[1] > 0) || !(size[2] > 0)) {
+        for (double& x : size)
+          if (!(x > 0)) x = &x == &size[2] ? 0.1 : 100;
+        e->SetAttribute("size", fmt::format("{} {} {}", size[0], size[1], size[2]).c_str());
+        changed = true;
+      }
+    }
+    changed = bound_infinite_planes(e) || changed;
+  }
+  return changed;
+}
+
 // <freejoint/> (MuJoCo's shorthand) -> <joint type="free"/>, which DART 6.12's parser knows;
 // true when anything changed
 bool expand_freejoints(tinyxml2::XMLElement* parent) {
@@ -341,9 +432,16 @@ MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& f
       throw InputError(
           located(shown_name, option->GetLineNum(), "option timestep must be positive"));
   }
-  if (const tinyxml2::XMLElement* worldbody = root->FirstChildElement("worldbody"))
+  if (const tinyxml2::XMLElement* worldbody = root->FirstChildElement("worldbody")) {
     collect_inertials(shown_name, worldbody, out.inertials);
-  bool patched = expand_freejoints(doc.RootElement());
+    check_bodies_have_joints(shown_name, worldbody, false);
+  }
+  bool patched = false;
+  if (tinyxml2::XMLElement* worldbody = doc.RootElement()->FirstChildElement("worldbody"))
+    patched = name_unnamed_joints(worldbody);
+  patched = expand_freejoints(doc.RootElement()) || patched;
+  patched = drop_sites(doc.RootElement()) || patched;
+  patched = bound_infinite_planes(doc.RootElement()) || patched;
   patched = normalize_attribute_whitespace(doc.RootElement()) || patched;
   check_vector_attributes(shown_name, doc.RootElement());
   if (!root->FirstChildElement("default")) {
