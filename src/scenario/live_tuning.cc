@@ -2,12 +2,16 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <mutex>
 
 #include "control/controller.h"
 #include "core/error.h"
 #include "engine/engine.h"
+#include "params/param_list.h"
+#include "params/yaml_params.h"
+#include "scenario/planner.h"
 
 namespace stance {
 
@@ -41,11 +45,40 @@ void retune_controller(Simulation& run, const LoadedScenario& loaded, int index,
   run.replace_controller(index, std::move(fresh));
 }
 
+std::vector<ParamEntry> planner_params(const Simulation& run) {
+  if (!run.model().plans) return {};
+  return list_params(run.model().planner->params);
+}
+
+void retune_planner(Simulation& run, const std::string& path, double value) {
+  if (!run.model().plans) throw InputError("planner: this run does not plan");
+  const PlannerParams& now = run.model().planner->params;
+  std::vector<ParamEntry> entries = list_params(now);
+  auto it = std::find_if(entries.begin(), entries.end(),
+                         [&](const ParamEntry& e) { return e.path == path; });
+  if (it == entries.end())
+    throw InputError(fmt::format("planner: no tunable parameter '{}'", path));
+  // through the YAML form, as the scenario's planner block is read: the same range checks
+  YAML::Node node(YAML::NodeType::Map);
+  PlannerParams edited = now;
+  YamlParamWriter(node).write(edited);
+  apply_yaml_override(node, param_assignment(*it, value));
+  PlannerParams fresh;
+  YamlParamReader(node, {"planner"}, "planner").read(fresh);
+  run.set_planner_params(fresh);
+}
+
 YAML::Node tuned_scenario_yaml(Simulation& run, const LoadedScenario& loaded) {
   YAML::Node doc = YAML::Clone(loaded.document);
   YAML::Node list(YAML::NodeType::Sequence);
   for (const auto& c : run.controllers()) list.push_back(c->params_yaml());
   doc["controllers"] = list;
+  if (run.model().plans) {
+    YAML::Node planner(YAML::NodeType::Map);
+    PlannerParams params = run.model().planner->params;
+    YamlParamWriter(planner).write(params);
+    doc["planner"] = planner;
+  }
   return doc;
 }
 

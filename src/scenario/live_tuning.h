@@ -26,6 +26,12 @@ namespace stance {
 void retune_controller(Simulation& run, const LoadedScenario& loaded, int index,
                        const std::string& path, double value);
 
+// the planner's parameters for the panel (empty when the run does not plan)
+std::vector<ParamEntry> planner_params(const Simulation& run);
+// set the planner's parameter `path` (a path from planner_params()) to `value` for the rest of
+// the run (Simulation::set_planner_params); InputError when it is rejected (the planner is kept)
+void retune_planner(Simulation& run, const std::string& path, double value);
+
 // a controller rebuilt on a worker thread, for parameters whose rebuild is slow (the LQR costs
 // re-solve the set-point, the linearisation and the DARE): the running controller keeps
 // stepping until the new one is ready, and swap_into() puts it in between two steps.

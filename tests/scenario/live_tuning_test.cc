@@ -4,6 +4,8 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include "control/controller.h"
 #include "control/lqr.h"
 #include "core/error.h"
@@ -99,6 +101,42 @@ TEST(LiveTuning, SavedScenarioLoadsWithTheTunedValue) {
   EXPECT_EQ(again.controllers[0]["kd"].as<double>(), 33);
   Simulation rerun(again, opt);
   EXPECT_TRUE(rerun.step());
+}
+
+// the planner's sliders: its parameters are listed from its visit, an edit reaches the running
+// planner and the saved scenario, a bad one is refused and the planner kept
+TEST(LiveTuning, PlannerParametersRetuneMidRunAndSave) {
+  RunOptions opt;
+  opt.quiet = true;
+  LoadedScenario loaded = load_scenario(
+      test::source_dir() + "/scenarios/biped_stand.yaml",
+      {"planner.enabled=true", "planner.samples=4", "planner.horizon_s=0.1", "planner.threads=1"});
+  Simulation run(loaded, opt);
+  for (int k = 0; k < 20; ++k) ASSERT_TRUE(run.step());
+  std::vector<ParamEntry> entries = planner_params(run);
+  auto has = [&](const std::string& path) {
+    return std::any_of(entries.begin(), entries.end(),
+                       [&](const ParamEntry& e) { return e.path == path; });
+  };
+  EXPECT_TRUE(has("samples"));
+  EXPECT_TRUE(has("cost.fall"));
+  retune_planner(run, "samples", 6);
+  retune_planner(run, "cost.fall", 50);
+  EXPECT_EQ(run.model().planner->params.samples, 6);
+  EXPECT_EQ(run.model().planner->params.cost.fall, 50);
+  const long plans = run.progress().plan.plans;
+  ASSERT_TRUE(run.step());
+  EXPECT_EQ(run.progress().plan.plans, plans + 1);  // it planned again at once
+  EXPECT_THROW(retune_planner(run, "samples", -1), InputError);
+  EXPECT_THROW(retune_planner(run, "no_such_key", 1), InputError);
+  EXPECT_EQ(run.model().planner->params.samples, 6);
+  YAML::Node doc = tuned_scenario_yaml(run, loaded);
+  LoadedScenario again = parse_scenario(doc, "tuned", test::source_dir() + "/scenarios");
+  EXPECT_EQ(again.scenario.planner.samples, 6);
+  EXPECT_EQ(again.scenario.planner.cost.fall, 50);
+  Simulation plain(biped_stand(), opt);
+  EXPECT_TRUE(planner_params(plain).empty());
+  EXPECT_THROW(retune_planner(plain, "samples", 6), InputError);
 }
 
 // an LQR cost change built on a worker: the old controller keeps stepping, then the new gain
