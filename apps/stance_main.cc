@@ -33,7 +33,7 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--at", run.screenshot_at, "screenshot time, s");
   run_cmd->add_option("--fps", run.fps, "video frames per simulated second");
   run_cmd->add_option("--size", run.size, "frame size WxH");
-  run_cmd->add_option("--camera", run.camera, "follow or free");
+  run_cmd->add_option("--camera", run.camera, "follow or free (default: the scenario's)");
 
   stance::ViewCommand view;
   auto* view_cmd = app.add_subcommand("view", "watch, push and tune a scenario in a window");
@@ -48,7 +48,9 @@ int main(int argc, char** argv) {
   shots_cmd->add_option("--dir", shots_dir, "scenario folder");
   shots_cmd->add_option("--out", shots_out, "image folder");
   shots_cmd->add_option("--at", shots_at, "simulated time of each picture, s");
-  shots_cmd->add_option("--size", shots_size, "WxH");
+  shots_cmd->add_option("--size", shots_size, "WxH (GIFs: default 480x300)");
+  bool shots_gif = false;
+  shots_cmd->add_flag("--gif", shots_gif, "short looping GIFs of the seed systems instead");
 
   stance::InfoCommand info;
   auto* info_cmd = app.add_subcommand("info", "model sizes and mass");
@@ -273,6 +275,9 @@ int main(int argc, char** argv) {
   if (*view_cmd || *shots_cmd) {
 #ifdef STANCE_HAVE_VIEWER
     if (*view_cmd) return stance::view_command(view);
+    if (shots_gif)
+      return stance::gifs_command(shots_dir, shots_out,
+                                  shots_cmd->count("--size") ? shots_size : "480x300");
     return stance::screenshots_command(shots_dir, shots_out, shots_at, shots_size);
 #else
     std::cerr << "error: this stance was built without the viewer (STANCE_WITH_VIEWER)\n";

@@ -12,7 +12,7 @@ set(stance_timeout_physics 600)
 set(stance_timeout_viz 600)
 
 set(stance_label_patterns
-  viz "^(ViewerTest|RecorderTest)\\."
+  viz "^(ViewerTest|RecorderTest|SceneViewTest)\\."
   physics "^(BipedStand|BipedSkateboard|LqrBalance|SimbiconWalk|SimbiconGaits|Simbicon3d)\\."
   physics "^SimbiconDart\\.Walks"
   physics "^SlopeWalker\\.(Walks|LockedKnees)"

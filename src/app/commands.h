@@ -31,7 +31,7 @@ struct RunCommand {
   double screenshot_at = 0;  // s
   double fps = 60;
   std::string size = "1280x720";
-  std::string camera = "follow";  // follow or free
+  std::string camera;  // follow or free (fixed); empty: the scenario's (camera.mode)
 };
 int run_command(const RunCommand& cmd);
 

@@ -45,6 +45,12 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
     throw InputError(
         located(source, doc["engine"] ? doc["engine"].Mark().line + 1 : 0,
                 "parameter 'engine': expected mujoco or dart, found '" + s.engine + "'"));
+  if (s.camera.mode != "follow" && s.camera.mode != "fixed") {
+    YAML::Node mode = doc["camera"] ? doc["camera"]["mode"] : YAML::Node();
+    throw InputError(located(
+        source, mode ? mode.Mark().line + 1 : 0,
+        "parameter 'camera.mode': expected follow or fixed, found '" + s.camera.mode + "'"));
+  }
   if (YAML::Node c = doc["controllers"]) {
     if (!c.IsSequence())
       throw InputError(located(source, c.Mark().line + 1, "'controllers' must be a list"));

@@ -74,6 +74,23 @@ struct LogOptions {
   }
 };
 
+// how the viewer and the recorder frame the character (scenario key `camera`)
+struct CameraParams {
+  double distance = 0;          // m; 0: from the character's size
+  double azimuth = 90;          // deg; 90 looks along +y, at the sagittal plane
+  double elevation = -12;       // deg; negative looks down
+  std::string mode = "follow";  // follow: tracks the root; fixed: stays where it starts
+
+  template <class V>
+  void visit(V& v) {
+    v("distance", distance,
+      {.unit = "m", .min = 0, .max = 1000, .help = "0: from the character's size"});
+    v("azimuth", azimuth, {.unit = "deg", .min = -360, .max = 360});
+    v("elevation", elevation, {.unit = "deg", .min = -89, .max = 89});
+    v("mode", mode, {.help = "follow (tracks the root) or fixed"});
+  }
+};
+
 struct Scenario {
   std::string name;
   std::string engine = "mujoco";
@@ -90,6 +107,7 @@ struct Scenario {
   FallCriterion fall;
   LogOptions log;
   PlannerParams planner;
+  CameraParams camera;
 
   template <class V>
   void visit(V& v) {
@@ -112,6 +130,7 @@ struct Scenario {
     v("fall", fall);
     v("log", log);
     v("planner", planner);
+    v("camera", camera);
   }
 };
 

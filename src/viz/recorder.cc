@@ -49,50 +49,61 @@ void write_png(const std::string& path, int width, int height, const unsigned ch
   rename_into_place(tmp, path);
 }
 
-namespace {
-// an ffmpeg process reading raw rgb frames on its stdin; it writes the hidden temporary beside
-// the target, which close() renames into place, so a killed recording never leaves half an MP4
-class FfmpegPipe {
- public:
-  FfmpegPipe(const std::string& path, int width, int height, double fps)
-      : path_(path), tmp_(temporary_path_for(path)) {
-    make_parent_folder(path);
-    remove_stale_temporaries(tmp_.parent_path());
+VideoWriter::VideoWriter(const std::string& path, int width, int height, double fps)
+    : path_(path),
+      tmp_(temporary_path_for(path)),
+      frame_bytes_(static_cast<size_t>(width) * height * 3) {
+  make_parent_folder(path);
+  remove_stale_temporaries(tmp_.parent_path());
+  // ffmpeg writes the hidden temporary beside the target, which close() renames into place, so
+  // a killed recording never leaves half a video
+  std::string input =
+      fmt::format("ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -s {}x{} -r {} -i - ",
+                  width, height, fps);
+  std::string ext = std::filesystem::path(path).extension().string();
+  std::string cmd;
+  if (ext == ".gif") {
+    // one palette for the whole clip (stats from every frame), dithered; loops forever
+    cmd = input + fmt::format(
+                      "-filter_complex \"split[a][b];[a]palettegen=stats_mode=full[p];"
+                      "[b][p]paletteuse=dither=bayer:bayer_scale=3\" -loop 0 -threads 1 "
+                      "-f gif '{}'",
+                      tmp_.string());
+  } else {
     // one encoder thread and bitexact flags: the same frames give the same file
-    std::string cmd = fmt::format(
-        "ffmpeg -loglevel error -y -f rawvideo -pix_fmt rgb24 -s {}x{} -r {} -i - -c:v libx264 "
-        "-preset veryfast -crf 20 -pix_fmt yuv420p -threads 1 -fflags +bitexact "
-        "-flags:v +bitexact -movflags +faststart -f mp4 '{}'",
-        width, height, fps, tmp_.string());
-    pipe_ = popen(cmd.c_str(), "w");
-    if (!pipe_) throw EnvironmentError("cannot start ffmpeg (is it installed?)");
+    cmd = input + fmt::format(
+                      "-c:v libx264 -preset veryfast -crf 20 -pix_fmt yuv420p -threads 1 "
+                      "-fflags +bitexact -flags:v +bitexact -movflags +faststart -f mp4 '{}'",
+                      tmp_.string());
   }
-  ~FfmpegPipe() {
-    if (!pipe_) return;
-    pclose(pipe_);
+  pipe_ = popen(cmd.c_str(), "w");
+  if (!pipe_) throw EnvironmentError("cannot start ffmpeg (is it installed?)");
+}
+
+VideoWriter::~VideoWriter() {
+  if (!pipe_) return;
+  pclose(pipe_);
+  std::error_code ignored;
+  std::filesystem::remove(tmp_, ignored);
+}
+
+void VideoWriter::write(const unsigned char* rgb) {
+  if (std::fwrite(rgb, 1, frame_bytes_, pipe_) != frame_bytes_)
+    throw EnvironmentError("ffmpeg stopped reading frames");
+  ++frames_;
+}
+
+void VideoWriter::close() {
+  if (!pipe_) return;
+  int status = pclose(pipe_);
+  pipe_ = nullptr;
+  if (status != 0) {
     std::error_code ignored;
     std::filesystem::remove(tmp_, ignored);
+    throw EnvironmentError(fmt::format("ffmpeg failed writing {} (status {})", path_, status));
   }
-  void write(const std::vector<unsigned char>& rgb) {
-    if (std::fwrite(rgb.data(), 1, rgb.size(), pipe_) != rgb.size())
-      throw EnvironmentError("ffmpeg stopped reading frames");
-  }
-  void close() {
-    int status = pclose(pipe_);
-    pipe_ = nullptr;
-    if (status != 0) {
-      std::error_code ignored;
-      std::filesystem::remove(tmp_, ignored);
-      throw EnvironmentError(fmt::format("ffmpeg failed (status {})", status));
-    }
-    rename_into_place(tmp_, path_);
-  }
-
- private:
-  std::filesystem::path path_, tmp_;
-  FILE* pipe_ = nullptr;
-};
-}  // namespace
+  rename_into_place(tmp_, path_);
+}
 
 RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run_options,
                              const RecordOptions& o) {
@@ -107,28 +118,29 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
   OffscreenGlContext gl;
   result.gl_backend = gl.backend();
   Simulation run(loaded, run_options);
-  SceneView view(run, o.width, o.height);
-  view.options.camera = o.camera;
+  SceneView view(run, o.width, o.height, o.scene_look);
+  if (o.camera) view.options.camera = *o.camera;
   Engine& engine = run.engine();
   double duration = run.scenario().duration;
   if (!o.screenshot.empty() && (o.screenshot_time < 0 || o.screenshot_time > duration))
     throw InputError(
         fmt::format("--at {}: expected a time in 0..{} s", o.screenshot_time, duration));
-  if (o.camera == CameraMode::kFree) {
-    // a fixed camera where the character starts
-    view.options.camera = CameraMode::kFollow;
-    view.update(run);
-    view.options.camera = CameraMode::kFree;
-  }
 
-  std::unique_ptr<FfmpegPipe> ffmpeg;
-  if (!o.video.empty()) ffmpeg = std::make_unique<FfmpegPipe>(o.video, o.width, o.height, o.fps);
+  if (!o.video.empty() && !(o.video_start >= 0 && o.video_start < duration))
+    throw InputError(
+        fmt::format("video start {} s: expected a time in 0..{} s", o.video_start, duration));
+  std::unique_ptr<VideoWriter> ffmpeg;
+  if (!o.video.empty())
+    ffmpeg = std::make_unique<VideoWriter>(o.video, o.width, o.height,
+                                           o.playback_fps > 0 ? o.playback_fps : o.fps);
+  // frames at video_start + k / fps until the end
+  long first_frame = std::lround(std::ceil(o.video_start * o.fps - 1e-9));
   long frames = o.video.empty() ? 0 : std::lround(std::floor(duration * o.fps + 1e-9));
   double end = o.video.empty() ? o.screenshot_time : duration;
   bool shot_taken = o.screenshot.empty();
   std::vector<unsigned char> rgb;
   double dt = engine.timestep();
-  long frame = 0;
+  long frame = first_frame;
   // step to each frame's time (half a step of tolerance: times are sums of dt)
   auto reached = [&](double t) { return engine.time() >= t - 0.5 * dt; };
   while (true) {
@@ -141,7 +153,7 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
     while (frame < frames && reached(frame / o.fps)) {
       view.update(run);
       view.render_offscreen(o.width, o.height, rgb, fmt::format("t = {:.2f} s", engine.time()));
-      ffmpeg->write(rgb);
+      ffmpeg->write(rgb.data());
       ++frame;
     }
     if ((frame >= frames && shot_taken) || engine.time() >= end + 0.5 * dt) break;
@@ -158,7 +170,7 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
     }
     if (result.diverged) {
       // keep the video at its full length: repeat the last frame after a divergence
-      ffmpeg->write(rgb);
+      ffmpeg->write(rgb.data());
       ++frame;
       continue;
     }
@@ -177,7 +189,7 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
     }
   }
   if (ffmpeg) ffmpeg->close();
-  result.frames = frame;
+  result.frames = ffmpeg ? ffmpeg->frames() : 0;
   result.sim_time = engine.time();
   if (run.progress().fell) result.fall_time = run.progress().fall_time;
   return result;

@@ -4,6 +4,8 @@
 // frames.
 #pragma once
 
+#include <cstdio>
+#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -14,13 +16,16 @@
 namespace stance {
 
 struct RecordOptions {
-  std::string video;           // .mp4 to write; empty: none
+  std::string video;           // .mp4 (H.264) or .gif (palette, looping) to write; empty: none
+  double video_start = 0;      // s, simulated: the video's first frame (the run starts at 0)
   std::string screenshot;      // .png to write; empty: none
   double screenshot_time = 0;  // s, simulated
-  double fps = 60;
-  int width = 1280;  // even (the H.264 encoder's 4:2:0 chroma needs it)
+  double fps = 60;             // frames per simulated second
+  double playback_fps = 0;     // frames per second of the video; 0: fps (real time)
+  int width = 1280;            // even (the H.264 encoder's 4:2:0 chroma needs it)
   int height = 720;
-  CameraMode camera = CameraMode::kFollow;
+  std::optional<CameraMode> camera;  // empty: the scenario's (camera.mode)
+  bool scene_look = true;            // stance's sky, floor and shadows (viz/scene_look.h)
 };
 
 struct RecordResult {
@@ -37,6 +42,30 @@ struct RecordResult {
 // Throws InputError on bad options, EnvironmentError when ffmpeg or OpenGL fail.
 RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run_options,
                              const RecordOptions& options);
+
+// an ffmpeg process that turns raw rgb frames into a video: H.264 MP4 (yuv420p, bitexact), or
+// for a .gif a looping GIF with a palette made from all its frames
+class VideoWriter {
+ public:
+  // throws EnvironmentError when ffmpeg cannot be started, InputError for a bad path
+  VideoWriter(const std::string& path, int width, int height, double fps);
+  ~VideoWriter();
+  VideoWriter(const VideoWriter&) = delete;
+  VideoWriter& operator=(const VideoWriter&) = delete;
+  // rgb, dim width*height*3, top row first
+  void write(const unsigned char* rgb);
+  // waits for ffmpeg to finish the file; throws EnvironmentError when it failed
+  void close();
+  long frames() const { return frames_; }
+  const std::string& path() const { return path_; }
+
+ private:
+  FILE* pipe_ = nullptr;
+  std::string path_;
+  std::filesystem::path tmp_;  // ffmpeg's output, renamed to path_ when complete
+  size_t frame_bytes_ = 0;
+  long frames_ = 0;
+};
 
 // "1280x720" -> width, height; throws InputError
 void parse_frame_size(const std::string& text, int& width, int& height);

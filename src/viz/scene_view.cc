@@ -18,9 +18,18 @@ constexpr float kSupportColor[4] = {1.0f, 0.55f, 0.0f, 0.8f};
 constexpr float kGhostColor[4] = {0.3f, 0.8f, 1.0f, 0.3f};
 constexpr int kMaxGeoms = 5000;
 constexpr int kCircleSegments = 32;
+// the follow camera's filter (simulated time): slow enough to drop a gait's sway and bob
+constexpr double kFollowTauS = 0.5;
+// the framed height is this many times the character's: room to move and to fall
+constexpr double kFramingMargin = 1.6;
 }  // namespace
 
-SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height) {
+double SceneView::framing_distance(double size_m, double fovy_deg) {
+  double half_fov = 0.5 * fovy_deg * M_PI / 180;
+  return std::max(1.2, 0.5 * kFramingMargin * size_m / std::tan(half_fov));
+}
+
+SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height, bool look) {
   Engine& engine = run.engine();
   mj_ = dynamic_cast<MujocoEngine*>(&engine);
   if (!mj_) {
@@ -33,10 +42,21 @@ SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height)
   model_->vis.global.offwidth = std::max(model_->vis.global.offwidth, offscreen_width);
   model_->vis.global.offheight = std::max(model_->vis.global.offheight, offscreen_height);
 
+  // the clip planes scale with the model's extent, which a long floor makes huge (500 m: the
+  // near plane 5 m away would cut the character): near within 3 cm, far at least 150 m
+  double extent = std::max(1e-6, double(model_->stat.extent));
+  model_->vis.map.znear = std::min<float>(model_->vis.map.znear, 0.03 / extent);
+  model_->vis.map.zfar = std::max<float>(model_->vis.map.zfar, 150 / extent);
   // a brighter headlight than MuJoCo's default: many models bring no lights of their own
+  // (with stance's look, a key light with shadows adds to a softer one)
+  bool own_look = !look || model_has_own_look(model_);
+  // the key light's shadow covers a few metres: 2048 texels are plenty, and half the default's
+  // side keeps software rendering (llvmpipe, CI) quick
+  if (!own_look) model_->vis.quality.shadowsize = std::min(model_->vis.quality.shadowsize, 2048);
   for (int i = 0; i < 3; ++i) {
-    model_->vis.headlight.ambient[i] = 0.35f;
-    model_->vis.headlight.diffuse[i] = 0.6f;
+    model_->vis.headlight.ambient[i] = own_look ? 0.35f : 0.3f;
+    model_->vis.headlight.diffuse[i] = own_look ? 0.6f : 0.3f;
+    model_->vis.headlight.specular[i] = own_look ? model_->vis.headlight.specular[i] : 0.1f;
   }
 
   body_map_.assign(engine.nbody(), -1);
@@ -72,10 +92,61 @@ SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height)
   mjv_defaultOption(&opt_);
   mjr_defaultContext(&con_);
   mjr_makeContext(model_, &con_, mjFONTSCALE_150);
+  if (look) look_.attach(model_, con_);
   mjv_defaultCamera(&cam_);
-  reset_camera();
+  camera_params_ = run.scenario().camera;
+  options.camera = camera_params_.mode == "fixed" ? CameraMode::kFree : CameraMode::kFollow;
   engine.forward();
+  measure_character(engine);
+  track_root(engine);
+  reset_camera();
   update(run);
+}
+
+void SceneView::measure_character(Engine& engine) {
+  if (draw_engine_) pose_draw_model(engine);
+  const mjData* d = mj_->data();
+  // the moving geoms' extent in the view frame (bounding spheres: a little generous)
+  Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
+  for (int g = 0; g < model_->ngeom; ++g) {
+    if (model_->body_weldid[model_->geom_bodyid[g]] == 0) continue;
+    Eigen::Vector3d p = to_view(Eigen::Map<const Eigen::Vector3d>(d->geom_xpos + 3 * g));
+    double r = std::min<double>(model_->geom_rbound[g], 1.0);
+    lo = lo.cwiseMin(p - Eigen::Vector3d::Constant(r));
+    hi = hi.cwiseMax(p + Eigen::Vector3d::Constant(r));
+  }
+  Eigen::Vector3d root = to_view(engine.nbody() > 0 ? engine.body_pose(0).pos : engine.com());
+  if (lo.x() > hi.x()) {
+    character_size_ = 1;
+    focus_offset_.setZero();
+    return;
+  }
+  character_size_ = std::max({0.3, hi.z() - lo.z(), 0.6 * (hi - lo).head<2>().maxCoeff()});
+  focus_offset_ = Eigen::Vector3d(0, 0, 0.5 * (lo.z() + hi.z()) - root.z());
+}
+
+void SceneView::track_root(Engine& engine) {
+  double t = engine.time();
+  Eigen::Vector3d root = to_view(engine.nbody() > 0 ? engine.body_pose(0).pos : engine.com());
+  Eigen::Vector3d v = Eigen::Vector3d::Zero();
+  if (engine.nbody() > 0) v = view_rot_ * engine.body_velocity(0).tail<3>();
+  if (!v.allFinite()) v.setZero();
+  // the start, a replay, a scrub or a single picture: no filtering across the jump, and the
+  // focus on the root as if the filter had followed a steady walk there
+  if (focus_time_ < 0 || t < focus_time_ || t > focus_time_ + 1.0) {
+    velocity_filtered_ = v;
+    root_filtered_ = root - kFollowTauS * Eigen::Vector3d(v.x(), v.y(), 0);
+  } else {
+    double a = 1 - std::exp(-(t - focus_time_) / kFollowTauS);
+    root_filtered_ += a * (root - root_filtered_);
+    velocity_filtered_ += a * (v - velocity_filtered_);
+  }
+  focus_time_ = t;
+  // a first-order filter lags a steady walk by v tau: made up in the horizontal plane only,
+  // where the gait's bob does not reach
+  Eigen::Vector3d lead = kFollowTauS * velocity_filtered_;
+  lead.z() = 0;
+  focus_ = root_filtered_ + lead + focus_offset_;
 }
 
 SceneView::~SceneView() {
@@ -86,10 +157,13 @@ SceneView::~SceneView() {
 
 void SceneView::reset_camera() {
   cam_.type = mjCAMERA_FREE;
-  // a person-sized view: model extents include long floors
-  cam_.distance = std::clamp(1.5 * model_->stat.extent, 2.0, 3.5);
-  cam_.azimuth = 90;  // looking along +y: the sagittal plane of the planar walkers
-  cam_.elevation = -12;
+  // the whole character in view: from its size, not the model's extent (long floors)
+  cam_.distance = camera_params_.distance > 0
+                      ? camera_params_.distance
+                      : framing_distance(character_size_, model_->vis.global.fovy);
+  cam_.azimuth = camera_params_.azimuth;
+  cam_.elevation = camera_params_.elevation;
+  for (int i = 0; i < 3; ++i) cam_.lookat[i] = focus_[i];
 }
 
 void SceneView::pose_draw_model(Engine& engine) {
@@ -241,6 +315,26 @@ int SceneView::pick_body(double relx, double rely, double aspect,
   return engine_body_[model_->geom_bodyid[geom]];
 }
 
+const mjData* SceneView::draw_data() const {
+  return mj_->data();
+}
+
+Eigen::Vector2d SceneView::project(const Eigen::Vector3d& world, double aspect) const {
+  mjvGLCamera cam = mjv_averageCamera(scn_.camera, scn_.camera + 1);
+  Eigen::Vector3d pos(cam.pos[0], cam.pos[1], cam.pos[2]);
+  Eigen::Vector3d fwd(cam.forward[0], cam.forward[1], cam.forward[2]);
+  Eigen::Vector3d up(cam.up[0], cam.up[1], cam.up[2]);
+  Eigen::Vector3d right = fwd.cross(up);
+  Eigen::Vector3d r = to_view(world) - pos;
+  double depth = r.dot(fwd);
+  if (depth <= 0) return Eigen::Vector2d::Constant(std::nan(""));
+  // on the near plane, as the frustum is given
+  double x = r.dot(right) * cam.frustum_near / depth;
+  double y = r.dot(up) * cam.frustum_near / depth;
+  double height = cam.frustum_top - cam.frustum_bottom;
+  return {0.5 + (x - cam.frustum_center) / (aspect * height), (y - cam.frustum_bottom) / height};
+}
+
 double SceneView::subtree_mass(int engine_body) const {
   int id = engine_body >= 0 && engine_body < static_cast<int>(body_map_.size())
                ? body_map_[engine_body]
@@ -276,12 +370,10 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
   if (draw_engine_) pose_draw_model(engine);
   time_ = engine.time();
 
-  // the camera looks at the root body (follow) in the view frame
-  Eigen::Vector3d root = engine.nbody() > 0 ? engine.body_pose(0).pos : engine.com();
-  if (options.camera == CameraMode::kFollow) {
-    Eigen::Vector3d at = to_view(root);
-    for (int i = 0; i < 3; ++i) cam_.lookat[i] = at[i];
-  }
+  // the follow camera looks at the filtered root, in the view frame
+  track_root(engine);
+  if (options.camera == CameraMode::kFollow)
+    for (int i = 0; i < 3; ++i) cam_.lookat[i] = focus_[i];
   // mjv_updateScene reads the poses in mjData and computes no kinematics
   mjv_updateScene(model_, mj_->data(), &opt_, nullptr, &cam_, mjCAT_ALL, &scn_);
   if (options.ghost && ghost_engine_) add_ghost(run);
@@ -302,6 +394,9 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
     pos = r * Eigen::Vector3f(pos);
     dir = r * Eigen::Vector3f(dir);
   }
+  // stance's floor, sky and lights (unless the model brings its own); the key light's shadow
+  // covers the character wherever the camera looks
+  look_.dress(model_, scn_, con_, focus_, std::max(2.5, 1.6 * character_size_));
 
   // pushes: arrows ending at the pushed point, one body weight = 1 m
   auto draw_force = [&](const Eigen::Vector3d& point, const Eigen::Vector3d& f) {
@@ -357,7 +452,9 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
 void SceneView::render_window(int width, int height, const std::string& overlay) {
   mjrRect vp = {0, 0, width, height};
   mjr_setBuffer(mjFB_WINDOW, &con_);
+  look_.begin_render();
   mjr_render(vp, &scn_, &con_);
+  look_.end_render();
   if (!overlay.empty())
     mjr_overlay(mjFONT_NORMAL, mjGRID_TOPRIGHT, vp, overlay.c_str(), nullptr, &con_);
 }
@@ -368,7 +465,9 @@ void SceneView::render_offscreen(int width, int height, std::vector<unsigned cha
     throw std::runtime_error("frame larger than the offscreen buffer");
   mjrRect vp = {0, 0, width, height};
   mjr_setBuffer(mjFB_OFFSCREEN, &con_);
+  look_.begin_render();
   mjr_render(vp, &scn_, &con_);
+  look_.end_render();
   if (!overlay.empty())
     mjr_overlay(mjFONT_NORMAL, mjGRID_TOPRIGHT, vp, overlay.c_str(), nullptr, &con_);
   std::vector<unsigned char> bottom_up(static_cast<size_t>(width) * height * 3);

@@ -20,6 +20,7 @@
 
 #include "control/marker.h"
 #include "scenario/simulation.h"
+#include "viz/scene_look.h"
 
 namespace stance {
 
@@ -45,7 +46,10 @@ struct SceneOptions {
 class SceneView {
  public:
   // needs a current OpenGL context. offscreen_size: the largest frame render_offscreen() makes.
-  SceneView(Simulation& run, int offscreen_width = 1280, int offscreen_height = 720);
+  // look: stance's sky, floor and shadows (scene_look.h) on models that bring no look of their
+  // own; false draws the model as it is (quicker in software rendering: tests)
+  SceneView(Simulation& run, int offscreen_width = 1280, int offscreen_height = 720,
+            bool look = true);
   ~SceneView();
   SceneView(const SceneView&) = delete;
   SceneView& operator=(const SceneView&) = delete;
@@ -61,8 +65,16 @@ class SceneView {
   void render_offscreen(int width, int height, std::vector<unsigned char>& rgb,
                         const std::string& overlay = "");
 
-  // place the free camera behind/beside the character again
+  // the scenario's camera again (distance, azimuth, elevation), looking at the character
   void reset_camera();
+  // the point the follow camera looks at: the root's position, filtered in simulated time, at
+  // the height of the character's middle (view frame, up = +z, m)
+  const Eigen::Vector3d& focus() const { return focus_; }
+  // the character's height along up at the start, feet to head (m)
+  double character_size() const { return character_size_; }
+  // the camera distance that frames a character of `size_m` whole, feet included, with this
+  // vertical field of view (deg)
+  static double framing_distance(double size_m, double fovy_deg);
   // the running engine's body under the pixel (relx, rely) of the last drawn scene (0..1, from
   // the bottom left; aspect = width / height), and the world point hit; -1 when none. Static
   // geoms (the floor) are not picked. Call while the physics is not stepping.
@@ -74,6 +86,12 @@ class SceneView {
   // ground plane (dy moves away from the camera)
   Eigen::Vector3d mouse_motion_in_world(double dx, double dy, int height, const Eigen::Vector3d& at,
                                         bool horizontal) const;
+  // where a world point lands in the last drawn scene: (relx, rely) from the bottom left, 0..1
+  // inside the image (aspect = width / height); the inverse of pick_body's ray. Points behind
+  // the camera give NaN.
+  Eigen::Vector2d project(const Eigen::Vector3d& world, double aspect) const;
+  // the drawn poses (geom_xpos etc., world frame) of the drawing model
+  const mjData* draw_data() const;
   mjvCamera& camera() { return cam_; }
   const mjModel* draw_model() const { return model_; }
   mjvScene& scene() { return scn_; }
@@ -92,6 +110,11 @@ class SceneView {
   // body, geom and site frames of `d` from the body poses of `engine`, by body name
   void pose_from(Engine& engine, const std::vector<int>& body_map, mjData* d);
   Eigen::Vector3d to_view(const Eigen::Vector3d& p) const { return view_rot_ * p; }
+  // the character's extent at the start, from its geoms: sets character_size_ and focus_offset_
+  void measure_character(Engine& engine);
+  // the follow camera's target at the engine's time: low-pass filtered root position with its
+  // velocity's lag made up horizontally
+  void track_root(Engine& engine);
 
   std::unique_ptr<Engine> draw_engine_;  // the MuJoCo copy for non-MuJoCo runs
   MujocoEngine* mj_ = nullptr;           // what is drawn
@@ -114,6 +137,14 @@ class SceneView {
   double ground_height_ = 0;
   Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
   double time_ = 0;
+  SceneLook look_;
+  CameraParams camera_params_;
+  double character_size_ = 1;
+  Eigen::Vector3d focus_ = Eigen::Vector3d::Zero();         // view frame
+  Eigen::Vector3d focus_offset_ = Eigen::Vector3d::Zero();  // from the root, view frame
+  Eigen::Vector3d root_filtered_ = Eigen::Vector3d::Zero();
+  Eigen::Vector3d velocity_filtered_ = Eigen::Vector3d::Zero();
+  double focus_time_ = -1;  // simulated time of the last tracking update; < 0: none yet
 };
 
 }  // namespace stance

@@ -19,4 +19,19 @@ int view_command(const ViewCommand& cmd);
 int screenshots_command(const std::string& scenario_dir, const std::string& out_dir, double at,
                         const std::string& size);
 
+// `stance screenshots --gif [--dir scenarios] [--out docs/img] [--size 480x300]`: a short
+// looping GIF of each seed system (gif_clips()) found in the folder
+int gifs_command(const std::string& scenario_dir, const std::string& out_dir,
+                 const std::string& size);
+
+// one GIF of the README: a scenario, the simulated time it shows and how fast it plays
+struct GifClip {
+  const char* scenario;  // file stem in the scenario folder
+  double start_s;        // simulated
+  double length_s;       // simulated
+  double slow_motion;    // playback speed: 1 real time, 0.5 half speed
+  const char* caption;
+};
+const std::vector<GifClip>& gif_clips();
+
 }  // namespace stance

@@ -123,6 +123,34 @@ TEST_F(RecorderTest, Mp4HasTheExpectedLength) {
     EXPECT_NE(entry.path().filename().string().rfind(".walk.mp4", 0), 0u) << entry.path();
 }
 
+// the README's moving pictures: a GIF from a later start, played back at its own rate
+TEST_F(RecorderTest, GifFromAStartTimeHasTheFramesOfItsWindow) {
+  if (!have_tool("ffmpeg") || !have_tool("ffprobe")) GTEST_SKIP() << "no ffmpeg/ffprobe";
+  RunOptions ro;
+  ro.quiet = true;
+  ro.duration = 1.0;
+  RecordOptions o;
+  o.video = (out_dir() / "walk.gif").string();
+  o.video_start = 0.6;
+  o.fps = 20;           // frames at 0.6, 0.65, ..., 0.95 s: 8 frames
+  o.playback_fps = 10;  // half speed
+  o.width = 160;
+  o.height = 100;
+  RecordResult r = record_scenario(scenario("simbicon_walk"), ro, o);
+  EXPECT_EQ(r.frames, 8);
+  std::string probe = run_capture(
+      "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+      "stream=nb_read_frames,width,codec_name -show_entries format=duration -of "
+      "default=noprint_wrappers=1 '" +
+      o.video + "'");
+  EXPECT_NE(probe.find("codec_name=gif"), std::string::npos) << probe;
+  EXPECT_NE(probe.find("width=160"), std::string::npos) << probe;
+  EXPECT_NE(probe.find("nb_read_frames=8"), std::string::npos) << probe;
+  auto at = probe.find("duration=");
+  ASSERT_NE(at, std::string::npos) << probe;
+  EXPECT_NEAR(std::stod(probe.substr(at + 9)), 0.8, 0.05) << probe;
+}
+
 TEST_F(RecorderTest, SameRunGivesTheSameFrames) {
   if (!have_tool("ffmpeg")) GTEST_SKIP() << "no ffmpeg";
   RunOptions ro;
