@@ -62,6 +62,7 @@ class ControlNoise final : public TypedController<ControlNoiseState> {
   std::string_view type() const override { return "control_noise"; }
   void signal_names(std::vector<std::string>& names) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
+  std::vector<ParamEntry> tunable_params() const override { return list_params(params_); }
   // the State's window is kernel-width long and its stream drawn from the seed
   bool keeps_state_of(const Controller& previous) const override;
 

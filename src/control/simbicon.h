@@ -253,6 +253,7 @@ class Simbicon final : public TypedController<SimbiconState> {
   // and in 3D of the swing thigh's and the torso's roll
   void correction_dims(std::vector<CorrectionDim>& dims) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+  std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
 
   const Model& model() const { return model_; }
 

@@ -143,6 +143,7 @@ class SlopeWalker final : public TypedController<SlopeWalkerState> {
   std::string_view type() const override { return "slope_walker"; }
   void signal_names(std::vector<std::string>& names) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(model_.params, type()); }
+  std::vector<ParamEntry> tunable_params() const override { return list_params(model_.params); }
 
   const Model& model() const { return model_; }
   // the step lengths after the transient, in order (m)

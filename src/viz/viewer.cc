@@ -14,6 +14,8 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iostream>
 #include <mutex>
 #include <sstream>
 #include <stdexcept>
@@ -25,6 +27,7 @@
 #include "engine/mujoco/mujoco_engine.h"
 #include "scenario/live_tuning.h"
 #include "scenario/simulation.h"
+#include "viz/param_panel.h"
 #include "viz/recorder.h"
 #include "viz/scene_view.h"
 
@@ -58,6 +61,8 @@ const char* kHelpText =
     "space   pause / run\n"
     "n       single step (while paused)\n"
     "p       replay from the start\n"
+    "r       record an MP4 of the window / stop\n"
+    "i       save a PNG of the window\n"
     ", .     push back / forth on the push body\n"
     "a s     skateboard speed down / up\n"
     "- =     slower / faster than real time\n"
@@ -133,6 +138,62 @@ struct Viewer::Impl {
   double next_snapshot = 0;
   int scrubbed = -1;        // history index shown while paused; -1: live
   double frame_target = 0;  // unthreaded frames step to this simulated time
+
+  // the r key's video: frames at fixed simulated times (guarded by mutex)
+  std::unique_ptr<VideoWriter> recording;
+  int record_w = 0, record_h = 0;  // the window's size when it started, made even
+  double record_next = 0;          // simulated time of the next frame
+  std::vector<unsigned char> record_rgb;
+  std::string last_capture;
+
+  // <capture_dir>/<scenario>_<n><ext>, the first n not taken
+  std::string next_capture_path(const std::string& ext) const {
+    std::filesystem::path dir(options.capture_dir.empty() ? "." : options.capture_dir);
+    std::string stem = loaded.scenario.name.empty() ? "stance" : loaded.scenario.name;
+    for (int n = 1;; ++n) {
+      std::filesystem::path p = dir / fmt::format("{}_{:03d}{}", stem, n, ext);
+      if (!std::filesystem::exists(p)) return p.string();
+    }
+  }
+
+  void start_recording(int width, int height) {
+    record_w = width - width % 2;
+    record_h = height - height % 2;
+    std::string path = next_capture_path(".mp4");
+    recording = std::make_unique<VideoWriter>(path, record_w, record_h, options.record_fps);
+    record_next = run->engine().time();
+    last_capture = path;
+    status = fmt::format("recording {} ({}x{}, r stops)", path, record_w, record_h);
+    std::cout << status << std::endl;
+  }
+
+  void stop_recording() {
+    if (!recording) return;
+    std::unique_ptr<VideoWriter> done = std::move(recording);
+    long frames = done->frames();
+    try {
+      done->close();
+      status = fmt::format("wrote {}: {} frames, {:.3f} s of simulated time", done->path(), frames,
+                           frames / options.record_fps);
+    } catch (const std::exception& err) {
+      status = err.what();
+    }
+    std::cout << status << std::endl;
+  }
+
+  // the shown frame (frame_rgb) into the video, cut to its even size
+  void write_record_frame() {
+    if (frame_w < record_w || frame_h < record_h) {
+      status = "the window shrank: recording stopped";
+      stop_recording();
+      return;
+    }
+    record_rgb.resize(static_cast<size_t>(record_w) * record_h * 3);
+    for (int y = 0; y < record_h; ++y)
+      std::copy_n(frame_rgb.data() + static_cast<size_t>(y) * frame_w * 3, record_w * 3,
+                  record_rgb.data() + static_cast<size_t>(y) * record_w * 3);
+    recording->write(record_rgb.data());
+  }
 
   // LQR rebuilds on worker threads, swapped in order (guarded by mutex)
   std::vector<std::unique_ptr<BackgroundRetune>> pending;
@@ -294,12 +355,16 @@ struct Viewer::Impl {
       {
         std::lock_guard<std::mutex> lock(mutex);
         Engine& e = run->engine();
-        if (anchor_dirty || paused) {
+        // the r key's recording steps the physics from the window's frames
+        if (anchor_dirty || paused || recording) {
           wall0 = Clock::now();
           sim0 = e.time();
           anchor_dirty = false;
         }
-        if (paused) {
+        if (recording) {
+          if (paused)
+            for (; single_steps > 0; --single_steps) step_locked();
+        } else if (paused) {
           for (; single_steps > 0; --single_steps) step_locked();
         } else {
           double wall = std::chrono::duration<double>(Clock::now() - wall0).count();
@@ -327,6 +392,10 @@ struct Viewer::Impl {
   }
 
   void draw_panels();
+  // one group of the parameter panel, its entries and its subgroups as tree nodes
+  void draw_param_group(const ParamGroup& group, std::vector<ParamEntry>& list, int depth,
+                        const std::function<void(const std::string&, double)>& changed);
+  char param_filter[128] = "";
 
   // waits for the background rebuilds and swaps them in
   void finish_pending() {
@@ -375,7 +444,7 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options,
   if (!s.window) throw EnvironmentError("cannot open a window (no display? try xvfb-run)");
   glfwMakeContextCurrent(s.window);
   glfwSwapInterval(options.threaded ? 1 : 0);
-  s.view = std::make_unique<SceneView>(*s.run, 640, 480);
+  s.view = std::make_unique<SceneView>(*s.run, 640, 480, options.scene_look);
 
   Engine& e = s.run->engine();
   Eigen::Vector3d g = e.gravity();
@@ -487,6 +556,7 @@ Viewer::~Viewer() {
   Impl& s = *impl_;
   s.quit = true;
   if (s.physics.joinable()) s.physics.join();
+  s.stop_recording();
   glfwMakeContextCurrent(s.window);
   ImGui::SetCurrentContext(s.imgui);
   ImGui_ImplOpenGL3_Shutdown();
@@ -520,6 +590,37 @@ void Viewer::key(int k) {
     case GLFW_KEY_P:
       s.replay();
       s.status = "replay from the start";
+      break;
+    case GLFW_KEY_R:
+      try {
+        if (s.recording) {
+          s.stop_recording();
+        } else {
+          int width = 0, height = 0;
+          glfwGetFramebufferSize(s.window, &width, &height);
+          s.start_recording(width, height);
+        }
+      } catch (const std::exception& err) {
+        s.recording.reset();
+        s.status = err.what();
+        std::cout << s.status << std::endl;
+      }
+      break;
+    case GLFW_KEY_I:
+      if (s.frame_rgb.empty()) {
+        s.status = "no frame drawn yet";
+        break;
+      }
+      try {
+        std::string path = s.next_capture_path(".png");
+        write_png(path, s.frame_w, s.frame_h, s.frame_rgb.data());
+        s.last_capture = path;
+        s.status =
+            fmt::format("wrote {} ({}x{}, t = {:.3f} s)", path, s.frame_w, s.frame_h, e.time());
+      } catch (const std::exception& err) {
+        s.status = err.what();
+      }
+      std::cout << s.status << std::endl;
       break;
     case GLFW_KEY_COMMA:
     case GLFW_KEY_PERIOD: {
@@ -593,6 +694,45 @@ void Viewer::key(int k) {
       break;
     default:
       break;
+  }
+}
+
+void Viewer::Impl::draw_param_group(
+    const ParamGroup& group, std::vector<ParamEntry>& list, int depth,
+    const std::function<void(const std::string&, double)>& changed) {
+  for (int index : group.entries) {
+    ParamEntry& entry = list[index];
+    std::string label = fmt::format("{}##{}", param_label(entry), entry.path);
+    if (entry.kind == ParamEntry::Kind::kBool) {
+      bool b = entry.value != 0;
+      if (ImGui::Checkbox(label.c_str(), &b)) changed(entry.path, b ? 1 : 0);
+    } else {
+      double v = entry.value;
+      bool bounded = std::isfinite(entry.meta.min) && std::isfinite(entry.meta.max);
+      double lo = std::isfinite(entry.meta.min) ? entry.meta.min : -1e9;
+      double hi = std::isfinite(entry.meta.max) ? entry.meta.max : 1e9;
+      // unbounded or wide ranges: drag around the value; narrow ones: a slider
+      if (bounded && hi - lo <= 100) {
+        ImGui::SliderScalar(label.c_str(), ImGuiDataType_Double, &v, &lo, &hi, "%.4g");
+      } else {
+        float speed = static_cast<float>(std::max(1e-3, 0.01 * std::abs(v)));
+        ImGui::DragScalar(label.c_str(), ImGuiDataType_Double, &v, speed, &lo, &hi, "%.4g");
+      }
+      if (v != entry.value) entry.value = v;  // shown while dragging
+      if (ImGui::IsItemDeactivatedAfterEdit()) changed(entry.path, v);
+    }
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", param_tooltip(entry).c_str());
+  }
+  bool filtering = param_filter[0] != 0;
+  for (const auto& sub : group.groups) {
+    // the controller's own structs open; the lists' elements (FSM states) start closed
+    bool element = sub.name.find(' ') != std::string::npos;
+    if (filtering) ImGui::SetNextItemOpen(true);
+    ImGuiTreeNodeFlags flags = element || depth > 1 ? 0 : ImGuiTreeNodeFlags_DefaultOpen;
+    if (ImGui::TreeNodeEx(sub.name.c_str(), flags)) {
+      draw_param_group(sub, list, depth + 1, changed);
+      ImGui::TreePop();
+    }
   }
 }
 
@@ -674,51 +814,40 @@ void Viewer::Impl::draw_panels() {
   }
   ImGui::End();
 
-  // parameters, generated from the controllers' visits
-  ImGui::SetNextWindowPos(ImVec2(options.width - panel_w - 10, 10), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(panel_w, 0.7f * options.height), ImGuiCond_FirstUseEver);
+  // parameters, generated from the controllers' visits: grouped by controller and by their
+  // structs (FSM states collapse), labelled from the visit, full path and help on hover
+  // wide enough for the longest label (at the deepest indent) and a 120 px field
+  float label_w = 0;
+  for (const auto& list : entries)
+    for (const auto& entry : list)
+      label_w = std::max(label_w, ImGui::CalcTextSize(param_label(entry).c_str()).x);
+  label_w += 4 * ImGui::GetStyle().IndentSpacing;
+  float params_w = std::clamp(label_w + 150.0f, panel_w, 0.45f * options.width);
+  ImGui::SetNextWindowPos(ImVec2(options.width - params_w - 10, 10), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(params_w, 0.7f * options.height), ImGuiCond_FirstUseEver);
   ImGui::Begin("parameters");
-  // long key paths: give the labels more room than imgui's default two thirds for the value
-  ImGui::PushItemWidth(ImGui::GetWindowWidth() * 0.35f);
+  ImGui::SetNextItemWidth(-1);
+  ImGui::InputTextWithHint("##filter", "filter (name, unit, help)", param_filter,
+                           sizeof(param_filter));
+  // the value fields take what the labels leave: labels are short now
+  ImGui::PushItemWidth(-std::min(label_w, ImGui::GetWindowWidth() - 120.0f));
   int changed_controller = -1;
   std::string changed_path;
   double changed_value = 0;
+  bool filtering = param_filter[0] != 0;
   for (size_t i = 0; i < entries.size(); ++i) {
+    ParamGroup tree = build_param_tree(entries[i], param_filter);
+    if (filtering && tree.size() == 0) continue;
     std::string header = fmt::format("{} [{}]", run->controllers()[i]->type(), i);
+    if (filtering) ImGui::SetNextItemOpen(true);
     if (!ImGui::CollapsingHeader(header.c_str(), ImGuiTreeNodeFlags_DefaultOpen)) continue;
-    for (auto& entry : entries[i]) {
-      std::string label = fmt::format("{}##{}", entry.path, i);
-      if (entry.kind == ParamEntry::Kind::kBool) {
-        bool b = entry.value != 0;
-        if (ImGui::Checkbox(label.c_str(), &b)) {
-          changed_controller = static_cast<int>(i);
-          changed_path = entry.path;
-          changed_value = b ? 1 : 0;
-        }
-      } else {
-        double v = entry.value;
-        bool bounded = std::isfinite(entry.meta.min) && std::isfinite(entry.meta.max);
-        double lo = std::isfinite(entry.meta.min) ? entry.meta.min : -1e9;
-        double hi = std::isfinite(entry.meta.max) ? entry.meta.max : 1e9;
-        // unbounded or wide ranges: drag around the value; narrow ones: a slider
-        if (bounded && hi - lo <= 100) {
-          ImGui::SliderScalar(label.c_str(), ImGuiDataType_Double, &v, &lo, &hi, "%.4g");
-        } else {
-          float speed = static_cast<float>(std::max(1e-3, 0.01 * std::abs(v)));
-          ImGui::DragScalar(label.c_str(), ImGuiDataType_Double, &v, speed, &lo, &hi, "%.4g");
-        }
-        if (!entry.meta.help.empty() || !entry.meta.unit.empty())
-          if (ImGui::IsItemHovered())
-            ImGui::SetTooltip("%s [%s]", std::string(entry.meta.help).c_str(),
-                              std::string(entry.meta.unit).c_str());
-        if (v != entry.value) entry.value = v;  // shown while dragging
-        if (ImGui::IsItemDeactivatedAfterEdit()) {
-          changed_controller = static_cast<int>(i);
-          changed_path = entry.path;
-          changed_value = v;
-        }
-      }
-    }
+    ImGui::PushID(static_cast<int>(i));
+    draw_param_group(tree, entries[i], 0, [&](const std::string& path, double value) {
+      changed_controller = static_cast<int>(i);
+      changed_path = path;
+      changed_value = value;
+    });
+    ImGui::PopID();
   }
   ImGui::PopItemWidth();
   ImGui::End();
@@ -753,10 +882,19 @@ void Viewer::frame() {
   ImGui_ImplOpenGL3_NewFrame();
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
+  bool record_frame = false;
   {
     std::lock_guard<std::mutex> lock(s.mutex);
     if (!s.pending.empty()) s.swap_ready();
-    if (!s.options.threaded && !s.paused) {
+    if (s.recording && !s.paused) {
+      // a fixed step of simulated time per recorded frame, whatever the wall-clock pace
+      Engine& e = s.run->engine();
+      // on the grid t0 + k / fps (steps taken meanwhile, e.g. single steps, move it on)
+      s.record_next += 1.0 / s.options.record_fps;
+      if (s.record_next < e.time()) s.record_next = e.time() + 1.0 / s.options.record_fps;
+      while (e.time() < s.record_next - 0.5 * e.timestep() && !s.paused) s.step_locked();
+      record_frame = true;
+    } else if (!s.options.threaded && !s.paused) {
       // reproducible: a fixed amount of simulated time per frame
       Engine& e = s.run->engine();
       // on the history's grid of times, unless single steps went past it
@@ -812,7 +950,25 @@ void Viewer::frame() {
   size_t row = static_cast<size_t>(width) * 3;
   for (int y = 0; y < height; ++y)
     std::copy_n(bottom_up.data() + (height - 1 - y) * row, row, s.frame_rgb.data() + y * row);
+  if (record_frame) {
+    std::lock_guard<std::mutex> lock(s.mutex);
+    try {
+      if (s.recording) s.write_record_frame();
+    } catch (const std::exception& err) {
+      s.recording.reset();
+      s.status = err.what();
+    }
+  }
   glfwSwapBuffers(s.window);
+}
+
+bool Viewer::recording() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->recording != nullptr;
+}
+
+const std::string& Viewer::last_capture() const {
+  return impl_->last_capture;
 }
 
 bool Viewer::screenshot(const std::string& png_path) const {

@@ -3,12 +3,13 @@
 // state, a parameter panel generated from each controller's tunable_params() (no per-controller
 // GUI code), live plots over a rolling window and the key reference.
 //
-// Keys: space pause, n single step, p replay, , and . push back and forth, a and s skateboard
-// speed (a controller parameter "speed", stepped by "speed_step"), - and = slow down / speed up, f
-// camera follow/free, c contacts, m COM markers, k controller markers, g tracking ghost, h help,
-// Esc quit. Mouse: left drag rotates, right drag pans, wheel zooms; double-click selects a body,
-// and Ctrl+right drag (screen plane) or Ctrl+left drag (ground plane) pulls it towards a target
-// with a spring, as MuJoCo's simulate does, through Engine::apply_external_force (both engines).
+// Keys: space pause, n single step, p replay, r record MP4 / stop, i save PNG, , and . push back
+// and forth, a and s skateboard speed (a controller parameter "speed", stepped by "speed_step"), -
+// and = slow down / speed up, f camera follow/free, c contacts, m COM markers, k controller
+// markers, g tracking ghost, h help, Esc quit. Mouse: left drag rotates, right drag pans, wheel
+// zooms; double-click selects a body, and Ctrl+right drag (screen plane) or Ctrl+left drag (ground
+// plane) pulls it towards a target with a spring, as MuJoCo's simulate does, through
+// Engine::apply_external_force (both engines).
 //
 // History: the engine state is kept every 1/60 s of simulated time (the last minute). While
 // paused, the panel's slider (or scrub_to) restores any recorded state; running on continues from
@@ -44,6 +45,9 @@ struct ViewerOptions {
   bool threaded = true;        // physics thread paced to real time
   double frame_dt = 1.0 / 60;  // s of simulated time per frame() when not threaded
   std::string save_path;       // scenario file; "save scenario" writes <stem>_tuned.yaml beside it
+  std::string capture_dir = ".";  // where the r (MP4) and i (PNG) keys write
+  double record_fps = 60;         // frames per simulated second of the r key's MP4
+  bool scene_look = true;         // stance's sky, floor and shadows (viz/scene_look.h)
 };
 
 class Viewer {
@@ -64,6 +68,13 @@ class Viewer {
   void frame();
   // what pressing a key does (GLFW key codes, e.g. GLFW_KEY_SPACE or 'P')
   void key(int glfw_key);
+  // the r key: start or stop an MP4 of the window; the i key: a PNG of the last frame. Files are
+  // <capture_dir>/<scenario>_<n>.mp4|png; both print where they went. While recording, each
+  // window frame advances the physics by 1/record_fps of simulated time (the physics thread
+  // waits), so the video's length is the simulated time recorded, whatever the pace.
+  bool recording() const;
+  // the file the last r or i key started or wrote; empty: none yet
+  const std::string& last_capture() const;
   // the last frame as it was shown (rgb, top row first); false when no frame was drawn yet
   bool screenshot(const std::string& png_path) const;
   const std::vector<unsigned char>& last_frame(int& width, int& height) const;

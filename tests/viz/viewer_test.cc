@@ -54,11 +54,28 @@ double mean_abs_difference(const std::vector<unsigned char>& a,
   return sum / a.size();
 }
 
+bool have_tool(const std::string& name) {
+  return std::system(("command -v " + name + " > /dev/null 2>&1").c_str()) == 0;
+}
+
+std::string run_capture(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return out;
+  char buf[256];
+  while (fgets(buf, sizeof(buf), p)) out += buf;
+  pclose(p);
+  return out;
+}
+
 ViewerOptions test_options() {
   ViewerOptions o;
   o.width = 640;
   o.height = 400;
   o.threaded = false;  // reproducible: each frame() advances 1/60 s
+  // the model as it is: the sky, floor and shadows cost a lot in software rendering, and
+  // tests/viz/scene_view_test.cc checks them
+  o.scene_look = false;
   o.save_path = (shot_dir() / "saved.yaml").string();
   return o;
 }
@@ -409,6 +426,57 @@ TEST_F(ViewerTest, LqrCostChangeSwapsTheGainInLater) {
   // a rejected value is reported at once and changes nothing
   EXPECT_THROW(v.set_param(0, "no_such_cost", 1), InputError);
   EXPECT_FALSE(v.param_pending());
+}
+
+TEST_F(ViewerTest, RecordKeyWritesAnMp4AsLongAsTheSimulatedTimeRecorded) {
+  if (!have_tool("ffmpeg") || !have_tool("ffprobe")) GTEST_SKIP() << "no ffmpeg/ffprobe";
+  ViewerOptions o = test_options();
+  o.capture_dir = (shot_dir() / "captures").string();
+  fs::remove_all(o.capture_dir);
+  o.record_fps = 30;
+  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
+  loaded.scenario.name = "simbicon_walk";
+  Viewer v(loaded, o);
+  v.frame();
+  v.frame();
+  double t0 = v.sim_time();
+  v.key(GLFW_KEY_R);
+  ASSERT_TRUE(v.recording()) << v.status();
+  const std::string mp4 = (fs::path(o.capture_dir) / "simbicon_walk_001.mp4").string();
+  EXPECT_EQ(v.last_capture(), mp4);
+  // a slow-motion factor does not change the recorded time: frames are 1/30 s apart
+  v.key(GLFW_KEY_MINUS);
+  for (int i = 0; i < 45; ++i) v.frame();
+  double recorded = v.sim_time() - t0;
+  v.key(GLFW_KEY_R);
+  EXPECT_FALSE(v.recording());
+  EXPECT_NE(v.status().find("wrote " + mp4 + ": 45 frames, 1.500 s"), std::string::npos)
+      << v.status();
+  EXPECT_NEAR(recorded, 1.5, 1e-3);
+  std::string probe = run_capture(
+      "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
+      "stream=nb_read_frames,width,height,codec_name -show_entries format=duration -of "
+      "default=noprint_wrappers=1 '" +
+      mp4 + "'");
+  EXPECT_NE(probe.find("codec_name=h264"), std::string::npos) << probe;
+  EXPECT_NE(probe.find("nb_read_frames=45"), std::string::npos) << probe;
+  EXPECT_NE(probe.find("width=640"), std::string::npos) << probe;
+  auto at = probe.find("duration=");
+  ASSERT_NE(at, std::string::npos) << probe;
+  EXPECT_NEAR(std::stod(probe.substr(at + 9)), recorded, 0.04) << probe;
+
+  // the PNG key: the frame shown, next to the video
+  v.key(GLFW_KEY_I);
+  const std::string png = (fs::path(o.capture_dir) / "simbicon_walk_001.png").string();
+  EXPECT_EQ(v.last_capture(), png);
+  EXPECT_TRUE(fs::exists(png));
+  EXPECT_NE(v.status().find("wrote " + png), std::string::npos) << v.status();
+  // a second recording does not overwrite the first
+  v.key(GLFW_KEY_R);
+  EXPECT_EQ(v.last_capture(), (fs::path(o.capture_dir) / "simbicon_walk_002.mp4").string());
+  v.frame();
+  v.key(GLFW_KEY_R);
+  EXPECT_TRUE(fs::exists(mp4));
 }
 
 }  // namespace
