@@ -21,7 +21,7 @@ constexpr int kCircleSegments = 32;
 // the follow camera's filter (simulated time): slow enough to drop a gait's sway and bob
 constexpr double kFollowTauS = 0.5;
 // the framed height is this many times the character's: room to move and to fall
-constexpr double kFramingMargin = 1.6;
+constexpr double kFramingMargin = 1.4;
 }  // namespace
 
 double SceneView::framing_distance(double size_m, double fovy_deg) {
@@ -121,8 +121,11 @@ void SceneView::measure_character(Engine& engine) {
     focus_offset_.setZero();
     return;
   }
-  character_size_ = std::max({0.3, hi.z() - lo.z(), 0.6 * (hi - lo).head<2>().maxCoeff()});
-  focus_offset_ = Eigen::Vector3d(0, 0, 0.5 * (lo.z() + hi.z()) - root.z());
+  // tall characters by their height; long ones (an arm, a board) by their length, which the
+  // wide picture (at least 4:3) shows
+  character_size_ = std::max({0.3, hi.z() - lo.z(), 0.75 * (hi - lo).head<2>().maxCoeff()});
+  // the middle of the character, from the root (a fixed arm's root is at one end)
+  focus_offset_ = 0.5 * (lo + hi) - root;
 }
 
 void SceneView::track_root(Engine& engine) {
@@ -401,7 +404,8 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
   // pushes: arrows ending at the pushed point, one body weight = 1 m
   auto draw_force = [&](const Eigen::Vector3d& point, const Eigen::Vector3d& f) {
     Eigen::Vector3d len = f / body_weight_n_;
-    if (len.norm() < 0.15) len = 0.15 * f.normalized();
+    // small pushes still show: at least 0.35 m (a 50 N push on a 60 kg biped is 8.5 cm)
+    if (len.norm() < 0.35) len = 0.35 * f.normalized();
     add_arrow(point - len, point, kPushColor, 0.03);
   };
   if (options.pushes) {
