@@ -117,6 +117,7 @@ struct Viewer::Impl {
 
   // UI state
   std::vector<std::vector<ParamEntry>> entries;  // per controller
+  std::vector<ParamEntry> planner_entries;        // the planner block's, when the run plans
   bool show_help = true;
   std::string status;
   std::vector<unsigned char> frame_rgb;
@@ -290,6 +291,7 @@ struct Viewer::Impl {
   void refresh_entries() {
     entries.clear();
     for (auto& c : run->controllers()) entries.push_back(c->tunable_params());
+    planner_entries = planner_params(*run);
   }
 
   // one physics step with the viewer's key pushes and mouse spring (mutex held)
@@ -821,6 +823,8 @@ void Viewer::Impl::draw_panels() {
   for (const auto& list : entries)
     for (const auto& entry : list)
       label_w = std::max(label_w, ImGui::CalcTextSize(param_label(entry).c_str()).x);
+  for (const auto& entry : planner_entries)
+    label_w = std::max(label_w, ImGui::CalcTextSize(param_label(entry).c_str()).x);
   label_w += 4 * ImGui::GetStyle().IndentSpacing;
   float params_w = std::clamp(label_w + 150.0f, panel_w, 0.45f * options.width);
   ImGui::SetNextWindowPos(ImVec2(options.width - params_w - 10, 10), ImGuiCond_FirstUseEver);
@@ -849,11 +853,33 @@ void Viewer::Impl::draw_panels() {
     });
     ImGui::PopID();
   }
+  // the planner block, when the run plans: its edits take effect at the next step
+  constexpr int kPlanner = -2;
+  ParamGroup planner_tree = build_param_tree(planner_entries, param_filter);
+  if (!planner_entries.empty() && !(filtering && planner_tree.size() == 0)) {
+    if (filtering) ImGui::SetNextItemOpen(true);
+    if (ImGui::CollapsingHeader("planner", ImGuiTreeNodeFlags_DefaultOpen)) {
+      ImGui::PushID(kPlanner);
+      draw_param_group(planner_tree, planner_entries, 0,
+                       [&](const std::string& path, double value) {
+                         changed_controller = kPlanner;
+                         changed_path = path;
+                         changed_value = value;
+                       });
+      ImGui::PopID();
+    }
+  }
   ImGui::PopItemWidth();
   ImGui::End();
-  if (changed_controller >= 0) {
+  if (changed_controller != -1) {
     try {
-      retune(changed_controller, changed_path, changed_value);
+      if (changed_controller == kPlanner) {
+        retune_planner(*run, changed_path, changed_value);
+        status = fmt::format("planner.{} = {:.4g}", changed_path, changed_value);
+        refresh_entries();
+      } else {
+        retune(changed_controller, changed_path, changed_value);
+      }
     } catch (const std::exception& err) {
       status = err.what();
       refresh_entries();
@@ -990,6 +1016,14 @@ void Viewer::set_param(int index, const std::string& path, double value) {
 
 const std::vector<std::vector<ParamEntry>>& Viewer::param_panel() const {
   return impl_->entries;
+}
+
+const std::vector<ParamEntry>& Viewer::planner_panel() const { return impl_->planner_entries; }
+
+void Viewer::set_planner_param(const std::string& path, double value) {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  retune_planner(*impl_->run, path, value);
+  impl_->refresh_entries();
 }
 
 std::string Viewer::save_scenario(const std::string& path) {

@@ -82,6 +82,9 @@ class Viewer {
   // the parameter panel's path: set controller `index`'s parameter `path` (rebuilds it)
   void set_param(int index, const std::string& path, double value);
   const std::vector<std::vector<ParamEntry>>& param_panel() const;
+  // the panel's planner block (empty when the run does not plan), and its edit path
+  const std::vector<ParamEntry>& planner_panel() const;
+  void set_planner_param(const std::string& path, double value);
   // writes the scenario with the tuned parameters; returns the file written
   std::string save_scenario(const std::string& path = "");
 

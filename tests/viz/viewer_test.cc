@@ -195,6 +195,31 @@ TEST_F(ViewerTest, PanelGainChangesBehaviourAndSaves) {
   EXPECT_GT(mean_abs_difference(frame_of(stiff), frame_of(soft)), 0.05);
 }
 
+// the planner block has its own sliders: listed from its visit, an edit reaches the running
+// planner (what the next plan uses) and the saved scenario
+TEST_F(ViewerTest, PlannerSlidersReachThePlannerAndTheSavedScenario) {
+  LoadedScenario loaded =
+      load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml",
+                    {"planner.enabled=true", "planner.samples=3", "planner.horizon_s=0.05",
+                     "planner.interval_s=0.05", "planner.threads=1"});
+  Viewer viewer(loaded, test_options());
+  auto value = [&](const std::string& path) {
+    for (const ParamEntry& e : viewer.planner_panel())
+      if (e.path == path) return e.value;
+    return -1.0;
+  };
+  EXPECT_EQ(value("samples"), 3);
+  viewer.set_planner_param("samples", 5);
+  EXPECT_EQ(value("samples"), 5);
+  EXPECT_THROW(viewer.set_planner_param("samples", -2), InputError);
+  for (int i = 0; i < 3; ++i) viewer.frame();
+  LoadedScenario again = load_scenario(viewer.save_scenario());
+  EXPECT_EQ(again.scenario.planner.samples, 5);
+  Viewer plain(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"),
+               test_options());
+  EXPECT_TRUE(plain.planner_panel().empty());
+}
+
 TEST_F(ViewerTest, DartRunsAreDrawn) {
   LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
   ViewerOptions o = test_options();
