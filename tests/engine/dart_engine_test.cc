@@ -688,6 +688,17 @@ TEST(DartEngine, ModelsDartWouldCrashOnAreRejectedWithFileAndLine) {
     EXPECT_NE(message.find(expected), std::string::npos) << message;
   }
 
+  // an rgba of three numbers and a line break, which MuJoCo reads and DART's toVector4d asserts
+  // on (found by fuzz_model)
+  std::string colour = write_temp("colour.xml",
+                                  "<mujoco>\n<worldbody>\n<body name=\"b\">\n"
+                                  "<joint name=\"j\" type=\"hinge\"/>\n"
+                                  "<geom type=\"sphere\" size=\"0.1\" rgba=\"0.3 0.3 0.6 \n\"/>\n"
+                                  "</body>\n</worldbody>\n</mujoco>\n");
+  message = dart_load_error(colour);
+  EXPECT_NE(message.find("colour.xml:5: <geom> rgba: expected 4 numbers"), std::string::npos)
+      << message;
+
   // a body welded to its parent body (no joint): DART's reader dereferenced a null joint
   // (found by fuzz_model; MuJoCo's humanoid.xml has such a head)
   std::string welded = write_temp("welded.xml", R"(<mujoco>

@@ -273,7 +273,8 @@ void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLE
   static const std::map<std::string, int> kCounts = {
       {"pos", 3},     {"axis", 3},        {"euler", 3},       {"zaxis", 3},
       {"gravity", 3}, {"diaginertia", 3}, {"quat", 4},        {"axisangle", 4},
-      {"xyaxes", 6},  {"fromto", 6},      {"fullinertia", 6}, {"range", 2}};
+      {"xyaxes", 6},  {"fromto", 6},      {"fullinertia", 6}, {"range", 2},
+      {"rgba", 4}};
   for (const tinyxml2::XMLElement* e = parent->FirstChildElement(); e;
        e = e->NextSiblingElement()) {
     for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
