@@ -15,8 +15,9 @@ ModelFormat model_format(const std::string& path) {
   if (ext == ".xml" || ext == ".mjcf") return ModelFormat::kMjcf;
   if (ext == ".urdf") return ModelFormat::kUrdf;
   if (ext == ".skel") return ModelFormat::kSkel;
+  if (ext == ".sdf") return ModelFormat::kSdf;
   throw InputError(path + ": unknown model format '" + ext +
-                   "' (expected .xml or .mjcf for MJCF, .urdf, or .skel)");
+                   "' (expected .xml or .mjcf for MJCF, .urdf, .sdf, or .skel)");
 }
 
 }  // namespace stance

@@ -6,9 +6,10 @@
 
 namespace stance {
 
-enum class ModelFormat { kMjcf, kUrdf, kSkel };
+enum class ModelFormat { kMjcf, kUrdf, kSkel, kSdf };
 
-// by extension, case-insensitive: .xml/.mjcf -> kMjcf, .urdf -> kUrdf, .skel -> kSkel.
+// by extension, case-insensitive: .xml/.mjcf -> kMjcf, .urdf -> kUrdf, .skel -> kSkel,
+// .sdf -> kSdf.
 // Throws InputError for anything else.
 ModelFormat model_format(const std::string& path);
 

@@ -8,6 +8,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/model_format.h"
@@ -22,6 +23,11 @@ struct BackendModel {
   std::string text;  // the model itself (a translation), in `format`
   ModelFormat format = ModelFormat::kMjcf;
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // translation of the whole model
+  // URDF and SDF on DART: `file` is the path DART resolves against, `text` the checked and
+  // patched content (model/robot_model.h); the root welded to the world; the joints' effort
+  // limits (DART's SdfParser does not read them), by joint name
+  bool fixed_base = false;
+  std::vector<std::pair<std::string, double>> effort_limits;
 };
 
 struct BackendWorld {

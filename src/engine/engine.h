@@ -18,6 +18,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Core>
 #include <Eigen/Geometry>
+#include <limits>
 #include <memory>
 #include <string>
 #include <string_view>
@@ -37,6 +38,10 @@ struct JointInfo {
   int nv = 0;
   bool has_limits = false;
   double lower = 0, upper = 0;  // hinge/slide only
+  // the largest |generalised force| the model allows on each of the joint's dofs (N m or N):
+  // a URDF/SDF effort limit (DART's joint force limit), or on MuJoCo the sum over the joint's
+  // force-limited actuators of |gear| x max |ctrlrange|; infinite: no limit
+  double force_limit = std::numeric_limits<double>::infinity();
 };
 
 struct BodyPose {

@@ -2,11 +2,17 @@
 // hands the backend its input (engine/backend_world.h).
 #include <fmt/format.h>
 
+#include <cmath>
+#include <iostream>
+#include <mutex>
+#include <set>
+
 #include "core/error.h"
 #include "engine/backend_world.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
 #include "model/model_path.h"
+#include "model/robot_model.h"
 #include "model/skel_to_mjcf.h"
 
 namespace stance {
@@ -21,14 +27,40 @@ BackendWorld world_options(const WorldSpec& spec) {
   return world;
 }
 
+bool is_robot_format(ModelFormat f) {
+  return f == ModelFormat::kUrdf || f == ModelFormat::kSdf;
+}
+
+// a load warning, printed once per process and message (a sweep loads the model many times)
+void warn_once(const std::string& message) {
+  static std::mutex mutex;
+  static std::set<std::string> printed;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (printed.insert(message).second) std::cerr << "warning: " << message << "\n";
+}
+
 }  // namespace
 
 std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
   BackendWorld world = world_options(spec);
   std::vector<SkelInput> skel_inputs;
+  std::vector<RobotInput> robot_inputs;
   for (const auto& mf : spec.models) {
     std::string path = resolve_model_path(mf.path);
-    if (model_format(path) == ModelFormat::kSkel) skel_inputs.push_back({path, mf.offset});
+    const ModelFormat format = model_format(path);
+    if (format == ModelFormat::kSkel) skel_inputs.push_back({path, mf.offset});
+    if (is_robot_format(format)) robot_inputs.push_back({mf.path, path, mf.offset, mf.robot});
+  }
+  if (!robot_inputs.empty()) {
+    // URDF and SDF through stance's translation, composed into one world
+    if (robot_inputs.size() != spec.models.size())
+      throw InputError(
+          "composing URDF/SDF files with MJCF/SKEL files is not supported on MuJoCo; "
+          "compose URDF and SDF files only");
+    RobotTranslation t = robots_to_mjcf(robot_inputs);
+    for (const std::string& w : t.warnings) warn_once(w);
+    world.models.push_back({spec.models.front().path, "", t.mjcf, ModelFormat::kMjcf, {}});
+    return open_mujoco_engine(world);
   }
   if (!skel_inputs.empty()) {
     // SKEL through its MJCF translation, which keeps DART's initial state (<init_pos>) in
@@ -59,6 +91,13 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
     // DART's parsers assert or crash on bad values: stance's own checks go first, located
     if (model.format == ModelFormat::kSkel) check_skel_for_dart(path);
     if (model.format == ModelFormat::kMjcf) check_mujoco_compiles(model);
+    if (is_robot_format(model.format)) {
+      const RobotModel robot = read_robot(mf.path, path, mf.robot);
+      model.text = robot_text_for_dart(mf.path, path, mf.robot);
+      model.fixed_base = mf.robot.fixed_base;
+      for (const RobotJoint& j : robot.joints)
+        if (std::isfinite(j.effort)) model.effort_limits.emplace_back(j.name, j.effort);
+    }
     world.models.push_back(std::move(model));
   }
   return open_dart_engine(world);

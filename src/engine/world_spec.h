@@ -7,13 +7,16 @@
 #include <string>
 #include <vector>
 
+#include "model/robot_model.h"
+
 namespace stance {
 
 class Engine;
 
 struct ModelFile {
-  std::string path;  // .xml (MJCF), .urdf, .skel; "dart://sample/..." is resolved
+  std::string path;  // .xml (MJCF), .urdf, .sdf, .skel; "dart://sample/..." is resolved
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // translation of the whole file's content
+  RobotOptions robot;  // URDF and SDF only: fixed base, package path, mesh collision
 };
 
 struct WorldSpec {

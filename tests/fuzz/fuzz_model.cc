@@ -1,7 +1,7 @@
 // model loading through stance's own path (make_engine), on both engines, then a step (MuJoCo)
 // or the forward kinematics and dynamics (DART). Input: byte 0 picks
-// the engine (even: mujoco, odd: dart), byte 1 the format (even: MJCF .xml, odd: SKEL .skel),
-// the rest is the file.
+// the engine (even: mujoco, odd: dart), byte 1's two low bits the format (0: MJCF .xml, 1: SKEL
+// .skel, 2: URDF .urdf, 3: SDF .sdf), the rest is the file.
 #include <cstdint>
 #include <string>
 
@@ -14,7 +14,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace stance;
   if (size < 2) return 0;
   const std::string engine = (data[0] & 1) != 0 ? "dart" : "mujoco";
-  const std::string name = (data[1] & 1) != 0 ? "fuzz.skel" : "fuzz.xml";
+  static const char* const kNames[4] = {"fuzz.xml", "fuzz.skel", "fuzz.urdf", "fuzz.sdf"};
+  const std::string name = kNames[data[1] & 3];
   WorldSpec spec;
   spec.models.push_back({fuzz::write_scratch(name, fuzz::as_text(data + 2, size - 2)), {}});
   try {

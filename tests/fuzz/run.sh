@@ -33,10 +33,18 @@ make_seeds() {
     joint_map) cp "$src"/models/maps/*.yaml "$out/" ;;
     skel) [ -d "$dart_skel" ] && cp "$dart_skel"/*.skel "$out/" ;;
     model)
-      # byte 0: engine (0 mujoco, 1 dart); byte 1: format (0 MJCF, 1 SKEL)
+      # byte 0: engine (0 mujoco, 1 dart); byte 1: format (0 MJCF, 1 SKEL, 2 URDF, 3 SDF)
       for f in "$src"/models/*.xml; do
         { printf '\0\0'; cat "$f"; } >"$out/mujoco_$(basename "$f")"
         { printf '\1\0'; cat "$f"; } >"$out/dart_$(basename "$f")"
+      done
+      for f in "$src"/models/*.urdf "$src"/tests/cli/bad_inputs/*.urdf; do
+        { printf '\0\2'; cat "$f"; } >"$out/mujoco_$(basename "$f")"
+        { printf '\1\2'; cat "$f"; } >"$out/dart_$(basename "$f")"
+      done
+      for f in "$src"/tests/cli/bad_inputs/*.sdf "$src"/tests/fuzz/corpus/robots/*.sdf; do
+        { printf '\0\3'; cat "$f"; } >"$out/mujoco_$(basename "$f")"
+        { printf '\1\3'; cat "$f"; } >"$out/dart_$(basename "$f")"
       done
       for f in cube.skel sphere.skel chain.skel skateboard.skel; do
         [ -f "$dart_skel/$f" ] || continue

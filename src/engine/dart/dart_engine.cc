@@ -26,6 +26,7 @@
 #include <tinyxml2.h>
 #include <dart/dart.hpp>
 #include <dart/utils/mjcf/MjcfParser.hpp>
+#include <dart/utils/sdf/SdfParser.hpp>
 #include <dart/utils/urdf/urdf.hpp>
 #include <dart/utils/utils.hpp>
 
@@ -473,8 +474,10 @@ void apply_inertials(dart::simulation::World& world,
 }
 
 // parses one model file into a temporary world of its own
-dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const std::string& file,
-                                            ModelFormat format, std::string& warnings) {
+dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::string& warnings) {
+  const std::string& shown_name = model.name;
+  const std::string& file = model.file;
+  const ModelFormat format = model.format;
   const std::string absolute = std::filesystem::absolute(file).string();
   const dart::common::Uri uri = dart::common::Uri::createFromPath(absolute);
   dart::simulation::WorldPtr world;
@@ -499,11 +502,36 @@ dart::simulation::WorldPtr read_model_world(const std::string& shown_name, const
           apply_inertials(*world, mjcf.inertials);
         }
       } else {
-        tinyxml2::XMLDocument doc;
-        load_xml(shown_name, file, doc);
-        dart::utils::DartLoader loader;  // default root joint: floating
-        SkeletonPtr skeleton = loader.parseSkeleton(uri);
+        // URDF and SDF: checked and patched by the factory (model/robot_model.h)
+        dart::common::ResourceRetrieverPtr retriever;
+        if (!model.text.empty())
+          retriever = std::make_shared<PatchedFileRetriever>(uri.toString(), model.text);
+        SkeletonPtr skeleton;
+        if (format == ModelFormat::kSdf) {
+          dart::utils::SdfParser::Options options(
+              retriever, model.fixed_base ? dart::utils::SdfParser::RootJointType::FIXED
+                                          : dart::utils::SdfParser::RootJointType::FLOATING);
+          skeleton = dart::utils::SdfParser::readSkeleton(uri, options);
+        } else {
+          dart::utils::DartLoader::Options options(
+              retriever, model.fixed_base ? dart::utils::DartLoader::RootJointType::FIXED
+                                          : dart::utils::DartLoader::RootJointType::FLOATING);
+          dart::utils::DartLoader loader(options);
+          skeleton = loader.parseSkeleton(uri);
+        }
         if (skeleton) {
+          // effort limits as joint force limits (DART's SdfParser does not read them)
+          for (const auto& [name, effort] : model.effort_limits) {
+            Joint* j = skeleton->getJoint(name);
+            if (j == nullptr) continue;
+            for (size_t k = 0; k < j->getNumDofs(); ++k) {
+              j->setForceLowerLimit(k, -effort);
+              j->setForceUpperLimit(k, effort);
+            }
+          }
+          // a robot welded whole to the world (a ground) cannot move: it is part of the world,
+          // as MuJoCo's static bodies are
+          if (skeleton->getNumDofs() == 0) skeleton->setMobile(false);
           world = dart::simulation::World::create();
           world->addSkeleton(skeleton);
         }
@@ -1065,9 +1093,7 @@ class DartEngine final : public Engine {
     for (const BackendModel& model : spec.models) {
       if (model.file.empty())
         throw InputError(model.name + ": the DART backend reads model files, not text");
-      const std::string& file = model.file;
-      dart::simulation::WorldPtr parsed =
-          read_model_world(model.name, file, model.format, load_warnings_);
+      dart::simulation::WorldPtr parsed = read_model_world(model, load_warnings_);
       std::vector<SkeletonPtr> skeletons;
       for (size_t i = 0; i < parsed->getNumSkeletons(); ++i)
         skeletons.push_back(parsed->getSkeleton(i));
@@ -1082,7 +1108,7 @@ class DartEngine final : public Engine {
           }
         }
       }
-      if (!world_ && model.format != ModelFormat::kUrdf) {
+      if (!world_ && model.format != ModelFormat::kUrdf && model.format != ModelFormat::kSdf) {
         // the first world file supplies gravity, timestep and collision detector
         world_ = parsed;
         continue;
@@ -1222,6 +1248,8 @@ class DartEngine final : public Engine {
       info.upper = limits_from->getPositionUpperLimit();
       info.has_limits = std::isfinite(info.lower) || std::isfinite(info.upper);
       if (!info.has_limits) info.lower = info.upper = 0;
+      info.force_limit = std::max(std::abs(limits_from->getForceLowerLimit()),
+                                  std::abs(limits_from->getForceUpperLimit()));
     }
     const int index = static_cast<int>(joints_.size());
     joints_.push_back(info);

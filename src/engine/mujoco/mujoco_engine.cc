@@ -2,6 +2,7 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <memory>
@@ -189,6 +190,18 @@ void MujocoEngine::build_tables() {
   }
   for (int i = 0; i < m_->nu; ++i)
     actuator_names_.push_back(name_of(m_, mjOBJ_ACTUATOR, i, fmt::format("actuator{}", i)));
+  // force limits of joints driven by force-limited actuators: |gear| x max |ctrlrange|, summed
+  for (int i = 0; i < m_->nu; ++i) {
+    if (m_->actuator_trntype[i] != mjTRN_JOINT || !m_->actuator_ctrllimited[i]) continue;
+    if (m_->actuator_biastype[i] != mjBIAS_NONE || m_->actuator_gaintype[i] != mjGAIN_FIXED)
+      continue;
+    JointInfo& info = joints_[m_->actuator_trnid[2 * i]];
+    const double reach = std::max(std::abs(m_->actuator_ctrlrange[2 * i]),
+                                  std::abs(m_->actuator_ctrlrange[2 * i + 1]));
+    const double limit =
+        std::abs(m_->actuator_gear[6 * i] * m_->actuator_gainprm[mjNGAIN * i]) * reach;
+    info.force_limit = std::isinf(info.force_limit) ? limit : info.force_limit + limit;
+  }
 }
 
 int MujocoEngine::body_index(std::string_view name) const {

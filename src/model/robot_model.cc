@@ -1,0 +1,1163 @@
+#include "model/robot_model.h"
+
+#include <tinyxml2.h>
+
+#include <fmt/format.h>
+#include <Eigen/Eigenvalues>
+#include <algorithm>
+#include <cerrno>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace stance {
+
+namespace {
+
+using Eigen::Isometry3d;
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+using tinyxml2::XMLElement;
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+// a box side below this (a flat mesh) is raised to it: engines assert on empty boxes
+constexpr double kMinBoxSide = 1e-3;  // m
+// MuJoCo 2.2.2 reads XML at most 100 elements deep (as in skel_to_mjcf.cc)
+constexpr int kMaxMujocoBodyDepth = 96;
+constexpr int kCollisionBits = 31;
+
+// ---------------------------------------------------------------------------------------------
+// reading helpers: every error names file:line of the element
+
+class Reader {
+ public:
+  explicit Reader(std::string file) : file_(std::move(file)) {}
+
+  [[noreturn]] void fail(const XMLElement* el, const std::string& message) const {
+    throw InputError(located(file_, el != nullptr ? el->GetLineNum() : 0, message));
+  }
+
+  const XMLElement* need(const XMLElement* parent, const char* name) const {
+    const XMLElement* el = parent->FirstChildElement(name);
+    if (el == nullptr) fail(parent, fmt::format("<{}> is missing <{}>", parent->Name(), name));
+    return el;
+  }
+
+  std::string attribute(const XMLElement* el, const char* name) const {
+    const char* a = el->Attribute(name);
+    if (a == nullptr) fail(el, fmt::format("<{}> is missing the attribute '{}'", el->Name(), name));
+    return a;
+  }
+
+  std::string text(const XMLElement* el) const {
+    const char* t = el->GetText();
+    std::string s = t != nullptr ? t : "";
+    const size_t b = s.find_first_not_of(" \t\r\n");
+    if (b == std::string::npos) return "";
+    return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
+  }
+
+  // whitespace-separated finite numbers; `count` < 0 accepts any count
+  std::vector<double> numbers(const XMLElement* el, const std::string& t, const std::string& what,
+                              int count) const {
+    std::vector<double> values;
+    const char* p = t.c_str();
+    while (true) {
+      while (*p != '\0' && std::isspace(static_cast<unsigned char>(*p))) ++p;
+      if (*p == '\0') break;
+      char* end = nullptr;
+      errno = 0;
+      const double v = std::strtod(p, &end);
+      const bool separated =
+          end != p && (*end == '\0' || std::isspace(static_cast<unsigned char>(*end)));
+      if (!separated || errno == ERANGE || !std::isfinite(v)) {
+        const char* stop = p;
+        while (*stop != '\0' && !std::isspace(static_cast<unsigned char>(*stop))) ++stop;
+        fail(el, fmt::format("{}: '{}' is not a finite number", what, std::string(p, stop)));
+      }
+      values.push_back(v);
+      p = end;
+    }
+    if (count >= 0 && static_cast<int>(values.size()) != count)
+      fail(el, fmt::format("{}: expected {} number{}, found {} in '{}'", what, count,
+                           count == 1 ? "" : "s", values.size(), t));
+    return values;
+  }
+
+  // an attribute's numbers; `fallback` when absent
+  std::vector<double> attribute_numbers(const XMLElement* el, const char* name, int count,
+                                        std::vector<double> fallback) const {
+    const char* a = el->Attribute(name);
+    if (a == nullptr) return fallback;
+    return numbers(el, a, fmt::format("<{}> {}", el->Name(), name), count);
+  }
+  double attribute_number(const XMLElement* el, const char* name, double fallback) const {
+    return attribute_numbers(el, name, 1, {fallback})[0];
+  }
+  // an element's text as numbers
+  std::vector<double> text_numbers(const XMLElement* el, int count) const {
+    return numbers(el, text(el), fmt::format("<{}>", el->Name()), count);
+  }
+  double child_number(const XMLElement* parent, const char* name, double fallback) const {
+    const XMLElement* el = parent->FirstChildElement(name);
+    return el != nullptr ? text_numbers(el, 1)[0] : fallback;
+  }
+
+  bool boolean(const XMLElement* el) const {
+    const std::string t = text(el);
+    if (t == "true" || t == "1") return true;
+    if (t == "false" || t == "0") return false;
+    fail(el, fmt::format("<{}>: expected true/false/1/0, found '{}'", el->Name(), t));
+  }
+
+  const std::string& file() const { return file_; }
+
+ private:
+  std::string file_;
+};
+
+// R = Rz(yaw) Ry(pitch) Rx(roll): URDF's rpy and SDF's pose (fixed axes x, y, z)
+Matrix3d rpy_rotation(double roll, double pitch, double yaw) {
+  return (Eigen::AngleAxisd(yaw, Vector3d::UnitZ()) * Eigen::AngleAxisd(pitch, Vector3d::UnitY()) *
+          Eigen::AngleAxisd(roll, Vector3d::UnitX()))
+      .toRotationMatrix();
+}
+
+Isometry3d make_pose(const std::vector<double>& xyz, const std::vector<double>& rpy) {
+  Isometry3d t = Isometry3d::Identity();
+  t.translation() = Vector3d(xyz[0], xyz[1], xyz[2]);
+  t.linear() = rpy_rotation(rpy[0], rpy[1], rpy[2]);
+  return t;
+}
+
+// URDF <origin xyz rpy>; identity when absent
+Isometry3d urdf_origin(const Reader& r, const XMLElement* parent) {
+  const XMLElement* o = parent->FirstChildElement("origin");
+  if (o == nullptr) return Isometry3d::Identity();
+  return make_pose(r.attribute_numbers(o, "xyz", 3, {0, 0, 0}),
+                   r.attribute_numbers(o, "rpy", 3, {0, 0, 0}));
+}
+
+// SDF <pose>x y z r p y</pose>; identity when absent
+Isometry3d sdf_pose(const Reader& r, const XMLElement* parent) {
+  const XMLElement* p = parent->FirstChildElement("pose");
+  if (p == nullptr) return Isometry3d::Identity();
+  for (const char* a : {"frame", "relative_to"}) {
+    const char* v = p->Attribute(a);
+    if (v != nullptr && *v != '\0')
+      r.fail(p, fmt::format("<pose {}='{}'>: poses relative to other frames are not supported "
+                            "(stance reads SDF 1.4-1.6 poses: links in the model frame, joints "
+                            "in the child link frame)",
+                            a, v));
+  }
+  const std::vector<double> v = r.text_numbers(p, 6);
+  return make_pose({v[0], v[1], v[2]}, {v[3], v[4], v[5]});
+}
+
+// a symmetric inertia that a body can have: finite, eigenvalues >= 0, triangle inequality
+void check_inertia(const Reader& r, const XMLElement* el, const std::string& link,
+                   const Matrix3d& inertia) {
+  Eigen::SelfAdjointEigenSolver<Matrix3d> eig(inertia);
+  const Vector3d e = eig.eigenvalues();
+  const double tol = 1e-9 * std::max(1.0, e.cwiseAbs().maxCoeff());
+  const bool ok = e.minCoeff() >= -tol && e[0] + e[1] >= e[2] - tol;
+  if (!ok)
+    r.fail(el, fmt::format("link '{}': the inertia is not a body's (principal moments {:.6g} "
+                           "{:.6g} {:.6g} must be >= 0, and any two add up to at least the third)",
+                           link, e[0], e[1], e[2]));
+}
+
+// ---------------------------------------------------------------------------------------------
+// mesh files
+
+std::string lower_extension(const std::string& path) {
+  std::string ext = std::filesystem::path(path).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return ext;
+}
+
+std::vector<std::string> package_folders(const RobotOptions& options) {
+  std::vector<std::string> folders = options.package_path;
+  const char* env = std::getenv("STANCE_PACKAGE_PATH");
+  if (env != nullptr) {
+    std::stringstream in(env);
+    for (std::string dir; std::getline(in, dir, ':');)
+      if (!dir.empty()) folders.push_back(dir);
+  }
+  return folders;
+}
+
+// a mesh reference (relative to the model file, absolute, file://, package:// or model://) as
+// an absolute path to an existing file
+std::string resolve_mesh(const Reader& r, const XMLElement* el, const std::string& model_path,
+                         const std::string& reference, const RobotOptions& options) {
+  namespace fs = std::filesystem;
+  std::string path;
+  const size_t scheme = reference.find("://");
+  if (scheme == std::string::npos) {
+    path = fs::path(reference).is_absolute()
+               ? reference
+               : (fs::path(model_path).parent_path() / reference).string();
+  } else {
+    const std::string kind = reference.substr(0, scheme);
+    const std::string rest = reference.substr(scheme + 3);
+    if (kind == "file") {
+      path = rest;
+    } else if (kind == "package" || kind == "model") {
+      const std::vector<std::string> folders = package_folders(options);
+      for (const std::string& dir : folders) {
+        const fs::path candidate = fs::path(dir) / rest;
+        std::error_code ec;
+        if (fs::is_regular_file(candidate, ec)) {
+          path = candidate.string();
+          break;
+        }
+      }
+      if (path.empty())
+        r.fail(el, fmt::format("mesh '{}': not found in the package path ({}; set the model's "
+                               "package_path or STANCE_PACKAGE_PATH to folders holding '{}')",
+                               reference,
+                               folders.empty() ? std::string("empty")
+                                               : fmt::format("{}", fmt::join(folders, ":")),
+                               rest.substr(0, rest.find('/'))));
+    } else {
+      r.fail(el, fmt::format("mesh '{}': unsupported URI scheme '{}://' (expected a path, "
+                             "file://, package:// or model://)",
+                             reference, kind));
+    }
+  }
+  std::error_code ec;
+  if (!fs::is_regular_file(path, ec))
+    r.fail(el, fmt::format("mesh '{}': no such file ({})", reference, path));
+  return fs::absolute(path).lexically_normal().string();
+}
+
+}  // namespace
+
+Eigen::AlignedBox3d mesh_bounds(const std::string& shown_name, int line, const std::string& path,
+                                const Vector3d& scale) {
+  auto fail = [&](const std::string& why) {
+    throw InputError(located(shown_name, line, fmt::format("mesh '{}': {}", path, why)));
+  };
+  std::ifstream in(path, std::ios::binary);
+  if (!in) fail("cannot read the file");
+  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  Eigen::AlignedBox3d box;
+  box.setEmpty();
+  auto add = [&](const Vector3d& v) {
+    if (!v.allFinite()) fail("a vertex is not finite");
+    box.extend(v.cwiseProduct(scale));
+  };
+  const std::string ext = lower_extension(path);
+  if (ext == ".stl") {
+    uint32_t count = 0;
+    const bool binary_size = data.size() >= 84 && (std::memcpy(&count, data.data() + 80, 4),
+                                                   data.size() == 84 + 50 * size_t{count});
+    if (binary_size) {
+      for (size_t t = 0; t < count; ++t) {
+        const char* tri = data.data() + 84 + 50 * t + 12;  // after the normal
+        for (int k = 0; k < 3; ++k) {
+          float xyz[3];
+          std::memcpy(xyz, tri + 12 * k, 12);
+          add(Vector3d(xyz[0], xyz[1], xyz[2]));
+        }
+      }
+    } else if (data.compare(0, 5, "solid") == 0) {
+      std::istringstream text(data);
+      for (std::string word; text >> word;) {
+        if (word != "vertex") continue;
+        Vector3d v;
+        if (!(text >> v.x() >> v.y() >> v.z())) fail("an ASCII STL vertex without 3 numbers");
+        add(v);
+      }
+    } else {
+      fail("neither a binary STL (84 + 50 bytes per triangle) nor an ASCII one ('solid')");
+    }
+  } else if (ext == ".obj") {
+    std::istringstream text(data);
+    for (std::string row; std::getline(text, row);) {
+      if (row.size() < 2 || row[0] != 'v' || (row[1] != ' ' && row[1] != '\t')) continue;
+      std::istringstream v_in(row.substr(1));
+      Vector3d v;
+      if (!(v_in >> v.x() >> v.y() >> v.z())) fail("an OBJ vertex without 3 numbers");
+      add(v);
+    }
+  } else {
+    fail(fmt::format("only STL and OBJ meshes can be fitted with boxes, found '{}'", ext));
+  }
+  if (box.isEmpty()) fail("no vertices");
+  return box;
+}
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// URDF
+
+RobotGeometry read_urdf_geometry(const Reader& r, const XMLElement* el,
+                                 const std::string& model_path, const RobotOptions& options) {
+  RobotGeometry g;
+  g.line = el->GetLineNum();
+  g.origin = urdf_origin(r, el);
+  const XMLElement* geometry = r.need(el, "geometry");
+  const XMLElement* shape = geometry->FirstChildElement();
+  if (shape == nullptr) r.fail(geometry, "<geometry> holds no shape");
+  const std::string kind = shape->Name();
+  if (kind == "box") {
+    const std::vector<double> s = r.attribute_numbers(shape, "size", 3, {});
+    if (s.empty()) r.fail(shape, "<box> is missing the attribute 'size'");
+    g.kind = RobotGeometry::Kind::kBox;
+    g.size = Vector3d(s[0], s[1], s[2]);
+  } else if (kind == "sphere") {
+    g.kind = RobotGeometry::Kind::kSphere;
+    g.size.x() = r.attribute_number(shape, "radius", 0);
+  } else if (kind == "cylinder") {
+    g.kind = RobotGeometry::Kind::kCylinder;
+    g.size.x() = r.attribute_number(shape, "radius", 0);
+    g.size.y() = r.attribute_number(shape, "length", 0);
+  } else if (kind == "mesh") {
+    g.kind = RobotGeometry::Kind::kMesh;
+    g.mesh = resolve_mesh(r, shape, model_path, r.attribute(shape, "filename"), options);
+    const std::vector<double> s = r.attribute_numbers(shape, "scale", 3, {1, 1, 1});
+    g.scale = Vector3d(s[0], s[1], s[2]);
+    if (!(g.scale.array() > 0).all())
+      r.fail(shape, fmt::format("<mesh> scale: every number must be positive, found '{}'",
+                                shape->Attribute("scale")));
+    return g;
+  } else {
+    r.fail(shape,
+           fmt::format("unknown geometry <{}> (expected box, sphere, cylinder or mesh)", kind));
+  }
+  const int n = g.kind == RobotGeometry::Kind::kBox      ? 3
+                : g.kind == RobotGeometry::Kind::kSphere ? 1
+                                                         : 2;
+  for (int i = 0; i < n; ++i)
+    if (!(g.size[i] > 0)) r.fail(shape, fmt::format("<{}>: sizes must be positive", kind));
+  return g;
+}
+
+RobotLink read_urdf_link(const Reader& r, const XMLElement* el, const std::string& model_path,
+                         const RobotOptions& options) {
+  RobotLink link;
+  link.name = r.attribute(el, "name");
+  link.line = el->GetLineNum();
+  if (const XMLElement* in = el->FirstChildElement("inertial")) {
+    const Isometry3d origin = urdf_origin(r, in);
+    const XMLElement* mass = r.need(in, "mass");
+    r.attribute(mass, "value");
+    link.mass = r.attribute_number(mass, "value", 0);
+    if (!(link.mass >= 0)) r.fail(mass, fmt::format("link '{}': mass must be >= 0", link.name));
+    const XMLElement* i = r.need(in, "inertia");
+    double v[6];
+    const char* names[6] = {"ixx", "ixy", "ixz", "iyy", "iyz", "izz"};
+    for (int k = 0; k < 6; ++k) {
+      if (i->Attribute(names[k]) == nullptr)
+        r.fail(i, fmt::format("<inertia> is missing the attribute '{}'", names[k]));
+      v[k] = r.attribute_number(i, names[k], 0);
+    }
+    Matrix3d moment;
+    moment << v[0], v[1], v[2], v[1], v[3], v[4], v[2], v[4], v[5];
+    check_inertia(r, i, link.name, moment);
+    link.com = origin.translation();
+    link.inertia = origin.linear() * moment * origin.linear().transpose();
+  }
+  for (const XMLElement* c = el->FirstChildElement("collision"); c;
+       c = c->NextSiblingElement("collision"))
+    link.collisions.push_back(read_urdf_geometry(r, c, model_path, options));
+  for (const XMLElement* c = el->FirstChildElement("visual"); c;
+       c = c->NextSiblingElement("visual"))
+    link.visuals.push_back(read_urdf_geometry(r, c, model_path, options));
+  return link;
+}
+
+Vector3d unit_axis(const Reader& r, const XMLElement* el, const std::vector<double>& xyz) {
+  const Vector3d axis(xyz[0], xyz[1], xyz[2]);
+  if (!(axis.norm() > 1e-12)) r.fail(el, "the joint axis must not be zero");
+  return axis.normalized();
+}
+
+RobotJoint read_urdf_joint(const Reader& r, const XMLElement* el) {
+  RobotJoint j;
+  j.name = r.attribute(el, "name");
+  j.line = el->GetLineNum();
+  const std::string type = r.attribute(el, "type");
+  static const std::map<std::string, RobotJointType> kTypes = {
+      {"fixed", RobotJointType::kFixed},
+      {"revolute", RobotJointType::kRevolute},
+      {"continuous", RobotJointType::kContinuous},
+      {"prismatic", RobotJointType::kPrismatic},
+      {"floating", RobotJointType::kFloating}};
+  const auto it = kTypes.find(type);
+  if (it == kTypes.end())
+    r.fail(el, fmt::format("joint '{}': unsupported joint type '{}' (supported: fixed, revolute, "
+                           "continuous, prismatic, floating)",
+                           j.name, type));
+  j.type = it->second;
+  j.parent = r.attribute(r.need(el, "parent"), "link");
+  j.child = r.attribute(r.need(el, "child"), "link");
+  j.parent_to_child = urdf_origin(r, el);
+  if (const XMLElement* axis = el->FirstChildElement("axis"))
+    j.axis = unit_axis(r, axis, r.attribute_numbers(axis, "xyz", 3, {1, 0, 0}));
+  const XMLElement* limit = el->FirstChildElement("limit");
+  const bool needs_limit =
+      j.type == RobotJointType::kRevolute || j.type == RobotJointType::kPrismatic;
+  if (needs_limit && limit == nullptr)
+    r.fail(el, fmt::format("joint '{}': a {} joint needs <limit>", j.name, type));
+  if (limit != nullptr && j.type != RobotJointType::kFixed && j.type != RobotJointType::kFloating) {
+    for (const char* a : {"effort", "velocity"})
+      if (limit->Attribute(a) == nullptr)
+        r.fail(limit, fmt::format("<limit> is missing the attribute '{}'", a));
+    j.effort = r.attribute_number(limit, "effort", kInf);
+    if (!(j.effort >= 0)) r.fail(limit, "<limit> effort must be >= 0");
+    if (j.type != RobotJointType::kContinuous) {
+      j.lower = r.attribute_number(limit, "lower", 0);
+      j.upper = r.attribute_number(limit, "upper", 0);
+      j.has_limits = true;
+      if (j.lower > j.upper)
+        r.fail(limit, fmt::format("<limit>: lower {} is above upper {}", j.lower, j.upper));
+    }
+  }
+  if (const XMLElement* d = el->FirstChildElement("dynamics")) {
+    j.damping = r.attribute_number(d, "damping", 0);
+    j.friction = r.attribute_number(d, "friction", 0);
+    if (j.damping < 0 || j.friction < 0) r.fail(d, "<dynamics> damping and friction must be >= 0");
+  }
+  return j;
+}
+
+// ---------------------------------------------------------------------------------------------
+// SDF
+
+RobotGeometry read_sdf_geometry(const Reader& r, const XMLElement* el,
+                                const std::string& model_path, const RobotOptions& options) {
+  RobotGeometry g;
+  g.line = el->GetLineNum();
+  g.origin = sdf_pose(r, el);
+  const XMLElement* geometry = r.need(el, "geometry");
+  const XMLElement* shape = geometry->FirstChildElement();
+  if (shape == nullptr) r.fail(geometry, "<geometry> holds no shape");
+  const std::string kind = shape->Name();
+  if (kind == "box") {
+    const std::vector<double> s = r.text_numbers(r.need(shape, "size"), 3);
+    g.kind = RobotGeometry::Kind::kBox;
+    g.size = Vector3d(s[0], s[1], s[2]);
+  } else if (kind == "sphere") {
+    g.kind = RobotGeometry::Kind::kSphere;
+    g.size.x() = r.text_numbers(r.need(shape, "radius"), 1)[0];
+  } else if (kind == "cylinder") {
+    g.kind = RobotGeometry::Kind::kCylinder;
+    g.size.x() = r.text_numbers(r.need(shape, "radius"), 1)[0];
+    g.size.y() = r.text_numbers(r.need(shape, "length"), 1)[0];
+  } else if (kind == "mesh") {
+    g.kind = RobotGeometry::Kind::kMesh;
+    const XMLElement* uri = r.need(shape, "uri");
+    g.mesh = resolve_mesh(r, uri, model_path, r.text(uri), options);
+    if (const XMLElement* s = shape->FirstChildElement("scale")) {
+      const std::vector<double> v = r.text_numbers(s, 3);
+      g.scale = Vector3d(v[0], v[1], v[2]);
+      if (!(g.scale.array() > 0).all()) r.fail(s, "<scale>: every number must be positive");
+    }
+    return g;
+  } else {
+    r.fail(shape, fmt::format("unsupported geometry <{}> (supported: box, sphere, cylinder, "
+                              "mesh)",
+                              kind));
+  }
+  const int n = g.kind == RobotGeometry::Kind::kBox      ? 3
+                : g.kind == RobotGeometry::Kind::kSphere ? 1
+                                                         : 2;
+  for (int i = 0; i < n; ++i)
+    if (!(g.size[i] > 0)) r.fail(shape, fmt::format("<{}>: sizes must be positive", kind));
+  return g;
+}
+
+// an SDF link; `world` receives the link's pose in the model frame
+RobotLink read_sdf_link(const Reader& r, const XMLElement* el, const std::string& model_path,
+                        const RobotOptions& options, Isometry3d& in_model) {
+  RobotLink link;
+  link.name = r.attribute(el, "name");
+  link.line = el->GetLineNum();
+  in_model = sdf_pose(r, el);
+  if (const XMLElement* in = el->FirstChildElement("inertial")) {
+    const Isometry3d pose = sdf_pose(r, in);
+    link.mass = r.child_number(in, "mass", 1);
+    if (!(link.mass >= 0))
+      r.fail(in->FirstChildElement("mass"), fmt::format("link '{}': mass must be >= 0", link.name));
+    Matrix3d moment = Matrix3d::Identity();
+    if (const XMLElement* i = in->FirstChildElement("inertia")) {
+      double v[6];
+      const char* names[6] = {"ixx", "ixy", "ixz", "iyy", "iyz", "izz"};
+      for (int k = 0; k < 6; ++k) v[k] = r.text_numbers(r.need(i, names[k]), 1)[0];
+      moment << v[0], v[1], v[2], v[1], v[3], v[4], v[2], v[4], v[5];
+      check_inertia(r, i, link.name, moment);
+    }
+    if (!pose.linear().isIdentity(1e-12))
+      r.fail(in->FirstChildElement("pose"),
+             fmt::format("link '{}': a rotated <inertial> pose is not supported (DART 6.12 "
+                         "ignores the rotation): rotate the inertia itself",
+                         link.name));
+    link.com = pose.translation();
+    link.inertia = moment;
+  }
+  for (const XMLElement* c = el->FirstChildElement("collision"); c;
+       c = c->NextSiblingElement("collision"))
+    link.collisions.push_back(read_sdf_geometry(r, c, model_path, options));
+  for (const XMLElement* c = el->FirstChildElement("visual"); c;
+       c = c->NextSiblingElement("visual"))
+    link.visuals.push_back(read_sdf_geometry(r, c, model_path, options));
+  return link;
+}
+
+RobotJoint read_sdf_joint(const Reader& r, const XMLElement* el) {
+  RobotJoint j;
+  j.name = r.attribute(el, "name");
+  j.line = el->GetLineNum();
+  const std::string type = r.attribute(el, "type");
+  static const std::map<std::string, RobotJointType> kTypes = {
+      {"fixed", RobotJointType::kFixed},
+      {"revolute", RobotJointType::kRevolute},
+      {"prismatic", RobotJointType::kPrismatic},
+      {"ball", RobotJointType::kBall}};
+  const auto it = kTypes.find(type);
+  if (it == kTypes.end())
+    r.fail(el, fmt::format("joint '{}': unsupported joint type '{}' (supported: fixed, revolute, "
+                           "prismatic, ball)",
+                           j.name, type));
+  j.type = it->second;
+  j.parent = r.text(r.need(el, "parent"));
+  j.child = r.text(r.need(el, "child"));
+  j.child_to_joint = sdf_pose(r, el);
+  if (j.type == RobotJointType::kRevolute || j.type == RobotJointType::kPrismatic) {
+    const XMLElement* axis = r.need(el, "axis");
+    j.axis = unit_axis(r, axis, r.text_numbers(r.need(axis, "xyz"), 3));
+    if (const XMLElement* u = axis->FirstChildElement("use_parent_model_frame"); u && r.boolean(u))
+      r.fail(u, fmt::format("joint '{}': use_parent_model_frame is not supported: give the axis "
+                            "in the joint frame",
+                            j.name));
+    if (const XMLElement* limit = axis->FirstChildElement("limit")) {
+      j.lower = r.child_number(limit, "lower", -1e16);
+      j.upper = r.child_number(limit, "upper", 1e16);
+      j.has_limits = j.lower > -1e16 || j.upper < 1e16;
+      if (!j.has_limits) j.lower = j.upper = 0;
+      const double effort = r.child_number(limit, "effort", -1);
+      j.effort = effort < 0 ? kInf : effort;  // SDF: -1 means no limit
+      if (j.lower > j.upper)
+        r.fail(limit, fmt::format("<limit>: lower {} is above upper {}", j.lower, j.upper));
+    }
+    if (const XMLElement* d = axis->FirstChildElement("dynamics")) {
+      j.damping = r.child_number(d, "damping", 0);
+      j.friction = r.child_number(d, "friction", 0);
+      if (j.damping < 0 || j.friction < 0)
+        r.fail(d, "<dynamics> damping and friction must be >= 0");
+    }
+  }
+  return j;
+}
+
+// ---------------------------------------------------------------------------------------------
+// the tree
+
+// one root, every joint's links known, no link with two parents; sets the root
+void check_tree(const Reader& r, const XMLElement* root_el, RobotModel& m,
+                const std::map<std::string, int>& link_lines) {
+  std::vector<std::string> names;
+  for (const auto& [name, line] : link_lines) names.push_back(name);
+  std::map<std::string, const RobotJoint*> parent_joint;
+  for (const RobotJoint& j : m.joints) {
+    for (const std::string* end : {&j.parent, &j.child}) {
+      if (*end == "world" && end == &j.parent) continue;
+      if (link_lines.count(*end) == 0)
+        throw InputError(located(m.file, j.line,
+                                 fmt::format("joint '{}': unknown link '{}'{}", j.name, *end,
+                                             did_you_mean(*end, names))));
+    }
+    if (j.parent == j.child)
+      throw InputError(located(
+          m.file, j.line, fmt::format("joint '{}': link '{}' is its own parent", j.name, j.child)));
+    auto [it, fresh] = parent_joint.emplace(j.child, &j);
+    if (!fresh)
+      throw InputError(located(m.file, j.line,
+                               fmt::format("link '{}' has two parent joints, '{}' (line {}) and "
+                                           "'{}'",
+                                           j.child, it->second->name, it->second->line, j.name)));
+  }
+  std::vector<std::string> roots;
+  for (const RobotLink& l : m.links)
+    if (parent_joint.count(l.name) == 0) roots.push_back(l.name);
+  bool world_joints = false;
+  for (const RobotJoint& j : m.joints) world_joints = world_joints || j.parent == "world";
+  if (world_joints) {
+    // SDF: joints to "world"; URDF: a link named "world" (its only parentless link)
+    roots.erase(std::remove(roots.begin(), roots.end(), "world"), roots.end());
+    if (!roots.empty())
+      throw InputError(located(
+          m.file, link_lines.at(roots.front()),
+          fmt::format("link '{}' is not connected to the tree below 'world'", roots.front())));
+    m.root = "world";
+  } else if (roots.size() != 1) {
+    if (roots.empty()) r.fail(root_el, "the joints form a cycle: no link is the root");
+    throw InputError(located(m.file, link_lines.at(roots[1]),
+                             fmt::format("links '{}' and '{}' both have no parent joint: a model "
+                                         "is one tree",
+                                         roots[0], roots[1])));
+  } else {
+    m.root = roots.front();
+  }
+  // every link reachable from the root (a cycle leaves links unreachable)
+  std::map<std::string, std::vector<const RobotJoint*>> children;
+  for (const RobotJoint& j : m.joints) children[j.parent].push_back(&j);
+  std::set<std::string> seen{m.root};
+  std::vector<std::string> stack{m.root};
+  while (!stack.empty()) {
+    const std::string l = stack.back();
+    stack.pop_back();
+    for (const RobotJoint* j : children[l])
+      if (seen.insert(j->child).second) stack.push_back(j->child);
+  }
+  for (const RobotLink& l : m.links)
+    if (seen.count(l.name) == 0)
+      throw InputError(
+          located(m.file, l.line, fmt::format("link '{}' is on a cycle of joints", l.name)));
+}
+
+void load_document(const std::string& shown_name, const std::string& path,
+                   tinyxml2::XMLDocument& doc) {
+  if (doc.LoadFile(path.c_str()) != tinyxml2::XML_SUCCESS)
+    throw InputError(located(shown_name, doc.ErrorLineNum(),
+                             std::string("malformed XML (") +
+                                 tinyxml2::XMLDocument::ErrorIDToName(doc.ErrorID()) + ")"));
+}
+
+void add_link(const Reader& r, const XMLElement* el, RobotModel& m,
+              std::map<std::string, int>& link_lines, RobotLink link) {
+  if (m.links.size() >= kMaxRobotLinks)
+    r.fail(el, fmt::format("more than {} links", kMaxRobotLinks));
+  auto [it, fresh] = link_lines.emplace(link.name, link.line);
+  if (!fresh)
+    r.fail(el,
+           fmt::format("link name '{}' is used twice (first at line {})", link.name, it->second));
+  m.links.push_back(std::move(link));
+}
+
+void check_joint_names(const RobotModel& m) {
+  std::map<std::string, int> lines;
+  for (const RobotJoint& j : m.joints) {
+    auto [it, fresh] = lines.emplace(j.name, j.line);
+    if (!fresh)
+      throw InputError(located(
+          m.file, j.line,
+          fmt::format("joint name '{}' is used twice (first at line {})", j.name, it->second)));
+  }
+}
+
+RobotModel read_urdf(const std::string& shown_name, const std::string& path,
+                     const RobotOptions& options, const tinyxml2::XMLDocument& doc) {
+  Reader r(shown_name);
+  const XMLElement* robot = doc.RootElement();
+  if (std::strcmp(robot->Name(), "robot") != 0)
+    r.fail(robot, fmt::format("expected a <robot> root element, found <{}>", robot->Name()));
+  RobotModel m;
+  m.file = shown_name;
+  m.format = ModelFormat::kUrdf;
+  m.name = robot->Attribute("name") != nullptr ? robot->Attribute("name") : "";
+  std::map<std::string, int> link_lines;
+  for (const XMLElement* el = robot->FirstChildElement("link"); el;
+       el = el->NextSiblingElement("link"))
+    add_link(r, el, m, link_lines, read_urdf_link(r, el, path, options));
+  if (m.links.empty()) r.fail(robot, "<robot> has no <link>");
+  for (const XMLElement* el = robot->FirstChildElement("joint"); el;
+       el = el->NextSiblingElement("joint"))
+    m.joints.push_back(read_urdf_joint(r, el));
+  check_joint_names(m);
+  // a link named "world" is the world frame (DART's and ROS's convention)
+  const bool has_world = link_lines.count("world") != 0;
+  if (has_world) {
+    m.links.erase(std::find_if(m.links.begin(), m.links.end(),
+                               [](const RobotLink& l) { return l.name == "world"; }));
+    link_lines.erase("world");
+    for (const RobotJoint& j : m.joints)
+      if (j.child == "world")
+        throw InputError(located(
+            m.file, j.line, fmt::format("joint '{}': the link 'world' cannot be a child", j.name)));
+  }
+  check_tree(r, robot, m, link_lines);
+  if (m.root != "world") m.root_joint = options.fixed_base ? "" : "rootJoint";
+  for (const RobotJoint& j : m.joints)
+    if (j.type == RobotJointType::kFloating && j.parent != "world")
+      throw InputError(located(m.file, j.line,
+                               fmt::format("joint '{}': a floating joint must hang from the "
+                                           "world or be the root",
+                                           j.name)));
+  return m;
+}
+
+RobotModel read_sdf(const std::string& shown_name, const std::string& path,
+                    const RobotOptions& options, const tinyxml2::XMLDocument& doc) {
+  Reader r(shown_name);
+  const XMLElement* sdf = doc.RootElement();
+  if (std::strcmp(sdf->Name(), "sdf") != 0)
+    r.fail(sdf, fmt::format("expected an <sdf> root element, found <{}>", sdf->Name()));
+  if (const XMLElement* world = sdf->FirstChildElement("world"))
+    r.fail(world, "SDF <world> files are not supported: give a file with one <model>");
+  const XMLElement* model = r.need(sdf, "model");
+  if (const XMLElement* second = model->NextSiblingElement("model"))
+    r.fail(second, "a second <model>: stance reads one model per SDF file");
+  if (const XMLElement* nested = model->FirstChildElement("model"))
+    r.fail(nested, "nested <model> elements are not supported");
+  if (const XMLElement* include = model->FirstChildElement("include"))
+    r.fail(include, "<include> is not supported: give the model inline");
+  RobotModel m;
+  m.file = shown_name;
+  m.format = ModelFormat::kSdf;
+  m.name = r.attribute(model, "name");
+  m.pose = sdf_pose(r, model);
+  bool is_static = false;
+  if (const XMLElement* s = model->FirstChildElement("static")) is_static = r.boolean(s);
+  std::map<std::string, int> link_lines;
+  std::map<std::string, Isometry3d> in_model;
+  for (const XMLElement* el = model->FirstChildElement("link"); el;
+       el = el->NextSiblingElement("link")) {
+    Isometry3d pose;
+    RobotLink link = read_sdf_link(r, el, path, options, pose);
+    in_model[link.name] = pose;
+    add_link(r, el, m, link_lines, std::move(link));
+  }
+  if (m.links.empty()) r.fail(model, "<model> has no <link>");
+  for (const XMLElement* el = model->FirstChildElement("joint"); el;
+       el = el->NextSiblingElement("joint"))
+    m.joints.push_back(read_sdf_joint(r, el));
+  check_joint_names(m);
+  check_tree(r, model, m, link_lines);
+  // links are placed in the model frame: the child relative to its parent at q = 0
+  for (RobotJoint& j : m.joints) {
+    const Isometry3d parent = j.parent == "world" ? m.pose.inverse() : in_model.at(j.parent);
+    j.parent_to_child = parent.inverse() * in_model.at(j.child);
+  }
+  if (m.root != "world") {
+    m.pose = m.pose * in_model.at(m.root);  // the root link's world pose
+    m.root_joint = (options.fixed_base || is_static) ? "" : "root";
+  }
+  return m;
+}
+
+}  // namespace
+
+RobotModel read_robot(const std::string& shown_name, const std::string& path,
+                      const RobotOptions& options) {
+  if (options.mesh_collision != "box" && options.mesh_collision != "mesh")
+    throw InputError(fmt::format("{}: mesh_collision: expected box or mesh, found '{}'", shown_name,
+                                 options.mesh_collision));
+  tinyxml2::XMLDocument doc;
+  load_document(shown_name, path, doc);
+  const ModelFormat format = model_format(path);
+  if (format == ModelFormat::kUrdf) return read_urdf(shown_name, path, options, doc);
+  if (format == ModelFormat::kSdf) return read_sdf(shown_name, path, options, doc);
+  throw InputError(shown_name + ": not a URDF or SDF file");
+}
+
+// ---------------------------------------------------------------------------------------------
+// the text DART parses
+
+namespace {
+
+std::string num(double v) {
+  return fmt::format("{:.17g}", v);
+}
+
+std::string vec(const Vector3d& v) {
+  return fmt::format("{} {} {}", num(v.x()), num(v.y()), num(v.z()));
+}
+
+// the box (full extents, centre in the mesh frame) fitted to a mesh
+struct FittedBox {
+  Vector3d size, centre;
+};
+
+FittedBox fit_box(const std::string& shown_name, int line, const std::string& mesh,
+                  const Vector3d& scale) {
+  const Eigen::AlignedBox3d b = mesh_bounds(shown_name, line, mesh, scale);
+  return {b.sizes().cwiseMax(kMinBoxSide), b.center()};
+}
+
+}  // namespace
+
+std::string robot_text_for_dart(const std::string& shown_name, const std::string& path,
+                                const RobotOptions& options) {
+  const ModelFormat format = model_format(path);
+  tinyxml2::XMLDocument doc;
+  load_document(shown_name, path, doc);
+  Reader r(shown_name);
+  const bool boxes = options.mesh_collision == "box";
+  if (format == ModelFormat::kUrdf) {
+    for (XMLElement* link = doc.RootElement()->FirstChildElement("link"); link;
+         link = link->NextSiblingElement("link")) {
+      for (XMLElement* g = link->FirstChildElement(); g; g = g->NextSiblingElement()) {
+        const bool collision = std::strcmp(g->Name(), "collision") == 0;
+        if (!collision && std::strcmp(g->Name(), "visual") != 0) continue;
+        XMLElement* geometry = g->FirstChildElement("geometry");
+        XMLElement* mesh = geometry != nullptr ? geometry->FirstChildElement("mesh") : nullptr;
+        if (mesh == nullptr) continue;
+        const std::string file =
+            resolve_mesh(r, mesh, path, r.attribute(mesh, "filename"), options);
+        mesh->SetAttribute("filename", file.c_str());
+        if (!collision || !boxes) continue;
+        const std::vector<double> s = r.attribute_numbers(mesh, "scale", 3, {1, 1, 1});
+        const FittedBox box =
+            fit_box(shown_name, mesh->GetLineNum(), file, Vector3d(s[0], s[1], s[2]));
+        const Isometry3d origin = urdf_origin(r, g);
+        XMLElement* o = g->FirstChildElement("origin");
+        if (o == nullptr) {
+          o = doc.NewElement("origin");
+          g->InsertFirstChild(o);
+        }
+        o->SetAttribute("xyz", vec(origin * box.centre).c_str());
+        geometry->DeleteChildren();
+        XMLElement* b = doc.NewElement("box");
+        b->SetAttribute("size", vec(box.size).c_str());
+        geometry->InsertEndChild(b);
+      }
+    }
+  } else {
+    XMLElement* model = doc.RootElement()->FirstChildElement("model");
+    for (XMLElement* link = model->FirstChildElement("link"); link;
+         link = link->NextSiblingElement("link")) {
+      for (XMLElement* g = link->FirstChildElement(); g; g = g->NextSiblingElement()) {
+        const bool collision = std::strcmp(g->Name(), "collision") == 0;
+        if (!collision && std::strcmp(g->Name(), "visual") != 0) continue;
+        XMLElement* geometry = g->FirstChildElement("geometry");
+        XMLElement* mesh = geometry != nullptr ? geometry->FirstChildElement("mesh") : nullptr;
+        if (mesh == nullptr) continue;
+        XMLElement* uri = mesh->FirstChildElement("uri");
+        const std::string file = resolve_mesh(r, uri, path, r.text(uri), options);
+        uri->SetText(file.c_str());
+        if (!collision || !boxes) continue;
+        Vector3d scale = Vector3d::Ones();
+        if (const XMLElement* s = mesh->FirstChildElement("scale")) {
+          const std::vector<double> v = r.text_numbers(s, 3);
+          scale = Vector3d(v[0], v[1], v[2]);
+        }
+        const FittedBox box = fit_box(shown_name, uri->GetLineNum(), file, scale);
+        const Isometry3d pose = sdf_pose(r, g);
+        XMLElement* p = g->FirstChildElement("pose");
+        std::vector<double> rpy = {0, 0, 0};
+        if (p != nullptr) {
+          const std::vector<double> v = r.text_numbers(p, 6);
+          rpy = {v[3], v[4], v[5]};
+        } else {
+          p = doc.NewElement("pose");
+          g->InsertFirstChild(p);
+        }
+        p->SetText(fmt::format("{} {} {} {}", vec(pose * box.centre), num(rpy[0]), num(rpy[1]),
+                               num(rpy[2]))
+                       .c_str());
+        geometry->DeleteChildren();
+        XMLElement* b = doc.NewElement("box");
+        XMLElement* size = doc.NewElement("size");
+        size->SetText(vec(box.size).c_str());
+        b->InsertEndChild(size);
+        geometry->InsertEndChild(b);
+      }
+    }
+  }
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return printer.CStr();
+}
+
+// ---------------------------------------------------------------------------------------------
+// MJCF
+
+namespace {
+
+std::string quat_text(const Matrix3d& r) {
+  const Eigen::Quaterniond q = Eigen::Quaterniond(r).normalized();
+  return fmt::format("{} {} {} {}", num(q.w()), num(q.x()), num(q.y()), num(q.z()));
+}
+
+void set_pose(XMLElement* el, const Isometry3d& t) {
+  el->SetAttribute("pos", vec(t.translation()).c_str());
+  if (!t.linear().isIdentity(0.0)) el->SetAttribute("quat", quat_text(t.linear()).c_str());
+}
+
+class MjcfBuilder {
+ public:
+  MjcfBuilder() {
+    doc_.InsertEndChild(doc_.NewComment(
+        " generated by stance from URDF/SDF (src/model/robot_model.h): DART 6.12's semantics:\n"
+        "     ranges are kept with limited=\"false\" (DART does not enforce them); links without\n"
+        "     <inertial> weigh 1 kg (unit inertia); a model never collides with itself; one motor\n"
+        "     per joint with an effort limit (gear 1, ctrlrange = the limit) "));
+    root_ = add(&doc_, "mujoco");
+    XMLElement* compiler = add(root_, "compiler");
+    compiler->SetAttribute("angle", "radian");
+    compiler->SetAttribute("inertiafromgeom", "false");
+    XMLElement* option = add(root_, "option");
+    option->SetAttribute("timestep", "0.001");
+    option->SetAttribute("gravity", "0 0 -9.81");
+    asset_ = add(root_, "asset");
+    worldbody_ = add(root_, "worldbody");
+    actuator_ = add(root_, "actuator");
+  }
+
+  XMLElement* add(tinyxml2::XMLNode* parent, const char* name) {
+    XMLElement* el = doc_.NewElement(name);
+    parent->InsertEndChild(el);
+    return el;
+  }
+
+  void emit(const RobotInput& input, RobotModel& m) {
+    model_ = &m;
+    for (size_t i = 0; i < m.links.size(); ++i) link_index_[m.links[i].name] = i;
+    children_.clear();
+    for (const RobotJoint& j : m.joints) children_[j.parent].push_back(&j);
+    options_ = &input.options;
+    int colliding = 0;
+    for (const RobotLink& l : m.links) colliding += l.collisions.empty() ? 0 : 1;
+    contype_ = conaffinity_ = 1;
+    if (colliding >= 2) {
+      if (next_bit_ >= kCollisionBits)
+        fail(0, fmt::format("more than {} models with colliding links", kCollisionBits));
+      const int bit = 1 << next_bit_++;
+      contype_ = bit;
+      conaffinity_ = static_cast<int>((1u << kCollisionBits) - 1u) & ~bit;
+    }
+    const Isometry3d placed = Eigen::Translation3d(input.offset) * m.pose;
+    struct Pending {
+      const RobotJoint* joint;  // null: the root link
+      XMLElement* parent_el;
+      int depth;
+    };
+    std::vector<Pending> stack;
+    if (m.root == "world") {
+      for (auto it = children_["world"].rbegin(); it != children_["world"].rend(); ++it)
+        stack.push_back({*it, worldbody_, 1});
+    } else {
+      stack.push_back({nullptr, worldbody_, 1});
+    }
+    while (!stack.empty()) {
+      const Pending p = stack.back();
+      stack.pop_back();
+      const std::string& name = p.joint != nullptr ? p.joint->child : m.root;
+      const RobotLink& link = m.links[link_index_.at(name)];
+      if (p.depth > kMaxMujocoBodyDepth)
+        fail(link.line, fmt::format("link '{}' is nested {} bodies deep: MuJoCo reads at most {} "
+                                    "(DART loads it: --engine dart)",
+                                    name, p.depth, kMaxMujocoBodyDepth));
+      if (!body_names_.insert(name).second)
+        fail(link.line, fmt::format("body name '{}' is used twice (MuJoCo body names must be "
+                                    "unique across all files)",
+                                    name));
+      XMLElement* body = add(p.parent_el, "body");
+      body->SetAttribute("name", name.c_str());
+      if (p.joint == nullptr) {
+        set_pose(body, placed);
+        if (!m.root_joint.empty()) {
+          XMLElement* free = add(body, "joint");
+          free->SetAttribute("type", "free");
+          free->SetAttribute("name", joint_name(m.root_joint, link.line).c_str());
+        }
+      } else {
+        Isometry3d rel = p.joint->parent_to_child;
+        if (p.joint->parent == "world") rel = Eigen::Translation3d(input.offset) * rel;
+        set_pose(body, rel);
+        emit_joint(body, *p.joint);
+      }
+      emit_inertial(body, link);
+      emit_geoms(body, link);
+      auto it = children_.find(name);
+      if (it == children_.end()) continue;
+      for (auto c = it->second.rbegin(); c != it->second.rend(); ++c)
+        stack.push_back({*c, body, p.depth + 1});
+    }
+  }
+
+  std::string text() {
+    if (asset_->NoChildren()) root_->DeleteChild(asset_);
+    if (actuator_->NoChildren()) root_->DeleteChild(actuator_);
+    tinyxml2::XMLPrinter printer;
+    doc_.Print(&printer);
+    return printer.CStr();
+  }
+
+ private:
+  [[noreturn]] void fail(int line, const std::string& message) const {
+    throw InputError(located(model_->file, line, message));
+  }
+
+  std::string joint_name(const std::string& name, int line) {
+    if (!joint_names_.insert(name).second)
+      fail(line, fmt::format("joint name '{}' is used twice (MuJoCo joint names must be unique "
+                             "across all files)",
+                             name));
+    return name;
+  }
+
+  void emit_joint(XMLElement* body, const RobotJoint& j) {
+    if (j.type == RobotJointType::kFixed) return;
+    if (j.type == RobotJointType::kFloating) {
+      if (j.parent != "world")
+        fail(j.line,
+             fmt::format("joint '{}': MuJoCo has free joints at the top level only", j.name));
+      XMLElement* el = add(body, "joint");
+      el->SetAttribute("type", "free");
+      el->SetAttribute("name", joint_name(j.name, j.line).c_str());
+      return;
+    }
+    XMLElement* el = add(body, "joint");
+    el->SetAttribute("name", joint_name(j.name, j.line).c_str());
+    const char* type = j.type == RobotJointType::kPrismatic ? "slide"
+                       : j.type == RobotJointType::kBall    ? "ball"
+                                                            : "hinge";
+    el->SetAttribute("type", type);
+    if (!j.child_to_joint.translation().isZero(0.0))
+      el->SetAttribute("pos", vec(j.child_to_joint.translation()).c_str());
+    if (j.type != RobotJointType::kBall)
+      el->SetAttribute("axis", vec(j.child_to_joint.linear() * j.axis).c_str());
+    if (j.has_limits) {
+      el->SetAttribute("limited", "false");
+      el->SetAttribute("range", fmt::format("{} {}", num(j.lower), num(j.upper)).c_str());
+    }
+    if (j.damping != 0) el->SetAttribute("damping", num(j.damping).c_str());
+    if (j.friction != 0) el->SetAttribute("frictionloss", num(j.friction).c_str());
+    if (std::isfinite(j.effort) && j.type != RobotJointType::kBall) {
+      XMLElement* motor = add(actuator_, "motor");
+      motor->SetAttribute("name", j.name.c_str());
+      motor->SetAttribute("joint", j.name.c_str());
+      motor->SetAttribute("gear", "1");
+      motor->SetAttribute("ctrllimited", "true");
+      motor->SetAttribute("ctrlrange", fmt::format("{} {}", num(-j.effort), num(j.effort)).c_str());
+    }
+  }
+
+  void emit_inertial(XMLElement* body, const RobotLink& link) {
+    XMLElement* in = add(body, "inertial");
+    in->SetAttribute("pos", vec(link.com).c_str());
+    in->SetAttribute("mass", num(link.mass).c_str());
+    // principal moments and axes from Eigen: MuJoCo's own decomposition of a fullinertia
+    // leaves errors near 1e-8 kg m^2 in the mass matrix
+    const Matrix3d& i = link.inertia;
+    const bool diagonal = Matrix3d(i.diagonal().asDiagonal()) == i;
+    Eigen::SelfAdjointEigenSolver<Matrix3d> eig(i);
+    Matrix3d axes = eig.eigenvectors();
+    if (axes.determinant() < 0) axes.col(2) *= -1;
+    const Vector3d moments = diagonal ? Vector3d(i.diagonal()) : eig.eigenvalues();
+    in->SetAttribute("diaginertia", vec(moments).c_str());
+    if (!diagonal) in->SetAttribute("quat", quat_text(axes).c_str());
+  }
+
+  std::string mesh_asset(const RobotGeometry& g) {
+    const std::string key = g.mesh + "@" + vec(g.scale);
+    auto it = meshes_.find(key);
+    if (it != meshes_.end()) return it->second;
+    const std::string name = fmt::format("mesh{}", meshes_.size());
+    XMLElement* el = add(asset_, "mesh");
+    el->SetAttribute("name", name.c_str());
+    el->SetAttribute("file", g.mesh.c_str());
+    if (!g.scale.isOnes(0.0)) el->SetAttribute("scale", vec(g.scale).c_str());
+    meshes_[key] = name;
+    return name;
+  }
+
+  static bool mujoco_reads(const std::string& mesh) {
+    const std::string ext = lower_extension(mesh);
+    return ext == ".stl" || ext == ".obj";
+  }
+
+  void emit_geom(XMLElement* body, const RobotGeometry& g, bool collision) {
+    XMLElement* el = add(body, "geom");
+    Isometry3d pose = g.origin;
+    switch (g.kind) {
+      case RobotGeometry::Kind::kBox:
+        el->SetAttribute("type", "box");
+        el->SetAttribute("size", vec(g.size / 2).c_str());
+        break;
+      case RobotGeometry::Kind::kSphere:
+        el->SetAttribute("type", "sphere");
+        el->SetAttribute("size", num(g.size.x()).c_str());
+        break;
+      case RobotGeometry::Kind::kCylinder:
+        el->SetAttribute("type", "cylinder");
+        el->SetAttribute("size",
+                         fmt::format("{} {}", num(g.size.x()), num(g.size.y() / 2)).c_str());
+        break;
+      case RobotGeometry::Kind::kMesh:
+        if (collision && options_->mesh_collision == "box") {
+          const FittedBox box = fit_box(model_->file, g.line, g.mesh, g.scale);
+          el->SetAttribute("type", "box");
+          el->SetAttribute("size", vec(box.size / 2).c_str());
+          pose = g.origin * Eigen::Translation3d(box.centre);
+        } else {
+          if (!mujoco_reads(g.mesh))
+            fail(g.line, fmt::format("collision mesh '{}': MuJoCo reads STL and OBJ meshes only "
+                                     "(mesh_collision: box fits a box to STL and OBJ meshes)",
+                                     g.mesh));
+          el->SetAttribute("type", "mesh");
+          el->SetAttribute("mesh", mesh_asset(g).c_str());
+        }
+        break;
+    }
+    set_pose(el, pose);
+    if (collision) {
+      if (contype_ != 1) el->SetAttribute("contype", contype_);
+      if (conaffinity_ != 1) el->SetAttribute("conaffinity", conaffinity_);
+    } else {
+      el->SetAttribute("contype", 0);
+      el->SetAttribute("conaffinity", 0);
+      el->SetAttribute("group", 1);
+    }
+  }
+
+  void emit_geoms(XMLElement* body, const RobotLink& link) {
+    for (const RobotGeometry& g : link.collisions) emit_geom(body, g, true);
+    for (const RobotGeometry& g : link.visuals) {
+      if (g.kind == RobotGeometry::Kind::kMesh && !mujoco_reads(g.mesh)) {
+        ++model_->dropped_visual_meshes;
+        continue;
+      }
+      emit_geom(body, g, false);
+    }
+  }
+
+  tinyxml2::XMLDocument doc_;
+  XMLElement* root_ = nullptr;
+  XMLElement* asset_ = nullptr;
+  XMLElement* worldbody_ = nullptr;
+  XMLElement* actuator_ = nullptr;
+  std::set<std::string> body_names_, joint_names_;
+  std::map<std::string, std::string> meshes_;  // file@scale -> asset name
+  int next_bit_ = 0;
+  // the model being emitted
+  RobotModel* model_ = nullptr;
+  const RobotOptions* options_ = nullptr;
+  std::map<std::string, size_t> link_index_;
+  std::map<std::string, std::vector<const RobotJoint*>> children_;
+  int contype_ = 1, conaffinity_ = 1;
+};
+
+}  // namespace
+
+RobotTranslation robots_to_mjcf(const std::vector<RobotInput>& robots) {
+  MjcfBuilder builder;
+  RobotTranslation out;
+  for (const RobotInput& input : robots) {
+    RobotModel m = read_robot(input.shown_name, input.path, input.options);
+    builder.emit(input, m);
+    if (m.dropped_visual_meshes > 0)
+      out.warnings.push_back(fmt::format(
+          "{}: {} visual mesh{} MuJoCo cannot read (not STL or OBJ) dropped; collision shapes "
+          "are kept",
+          input.shown_name, m.dropped_visual_meshes, m.dropped_visual_meshes == 1 ? "" : "es"));
+  }
+  out.mjcf = builder.text();
+  return out;
+}
+
+}  // namespace stance
