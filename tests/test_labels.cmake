@@ -19,6 +19,7 @@ set(stance_label_patterns
   physics "^StablePd\\.StandsWherePlainPdDiverges$"
   physics "^DartEngine\\.(BipedFallsAndRestsOnGround|MjcfPendulumPeriod)"
   physics "^PdHoldScenario\\.HoldsOnMujocoAndDart$"
+  physics "^(TorqueLimit|AtlasStand)\\."
   physics "^PushThreshold\\.BipedStand"
   physics "^MocapTracker\\.(MassWalkTenSeconds|Assisted|CrouchInTheClipIsNoFall)"
   physics "^MocapRetarget\\.(Fullbody1Assisted|HumanoidAssisted)"

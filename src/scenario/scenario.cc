@@ -37,7 +37,22 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
       if (std::filesystem::exists(candidate) || !std::filesystem::exists(m.file))
         m.file = candidate.lexically_normal().string();
     }
+    for (std::string& dir : m.package_path)
+      if (!std::filesystem::path(dir).is_absolute() && !base_dir.empty())
+        dir = (std::filesystem::path(base_dir) / dir).lexically_normal().string();
   }
+  for (size_t i = 0; i < s.model.size(); ++i) {
+    if (s.model[i].mesh_collision == "box" || s.model[i].mesh_collision == "mesh") continue;
+    const YAML::Node entry = doc["model"][i]["mesh_collision"];
+    throw InputError(located(source, entry ? entry.Mark().line + 1 : 0,
+                             fmt::format("parameter 'model[{}].mesh_collision': expected box or "
+                                         "mesh, found '{}'",
+                                         i, s.model[i].mesh_collision)));
+  }
+  if (s.torque_limits != "auto" && s.torque_limits != "on" && s.torque_limits != "off")
+    throw InputError(located(
+        source, doc["torque_limits"] ? doc["torque_limits"].Mark().line + 1 : 0,
+        "parameter 'torque_limits': expected auto, on or off, found '" + s.torque_limits + "'"));
   if (!s.gravity.empty() && s.gravity.size() != 3)
     throw InputError(
         located(source, doc["gravity"].Mark().line + 1, "parameter 'gravity': expected 3 numbers"));

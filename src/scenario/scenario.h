@@ -14,13 +14,22 @@
 namespace stance {
 
 struct ModelEntry {
-  std::string file;  // MJCF/URDF/SKEL path; "dart://sample/..." allowed; relative to the YAML
+  std::string file;  // MJCF/URDF/SDF/SKEL path; "dart://sample/..." allowed; relative to the YAML
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  // URDF and SDF only (model/robot_model.h)
+  bool fixed_base = false;
+  std::vector<std::string> package_path;  // relative to the YAML
+  std::string mesh_collision = "box";
 
   template <class V>
   void visit(V& v) {
     v("file", file, {.help = "model file"});
     v("offset", offset, {.unit = "m", .help = "translation of the whole file"});
+    v("fixed_base", fixed_base, {.help = "URDF/SDF: weld the root link to the world"});
+    v("package_path", package_path,
+      {.help = "URDF/SDF: folders searched for package:// meshes (then STANCE_PACKAGE_PATH)"});
+    v("mesh_collision", mesh_collision,
+      {.help = "URDF/SDF: box (collide with each mesh's bounding box) or mesh"});
   }
 };
 
@@ -103,6 +112,9 @@ struct Scenario {
   double duration = 10;         // s
   int seed = 0;
   double torque_scale = 1;  // multiplies the summed controller torques (seed: 0.8)
+  // clamp the summed generalised forces to the model's limits (engine.h: force_limit): "auto"
+  // on URDF/SDF models only, "on", "off"
+  std::string torque_limits = "auto";
   std::vector<Perturbation> perturbations;
   FallCriterion fall;
   LogOptions log;
@@ -126,6 +138,8 @@ struct Scenario {
     v("duration", duration, {.unit = "s", .min = 0});
     v("seed", seed, {.min = 0});
     v("torque_scale", torque_scale, {.min = 0, .max = 10});
+    v("torque_limits", torque_limits,
+      {.help = "clamp torques to the model's limits: auto (URDF/SDF models), on or off"});
     v("perturbations", perturbations);
     v("fall", fall);
     v("log", log);

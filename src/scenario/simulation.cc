@@ -166,7 +166,8 @@ std::string place_in(const LoadedScenario* loaded, const std::vector<std::string
 std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name,
                                              const LoadedScenario* loaded) {
   WorldSpec spec;
-  for (const auto& m : s.model) spec.models.push_back({m.file, m.offset});
+  for (const auto& m : s.model)
+    spec.models.push_back({m.file, m.offset, {m.fixed_base, m.package_path, m.mesh_collision}});
   if (s.timestep > 0) spec.timestep = s.timestep;
   if (s.gravity.size() == 3)
     spec.gravity = Eigen::Vector3d(s.gravity[0], s.gravity[1], s.gravity[2]);
@@ -237,8 +238,8 @@ std::string world_key(const Scenario& s, const std::string& engine_name,
                       const std::string& source) {
   std::string k = fmt::format("{}|{}|", engine_name, source);
   for (const auto& m : s.model)
-    k += fmt::format("{}@{:.17g},{:.17g},{:.17g};", m.file, m.offset.x(), m.offset.y(),
-                     m.offset.z());
+    k += fmt::format("{}@{:.17g},{:.17g},{:.17g}|{}|{}|{};", m.file, m.offset.x(), m.offset.y(),
+                     m.offset.z(), m.fixed_base, fmt::join(m.package_path, ":"), m.mesh_collision);
   k += fmt::format("|dt={:.17g}|g=", s.timestep);
   for (double g : s.gravity) k += fmt::format("{:.17g},", g);
   k += fmt::format("|slope={:.17g}|key={}|pose=", s.slope_rad, s.keyframe);
@@ -339,6 +340,15 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
     m->up = Eigen::Vector3d::UnitZ();
   else if (g.norm() > 0)
     m->up = -g.normalized();
+  // torque limits: per dof from its joint; clamped on URDF/SDF models unless asked otherwise
+  m->force_limit.resize(e.nv());
+  for (int d = 0; d < e.nv(); ++d) m->force_limit[d] = e.joint(e.dof_joint(d)).force_limit;
+  bool robot_model = false;
+  for (const auto& mf : sc.model) {
+    const ModelFormat f = model_format(mf.file);
+    robot_model = robot_model || f == ModelFormat::kUrdf || f == ModelFormat::kSdf;
+  }
+  m->clamp_torques = sc.torque_limits == "on" || (sc.torque_limits == "auto" && robot_model);
   e.save_state(m->initial);
   for (const auto& c : m->controllers) c->signal_names(m->signal_names);
   const double dt = e.timestep();
@@ -513,6 +523,28 @@ void Simulation::set_planner_params(const PlannerParams& params) {
   }
 }
 
+// the one place torques meet the model's limits: the peak of |requested| / limit is measured,
+// and the torques are clamped to the limits when the model says so
+void Simulation::limit_torques() {
+  const Eigen::VectorXd& limit = model_->force_limit;
+  RunProgress& s = progress_;
+  bool clamped = false;
+  for (int i = 0; i < out_.tau.size(); ++i) {
+    if (std::isinf(limit[i])) continue;
+    const double tau = out_.tau[i];
+    const double ratio = std::abs(tau) / std::max(limit[i], 1e-12);
+    if (ratio > s.peak_limit_ratio) {
+      s.peak_limit_ratio = ratio;
+      s.peak_limit_dof = i;
+    }
+    if (model_->clamp_torques && ratio > 1) {
+      out_.tau[i] = std::clamp(tau, -limit[i], limit[i]);
+      clamped = true;
+    }
+  }
+  if (clamped) ++s.clamped_steps;
+}
+
 // the planner (when it is time), then the controllers with their share of its correction, then
 // the residual torques
 bool Simulation::compute_controls() {
@@ -562,6 +594,7 @@ bool Simulation::step() {
   e.forward();
   const double t = e.time();
   if (!compute_controls()) return false;
+  limit_torques();
   e.set_generalized_forces(out_.tau);
   if (out_.ctrl_used) e.set_controls(out_.ctrl);
   if (out_.dof_velocity_used) send_velocity_commands(out_.dof_velocity);
@@ -694,6 +727,14 @@ RunResult Simulation::result() const {
     double end = push.p.start + push.p.duration;
     if (end <= r.sim_time && (!s.fell || s.fall_time > end + 2.0)) ++survived;
   }
+  if (model_->force_limit.size() > 0 && model_->force_limit.array().isFinite().any()) {
+    nlohmann::json& tl = m["torque_limit"];
+    tl["peak_ratio"] = s.peak_limit_ratio;
+    tl["dof"] = s.peak_limit_dof >= 0 ? e.dof_name(s.peak_limit_dof) : "";
+    tl["limit"] = s.peak_limit_dof >= 0 ? model_->force_limit[s.peak_limit_dof] : 0.0;
+    tl["clamping"] = model_->clamp_torques;
+    tl["clamped_steps"] = s.clamped_steps;
+  }
   m["pushes_applied"] = static_cast<int>(model_->pushes.size());
   m["pushes_survived"] = survived;
   for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->add_metrics(*states_[i], m);
@@ -812,7 +853,7 @@ std::unique_ptr<Simulation> Simulation::clone() const {
 }
 
 namespace {
-constexpr char kStateMagic[] = "stance-state 1\n";
+constexpr char kStateMagic[] = "stance-state 2\n";
 }
 
 void Simulation::write_state(const std::string& path) const {

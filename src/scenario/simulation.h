@@ -106,6 +106,10 @@ struct SimulationModel {
   // the planner's dimensions and rollout model; null: no planner
   std::shared_ptr<const PlannerModel> planner;
   bool plans = false;  // runs of this model plan (false for the planner's own rollouts)
+  // each dof's torque limit (N m or N; inf: none), from the engine's joints, dim nv; the summed
+  // controller torques are clamped to it when clamp_torques
+  Eigen::VectorXd force_limit;
+  bool clamp_torques = false;
 
   // a new engine of this world at the initial state (under the one load lock)
   std::unique_ptr<Engine> make_engine() const;
@@ -152,6 +156,10 @@ struct RunProgress {
   Eigen::Vector3d com_last = Eigen::Vector3d::Zero();  // the last finite COM (after divergence)
   double torque_sq_sum = 0, max_abs_torque = 0;
   long torque_samples = 0;
+  // the largest |requested torque| / limit over the run and its dof; steps with a clamped dof
+  double peak_limit_ratio = 0;
+  int peak_limit_dof = -1;
+  long clamped_steps = 0;
   Eigen::VectorXd velocity_sent;  // the velocity commands the engine holds, dim nv; NaN: none
   CorrectionPlan plan;            // the planner's correction being applied
 
@@ -159,7 +167,8 @@ struct RunProgress {
   void serialize(A& a) {
     a(steps), a(fell), a(fall_time), a(fall_reason), a(diverged), a(divergence), a(diverged_at);
     a(com_height0), a(min_com_height), a(com0), a(torque_sq_sum), a(max_abs_torque);
-    a(torque_samples), a(velocity_sent), a(com_last);
+    a(torque_samples), a(velocity_sent), a(com_last), a(peak_limit_ratio), a(peak_limit_dof);
+    a(clamped_steps);
     plan.serialize(a);
   }
 };
@@ -268,6 +277,7 @@ class Simulation {
   void detect_fall();
   // the controllers' (and the planner's) outputs into out_; false (diverged) when non-finite
   bool compute_controls();
+  void limit_torques();
   void send_velocity_commands(const Eigen::VectorXd& commands);
   // a non-finite command from controller i stops the run as a divergence
   bool check_output(size_t i, double t);
