@@ -634,6 +634,9 @@ void load_document(const std::string& shown_name, const std::string& path,
     throw InputError(located(shown_name, doc.ErrorLineNum(),
                              std::string("malformed XML (") +
                                  tinyxml2::XMLDocument::ErrorIDToName(doc.ErrorID()) + ")"));
+  // a file of only a declaration or comments parses, but has no element (found by fuzz_model)
+  if (doc.RootElement() == nullptr)
+    throw InputError(located(shown_name, 1, "no XML element in the file"));
 }
 
 void add_link(const Reader& r, const XMLElement* el, RobotModel& m,
