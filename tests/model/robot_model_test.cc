@@ -194,6 +194,10 @@ TEST(RobotModel, MalformedFilesGiveLocatedErrors) {
   };
   EXPECT_EQ(error_of("e.urdf", edit("</robot>", "")),
             "e.urdf:1: malformed XML (XML_ERROR_PARSING)");
+  // a declaration and a comment, no element (fuzz_model: the reader dereferenced a null root)
+  for (const char* name : {"e.urdf", "e.sdf"})
+    EXPECT_EQ(error_of(name, "<?xml version=\"1.0\"?>\n<!-- nothing -->\n"),
+              std::string(name) + ":1: no XML element in the file");
   EXPECT_EQ(error_of("e.urdf", edit("<mass value=\"2\"/>", "<mass value=\"2kg\"/>")),
             "e.urdf:5: <mass> value: '2kg' is not a finite number");
   EXPECT_EQ(error_of("e.urdf", edit("<mass value=\"2\"/>", "<mass value=\"-2\"/>")),
