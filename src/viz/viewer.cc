@@ -117,7 +117,7 @@ struct Viewer::Impl {
 
   // UI state
   std::vector<std::vector<ParamEntry>> entries;  // per controller
-  std::vector<ParamEntry> planner_entries;        // the planner block's, when the run plans
+  std::vector<ParamEntry> planner_entries;       // the planner block's, when the run plans
   bool show_help = true;
   std::string status;
   std::vector<unsigned char> frame_rgb;
@@ -1018,7 +1018,9 @@ const std::vector<std::vector<ParamEntry>>& Viewer::param_panel() const {
   return impl_->entries;
 }
 
-const std::vector<ParamEntry>& Viewer::planner_panel() const { return impl_->planner_entries; }
+const std::vector<ParamEntry>& Viewer::planner_panel() const {
+  return impl_->planner_entries;
+}
 
 void Viewer::set_planner_param(const std::string& path, double value) {
   std::lock_guard<std::mutex> lock(impl_->mutex);

@@ -135,8 +135,11 @@ TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
 // a planning time change nothing, other ones change the run from there on
 TEST(Planner, NewParametersTakeEffectMidRun) {
   const std::vector<std::string> sets = {
-      "planner.enabled=true", "planner.samples=4", "planner.horizon_s=0.2",
-      "planner.interval_s=0.05", "planner.threads=1",
+      "planner.enabled=true",
+      "planner.samples=4",
+      "planner.horizon_s=0.2",
+      "planner.interval_s=0.05",
+      "planner.threads=1",
       "perturbations=[{body: h_spine, force: [80, 0, 0], start: 0.0, duration: 0.1}]"};
   const LoadedScenario loaded = load_scenario(scenario("biped_stand.yaml"), sets);
   auto trace = [&](const std::function<void(Simulation&)>& at_switch) {

@@ -215,8 +215,7 @@ TEST_F(ViewerTest, PlannerSlidersReachThePlannerAndTheSavedScenario) {
   for (int i = 0; i < 3; ++i) viewer.frame();
   LoadedScenario again = load_scenario(viewer.save_scenario());
   EXPECT_EQ(again.scenario.planner.samples, 5);
-  Viewer plain(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"),
-               test_options());
+  Viewer plain(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), test_options());
   EXPECT_TRUE(plain.planner_panel().empty());
 }
 

@@ -272,10 +272,9 @@ bool normalize_attribute_whitespace(tinyxml2::XMLElement* parent) {
 // many finite numbers; a geom's or site's `size` holds 1 to 3
 void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLElement* parent) {
   static const std::map<std::string, int> kCounts = {
-      {"pos", 3},     {"axis", 3},        {"euler", 3},       {"zaxis", 3},
-      {"gravity", 3}, {"diaginertia", 3}, {"quat", 4},        {"axisangle", 4},
-      {"xyaxes", 6},  {"fromto", 6},      {"fullinertia", 6}, {"range", 2},
-      {"rgba", 4}};
+      {"pos", 3},         {"axis", 3},  {"euler", 3},     {"zaxis", 3},  {"gravity", 3},
+      {"diaginertia", 3}, {"quat", 4},  {"axisangle", 4}, {"xyaxes", 6}, {"fromto", 6},
+      {"fullinertia", 6}, {"range", 2}, {"rgba", 4}};
   for (const tinyxml2::XMLElement* e = parent->FirstChildElement(); e;
        e = e->NextSiblingElement()) {
     for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
