@@ -384,23 +384,34 @@ Vector3d unit_axis(const Reader& r, const XMLElement* el, const std::vector<doub
   return axis.normalized();
 }
 
-RobotJoint read_urdf_joint(const Reader& r, const XMLElement* el) {
+// a joint element's name, line and type, the type one of `types` (in the order the message
+// lists them); the start every format's joint reader shares
+using JointTypeNames = std::vector<std::pair<const char*, RobotJointType>>;
+RobotJoint read_joint_head(const Reader& r, const XMLElement* el, const JointTypeNames& types) {
   RobotJoint j;
   j.name = r.attribute(el, "name");
   j.line = el->GetLineNum();
   const std::string type = r.attribute(el, "type");
-  static const std::map<std::string, RobotJointType> kTypes = {
-      {"fixed", RobotJointType::kFixed},
-      {"revolute", RobotJointType::kRevolute},
-      {"continuous", RobotJointType::kContinuous},
-      {"prismatic", RobotJointType::kPrismatic},
-      {"floating", RobotJointType::kFloating}};
-  const auto it = kTypes.find(type);
-  if (it == kTypes.end())
-    r.fail(el, fmt::format("joint '{}': unsupported joint type '{}' (supported: fixed, revolute, "
-                           "continuous, prismatic, floating)",
-                           j.name, type));
-  j.type = it->second;
+  std::string supported;
+  for (const auto& [name, value] : types) {
+    if (type == name) {
+      j.type = value;
+      return j;
+    }
+    supported += supported.empty() ? name : std::string(", ") + name;
+  }
+  r.fail(el, fmt::format("joint '{}': unsupported joint type '{}' (supported: {})", j.name, type,
+                         supported));
+}
+
+RobotJoint read_urdf_joint(const Reader& r, const XMLElement* el) {
+  RobotJoint j = read_joint_head(r, el,
+                                 {{"fixed", RobotJointType::kFixed},
+                                  {"revolute", RobotJointType::kRevolute},
+                                  {"continuous", RobotJointType::kContinuous},
+                                  {"prismatic", RobotJointType::kPrismatic},
+                                  {"floating", RobotJointType::kFloating}});
+  const std::string type = r.attribute(el, "type");
   j.parent = r.attribute(r.need(el, "parent"), "link");
   j.child = r.attribute(r.need(el, "child"), "link");
   j.parent_to_child = urdf_origin(r, el);
@@ -517,21 +528,11 @@ RobotLink read_sdf_link(const Reader& r, const XMLElement* el, const std::string
 }
 
 RobotJoint read_sdf_joint(const Reader& r, const XMLElement* el) {
-  RobotJoint j;
-  j.name = r.attribute(el, "name");
-  j.line = el->GetLineNum();
-  const std::string type = r.attribute(el, "type");
-  static const std::map<std::string, RobotJointType> kTypes = {
-      {"fixed", RobotJointType::kFixed},
-      {"revolute", RobotJointType::kRevolute},
-      {"prismatic", RobotJointType::kPrismatic},
-      {"ball", RobotJointType::kBall}};
-  const auto it = kTypes.find(type);
-  if (it == kTypes.end())
-    r.fail(el, fmt::format("joint '{}': unsupported joint type '{}' (supported: fixed, revolute, "
-                           "prismatic, ball)",
-                           j.name, type));
-  j.type = it->second;
+  RobotJoint j = read_joint_head(r, el,
+                                 {{"fixed", RobotJointType::kFixed},
+                                  {"revolute", RobotJointType::kRevolute},
+                                  {"prismatic", RobotJointType::kPrismatic},
+                                  {"ball", RobotJointType::kBall}});
   j.parent = r.text(r.need(el, "parent"));
   j.child = r.text(r.need(el, "child"));
   j.child_to_joint = sdf_pose(r, el);
