@@ -13,7 +13,7 @@ set(stance_timeout_viz 600)
 
 set(stance_label_patterns
   viz "^(ViewerTest|RecorderTest|SceneViewTest)\\."
-  physics "^(BipedStand|BipedSkateboard|LqrBalance|SimbiconWalk|SimbiconGaits|Simbicon3d)\\."
+  physics "^(BipedStand|BipedSkateboard|LqrBalance|SimbiconWalk|SimbiconGaits|Simbicon3d|SimbiconCharacter)\\."
   physics "^SimbiconDart\\.Walks"
   physics "^SlopeWalker\\.(Walks|LockedKnees)"
   physics "^StablePd\\.StandsWherePlainPdDiverges$"

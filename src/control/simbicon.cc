@@ -18,6 +18,20 @@ double pitch_about_minus_y(const Eigen::Quaterniond& q) {
   return std::atan2(r(2, 0), r(0, 0));
 }
 
+double hinge_sign(const Eigen::Vector3d& axis_world, const Eigen::Vector3d& right,
+                  const std::string& dof_name) {
+  const double n = axis_world.norm();
+  const double c = n > 0 ? axis_world.dot(right) / n : 0.0;
+  if (std::abs(c) < std::sqrt(0.5))
+    throw InputError(fmt::format(
+        "simbicon skeleton: dof '{}' turns about ({:.3g} {:.3g} {:.3g}) in the world, not about "
+        "the character's lateral axis ({:.3g} {:.3g} {:.3g}) (0 0 0: the dof is not between the "
+        "root and the foot); name the leg's pitch hinge, or set skeleton.up and skeleton.forward",
+        dof_name, axis_world.x(), axis_world.y(), axis_world.z(), -right.x(), -right.y(),
+        -right.z()));
+  return c > 0 ? 1.0 : -1.0;
+}
+
 SimbiconGaitStats simbicon_gait_stats(const std::vector<SimbiconStep>& steps, int skip) {
   SimbiconGaitStats s;
   double sum_l = 0, sum_l2 = 0, sum_d = 0, sum_d2 = 0;
@@ -75,6 +89,30 @@ double clamp_torque(double tau, double limit) {
   return std::clamp(tau, -limit, limit);
 }
 
+// PD on one hinge towards target (rad, in the dof's own sign)
+double joint_servo(const Engine& engine, int dof, double target, const SimbiconJointGain& gain) {
+  const double tau =
+      gain.kp * (target - engine.dof_position(dof)) - gain.damping() * engine.dof_velocity(dof);
+  return clamp_torque(tau, gain.max_torque);
+}
+
+// knees and ankles: relative servos towards the gait's angle times the hinge's sign
+void add_leg_servos(const Simbicon::Model& m, int fsm, const SimbiconStateTargets& tg,
+                    const SimbiconGains& gn, double dc_ankle, const Engine& engine,
+                    ControlOutput& out) {
+  auto servo = [&](int dof, double sign, double target, const SimbiconJointGain& gain) {
+    return joint_servo(engine, dof, sign * target, gain);
+  };
+  const int stance = fsm < 2 ? Simbicon::kRight : Simbicon::kLeft, swing = 1 - stance;
+  out.tau[m.knee[swing]] += servo(m.knee[swing], m.knee_sign[swing], tg.swing_knee, gn.swing_knee);
+  out.tau[m.knee[stance]] +=
+      servo(m.knee[stance], m.knee_sign[stance], tg.stance_knee, gn.stance_knee);
+  out.tau[m.ankle[swing]] +=
+      servo(m.ankle[swing], m.ankle_sign[swing], tg.swing_ankle, gn.swing_ankle);
+  out.tau[m.ankle[stance]] +=
+      servo(m.ankle[stance], m.ankle_sign[stance], tg.stance_ankle + dc_ankle, gn.stance_ankle);
+}
+
 }  // namespace
 
 Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext&, const Engine& engine) {
@@ -121,12 +159,45 @@ Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext&, const
     m.hip_yaw = {engine.require_dof(k.right_hip_yaw), engine.require_dof(k.left_hip_yaw)};
     m.ankle_roll = {engine.require_dof(k.right_ankle_roll), engine.require_dof(k.left_ankle_roll)};
   }
-  m.heading = Eigen::Quaterniond(Eigen::AngleAxisd(params.heading_rad, Eigen::Vector3d::UnitZ()));
   for (int dof : {m.hip[0], m.hip[1], m.knee[0], m.knee[1], m.ankle[0], m.ankle[1]}) {
     const JointInfo& j = engine.joint(engine.dof_joint(dof));
     if (j.type != JointType::kHinge)
       throw InputError(
           fmt::format("simbicon skeleton: dof '{}' must be a hinge", engine.dof_name(dof)));
+  }
+
+  // the character frame: up (default minus gravity), forward made normal to it, left = up x fwd
+  Eigen::Vector3d up = k.up;
+  if (up.squaredNorm() == 0) {
+    const Eigen::Vector3d g = engine.gravity();
+    if (g.squaredNorm() == 0)
+      throw InputError("simbicon skeleton.up: zero gravity; give the character's up axis");
+    up = -g.normalized();
+  } else {
+    up.normalize();
+  }
+  Eigen::Vector3d fwd = k.forward - k.forward.dot(up) * up;
+  if (fwd.norm() < 1e-6 * std::max(1.0, k.forward.norm()))
+    throw InputError(
+        fmt::format("simbicon skeleton.forward: ({} {} {}) is zero or along the up axis ({} {} {})",
+                    k.forward.x(), k.forward.y(), k.forward.z(), up.x(), up.y(), up.z()));
+  fwd.normalize();
+  m.up = up;
+  Eigen::Matrix3d frame;
+  frame << fwd, up.cross(fwd), up;
+  m.frame_quat = Eigen::Quaterniond(frame);
+  m.heading = m.frame_quat * Eigen::AngleAxisd(params.heading_rad, Eigen::Vector3d::UnitZ());
+
+  // hinge signs: each pitch dof's axis in the world at the loaded pose, read from the foot's
+  // rotational Jacobian (its column at a hinge dof is the hinge's world axis)
+  const Eigen::Vector3d right = -(m.heading * Eigen::Vector3d::UnitY());
+  Eigen::MatrixXd jac_rot = Eigen::MatrixXd::Zero(3, engine.nv()), jac_none(3, 0);
+  for (int side : {kRight, kLeft}) {
+    engine.point_jacobian(m.foot[side], engine.body_pose(m.foot[side]).pos, jac_none, jac_rot);
+    auto sign = [&](int dof) { return hinge_sign(jac_rot.col(dof), right, engine.dof_name(dof)); };
+    m.hip_sign[side] = sign(m.hip[side]);
+    m.knee_sign[side] = sign(m.knee[side]);
+    m.ankle_sign[side] = sign(m.ankle[side]);
   }
 }
 
@@ -203,6 +274,9 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
   // balance feedback inputs: hip (or COM) relative to the stance ankle, along the heading
   const Eigen::Vector3d fwd = m.heading * Eigen::Vector3d::UnitX();
   const Eigen::Vector3d left = m.heading * Eigen::Vector3d::UnitY();
+  // a body's orientation goal in the world from its rotation in the gait's frame: heading *
+  // goal * frame^-1 (body frames are parallel to the world at rest)
+  const Eigen::Quaterniond rest = m.frame_quat.conjugate();
   const Eigen::Vector3d ankle = engine.body_pose(m.foot[stance]).pos;
   Eigen::Vector3d point, velocity;
   if (m.use_com) {
@@ -225,13 +299,6 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
   const double dc_swing = c ? c[0] : 0.0, dc_torso = c ? c[1] : 0.0, dc_ankle = c ? c[2] : 0.0;
   s.swing_hip_target = tg.swing_hip + tg.cd * s.d + tg.cv * s.v + dc_swing;
 
-  // relative servos: knees and ankles
-  auto servo = [&](int dof, double target, const SimbiconJointGain& gain) {
-    const double tau =
-        gain.kp * (target - engine.dof_position(dof)) - gain.damping() * engine.dof_velocity(dof);
-    return clamp_torque(tau, gain.max_torque);
-  };
-
   if (m.spatial) {
     // 3D: world-frame orientation servos; outward is +y for the left swing leg
     const double outward = swing == kLeft ? 1.0 : -1.0;
@@ -245,13 +312,12 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
     // the opposite sign drifts off (tests/control/simbicon_test.cc, docs/simbicon.md)
     const double steer = std::clamp(m.params.path_gain * (s.lateral_last - s.lateral_start),
                                     -m.params.max_steer_rad, m.params.max_steer_rad);
-    const Eigen::Quaterniond heading =
-        Eigen::AngleAxisd(steer, Eigen::Vector3d::UnitZ()) * m.heading;
+    const Eigen::Quaterniond heading = Eigen::AngleAxisd(steer, m.up) * m.heading;
     const Eigen::Quaterniond torso_goal =
         heading * Eigen::AngleAxisd(outward * tg.torso_roll + (c ? c[4] : 0.0), unit_x) *
-        Eigen::AngleAxisd(tg.torso + dc_torso, minus_y);
+        Eigen::AngleAxisd(tg.torso + dc_torso, minus_y) * rest;
     const Eigen::Quaterniond thigh_goal = heading * Eigen::AngleAxisd(roll_target, unit_x) *
-                                          Eigen::AngleAxisd(s.swing_hip_target, minus_y);
+                                          Eigen::AngleAxisd(s.swing_hip_target, minus_y) * rest;
     auto orientation_servo = [&](int body, const Eigen::Quaterniond& goal,
                                  const SimbiconJointGain& gain) {
       const Eigen::AngleAxisd err(goal * engine.body_pose(body).quat.conjugate());
@@ -275,20 +341,22 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
     };
     to_hip(swing, tau_swing);
     to_hip(stance, tau_stance);
-    out.tau[m.ankle_roll[swing]] += servo(m.ankle_roll[swing], 0.0, gn.swing_ankle);
-    out.tau[m.ankle_roll[stance]] += servo(m.ankle_roll[stance], 0.0, gn.stance_ankle);
-    out.tau[m.knee[swing]] += servo(m.knee[swing], tg.swing_knee, gn.swing_knee);
-    out.tau[m.knee[stance]] += servo(m.knee[stance], tg.stance_knee, gn.stance_knee);
-    out.tau[m.ankle[swing]] += servo(m.ankle[swing], tg.swing_ankle, gn.swing_ankle);
-    out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle + dc_ankle, gn.stance_ankle);
+    out.tau[m.ankle_roll[swing]] += joint_servo(engine, m.ankle_roll[swing], 0.0, gn.swing_ankle);
+    out.tau[m.ankle_roll[stance]] +=
+        joint_servo(engine, m.ankle_roll[stance], 0.0, gn.stance_ankle);
+    add_leg_servos(m, s.fsm, tg, gn, dc_ankle, engine, out);
     return;
   }
 
-  // world-frame servos: torso and swing thigh (angular velocity about -y is -w_y)
-  const double torso_angle = pitch_about_minus_y(engine.body_pose(m.torso).quat);
-  const double torso_rate = -engine.body_velocity(m.torso)[1];
-  const double thigh_angle = pitch_about_minus_y(engine.body_pose(m.thigh[swing]).quat);
-  const double thigh_rate = -engine.body_velocity(m.thigh[swing])[1];
+  // world-frame servos: torso and swing thigh, pitch about the gait frame's -y (the angular
+  // velocity about -left is -left . w)
+  const Eigen::Quaterniond to_gait = m.heading.conjugate();
+  const double torso_angle =
+      pitch_about_minus_y(to_gait * engine.body_pose(m.torso).quat * m.frame_quat);
+  const double torso_rate = -left.dot(engine.body_velocity(m.torso).head<3>());
+  const double thigh_angle =
+      pitch_about_minus_y(to_gait * engine.body_pose(m.thigh[swing]).quat * m.frame_quat);
+  const double thigh_rate = -left.dot(engine.body_velocity(m.thigh[swing]).head<3>());
   const double tau_torso =
       gn.torso.kp * (tg.torso + dc_torso - torso_angle) - gn.torso.damping() * torso_rate;
   const double tau_swing_hip = clamp_torque(
@@ -298,12 +366,9 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
   const double tau_stance_hip = clamp_torque(
       -clamp_torque(tau_torso, gn.torso.max_torque) - tau_swing_hip, gn.stance_hip_max_torque);
 
-  out.tau[m.hip[swing]] += tau_swing_hip;
-  out.tau[m.hip[stance]] += tau_stance_hip;
-  out.tau[m.knee[swing]] += servo(m.knee[swing], tg.swing_knee, gn.swing_knee);
-  out.tau[m.knee[stance]] += servo(m.knee[stance], tg.stance_knee, gn.stance_knee);
-  out.tau[m.ankle[swing]] += servo(m.ankle[swing], tg.swing_ankle, gn.swing_ankle);
-  out.tau[m.ankle[stance]] += servo(m.ankle[stance], tg.stance_ankle + dc_ankle, gn.stance_ankle);
+  out.tau[m.hip[swing]] += m.hip_sign[swing] * tau_swing_hip;
+  out.tau[m.hip[stance]] += m.hip_sign[stance] * tau_stance_hip;
+  add_leg_servos(m, s.fsm, tg, gn, dc_ankle, engine, out);
 }
 
 void Simbicon::correction_dims(std::vector<CorrectionDim>& dims) const {

@@ -9,11 +9,21 @@
 // target: theta_d = theta_d0 + cd d + cv v, with d the horizontal distance from the stance
 // ankle to the hip (or COM) and v the hip's (or COM's) horizontal velocity.
 //
-// Planar models: angles are about the model's -y axis (positive = flexion forward; see
-// models/simbicon_2d.xml); walking goes along +x. Spatial models (models/simbicon_3d.xml) add
-// coronal-plane feedback on the swing hip's roll, world-frame torso and swing-thigh
-// orientation servos whose torques reach the 3-dof hips through the hip axes (the stance hip
-// holds the torso in pitch, roll and heading), and a heading for the swing thigh and torso.
+// Any biped: the skeleton names the bodies and dofs, and the character's up axis (default:
+// minus gravity) and forward axis (default +x). They span the character frame: forward, left =
+// up x forward, up. Every angle of the gait is in that frame, the same on every character:
+// sagittal angles turn about the character's right axis (-left), so a positive hip angle swings
+// the thigh forward, a negative knee angle bends the knee, a positive ankle angle lifts the toes;
+// coronal angles turn about forward. A hinge whose axis points left rather than right (read in
+// the world at the loaded pose) gets its targets and torques negated, so no sign is per
+// character. World-frame servos assume body frames parallel to the world at the zero pose, as in
+// URDF, SDF and the project's MJCF models.
+//
+// Planar models: angles are about the character's right axis (models/simbicon_2d.xml: -y);
+// walking goes forward. Spatial models (models/simbicon_3d.xml) add coronal-plane feedback on
+// the swing hip's roll, world-frame torso and swing-thigh orientation servos whose torques reach
+// the 3-dof hips through the hip axes (the stance hip holds the torso in pitch, roll and
+// heading), and a heading for the swing thigh and torso.
 #pragma once
 
 #include <array>
@@ -144,10 +154,14 @@ struct SimbiconSkeleton {
   // 3D: set all six to control a spatial biped; empty = planar
   std::string left_hip_roll, right_hip_roll, left_hip_yaw, right_hip_yaw;
   std::string left_ankle_roll, right_ankle_roll;
+  // the character frame in the world: zero up = minus gravity; forward is made normal to up
+  Eigen::Vector3d up = Eigen::Vector3d::Zero();
+  Eigen::Vector3d forward = Eigen::Vector3d::UnitX();
 
   template <class V>
   void visit(V& v) {
-    v("torso", torso, {.help = "body servoed in the world frame"});
+    v("torso", torso,
+      {.help = "body servoed in the world frame (the body the hips hang from, e.g. a pelvis)"});
     v("left_thigh", left_thigh, {.help = "body; its origin is the hip joint"});
     v("right_thigh", right_thigh);
     v("left_foot", left_foot, {.help = "body; its origin is the ankle"});
@@ -164,6 +178,8 @@ struct SimbiconSkeleton {
     v("right_hip_yaw", right_hip_yaw);
     v("left_ankle_roll", left_ankle_roll);
     v("right_ankle_roll", right_ankle_roll);
+    v("up", up, {.help = "character's up axis, world; 0 0 0: minus gravity"});
+    v("forward", forward, {.help = "character's forward axis, world (made normal to up)"});
   }
 };
 
@@ -243,7 +259,13 @@ class Simbicon final : public TypedController<SimbiconState> {
     bool use_com = false;
     bool spatial = false;  // 3D: hip roll/yaw and ankle roll dofs present
     std::array<int, 2> hip_roll{{-1, -1}}, hip_yaw{{-1, -1}}, ankle_roll{{-1, -1}};
+    // the character frame in the world: the rotation whose columns are forward, left, up
+    Eigen::Quaterniond frame_quat = Eigen::Quaterniond::Identity();
+    Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // world, unit
+    // the character frame turned by heading_rad about up: the canonical frame of the gait
     Eigen::Quaterniond heading = Eigen::Quaterniond::Identity();
+    // +1 where the hinge turns about the character's right axis, -1 where about its left
+    std::array<double, 2> hip_sign{{1, 1}}, knee_sign{{1, 1}}, ankle_sign{{1, 1}};
   };
 
   Simbicon(const SimbiconParams& params, const ControllerContext& ctx, const Engine& engine);
@@ -275,6 +297,12 @@ class Simbicon final : public TypedController<SimbiconState> {
 
 // planar pitch of a body about the world -y axis (rad, positive = top leaning back)
 double pitch_about_minus_y(const Eigen::Quaterniond& q);
+
+// the sign of a hinge in a character frame: +1 when its world axis points along `right`, -1
+// when against it; throws InputError naming the dof when the axis is not within 45 degrees of
+// that line (a roll or yaw hinge named as a pitch one)
+double hinge_sign(const Eigen::Vector3d& axis_world, const Eigen::Vector3d& right,
+                  const std::string& dof_name);
 
 // the step statistics of a walk (metrics over SimbiconStep records)
 struct SimbiconGaitStats {

@@ -4,6 +4,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <fstream>
+#include <regex>
+#include <sstream>
 
 #include "core/error.h"
 #include "engine/world_spec.h"
@@ -181,6 +184,129 @@ TEST(Simbicon3d, WithoutCoronalFeedbackFalls) {
       {"controllers.0.gait.states.0.cd_lateral=0", "controllers.0.gait.states.0.cv_lateral=0",
        "controllers.0.gait.states.1.cd_lateral=0", "controllers.0.gait.states.1.cv_lateral=0"});
   EXPECT_TRUE(w.result.fell);
+}
+
+// any biped: a model whose pitch hinges turn the other way, or that stands along y, walks the
+// same gait. The variants are made from the shipped models by rewriting their text.
+std::string read_text(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// the scenario's model replaced by `model_xml`, written beside a copy of the scenario
+std::string scenario_with_model(const std::string& scenario, const std::string& model_xml,
+                                const std::string& tag) {
+  const std::string model = test::write_temp_file(tag + ".xml", model_xml);
+  std::string text = read_text(scenario_path(scenario));
+  text = std::regex_replace(text, std::regex("model: \\.\\./models/simbicon_[23]d\\.xml"),
+                            "model: " + model);
+  return test::write_temp_file(tag + ".yaml", text);
+}
+
+// every leg pitch hinge of a shipped biped about +y instead of -y (ranges mirrored)
+std::string flipped_model(const std::string& file) {
+  std::string xml = read_text(test::source_dir() + "/models/" + file);
+  for (const char* side : {"right", "left"})
+    for (const char* joint : {"hip", "knee", "ankle"}) {
+      const std::string name =
+          fmt::format("name=\"{}_{}\" type=\"hinge\" axis=\"0 -1 0\"", side, joint);
+      const size_t at = xml.find(name);
+      EXPECT_NE(at, std::string::npos) << name;
+      if (at != std::string::npos) xml.erase(at + name.size() - 5, 1);  // the minus sign
+    }
+  return std::regex_replace(xml, std::regex("range=\"-2.6 0.05\""), "range=\"-0.05 2.6\"");
+}
+
+// simbicon_2d.xml turned -90 degrees about x: up is +y, gravity (0, -9.81, 0), and the legs'
+// hinges turn about +z, the character's right. Vectors (x, y, z) become (x, z, -y); box sizes
+// and diagonal inertias swap their y and z.
+std::string y_up_2d_model() {
+  std::string xml = read_text(test::source_dir() + "/models/simbicon_2d.xml");
+  const std::string num = "(-?[0-9.e-]+)";
+  const std::regex vec("(pos|axis)=\"" + num + " " + num + " " + num + "\"");
+  const std::regex diag("(size|diaginertia)=\"" + num + " " + num + " " + num + "\"");
+  auto negate = [](const std::string& x) { return x[0] == '-' ? x.substr(1) : "-" + x; };
+  std::string out;
+  auto it = std::sregex_iterator(xml.begin(), xml.end(), vec);
+  size_t last = 0;
+  for (; it != std::sregex_iterator(); ++it) {
+    const std::smatch& m = *it;
+    out += xml.substr(last, m.position() - last);
+    out += fmt::format("{}=\"{} {} {}\"", m[1].str(), m[2].str(), m[4].str(), negate(m[3]));
+    last = m.position() + m.length();
+  }
+  out += xml.substr(last);
+  out = std::regex_replace(out, diag, "$1=\"$2 $4 $3\"");
+  out = std::regex_replace(out, std::regex("gravity=\"0 0 -9.81\""), "gravity=\"0 -9.81 0\"");
+  // the floor's normal along +y (its extents are not a vector)
+  out = std::regex_replace(out, std::regex("size=\"200 0.1 5\""),
+                           "size=\"200 5 0.1\" zaxis=\"0 1 0\"");
+  return out;
+}
+
+void expect_same_walk(const WalkOutcome& a, const WalkOutcome& b) {
+  ASSERT_FALSE(b.result.fell) << "fell at " << b.result.fall_time.value_or(-1);
+  ASSERT_GE(b.steps.size(), 10u);
+  ASSERT_EQ(a.steps.size(), b.steps.size());
+  for (size_t i = 0; i < a.steps.size(); ++i) {
+    EXPECT_NEAR(a.steps[i].time_s, b.steps[i].time_s, 0.01) << "step " << i;
+    EXPECT_NEAR(a.steps[i].length_m, b.steps[i].length_m, 0.01) << "step " << i;
+    EXPECT_EQ(a.steps[i].foot, b.steps[i].foot) << "step " << i;
+  }
+}
+
+TEST(SimbiconCharacter, HingesTurningTheOtherWayWalkTheSame) {
+  const std::vector<std::string> ten_s = {"duration=10"};
+  for (const char* scenario : {"simbicon_walk.yaml", "simbicon_walk_3d.yaml"}) {
+    SCOPED_TRACE(scenario);
+    const std::string model =
+        std::string(scenario) == "simbicon_walk.yaml" ? "simbicon_2d.xml" : "simbicon_3d.xml";
+    const std::string xml = flipped_model(model);
+    const std::string flipped = scenario_with_model(scenario, xml, "simbicon_flipped");
+    // the initial pose is in the dofs' own sign: the bent knees are now positive
+    std::vector<std::string> sets = ten_s;
+    sets.insert(sets.end(), {"initial_pose.right_knee=0.05", "initial_pose.left_knee=0.05"});
+    LoadedScenario loaded = load_scenario(flipped, sets);
+    Simulation run(loaded, {});
+    WalkOutcome b;
+    b.result = run.run();
+    b.steps = run.state_as<Simbicon::State>(0).steps;
+    const Simbicon& c = dynamic_cast<const Simbicon&>(*run.controllers()[0]);
+    EXPECT_EQ(c.model().knee_sign[Simbicon::kLeft], -1.0);
+    EXPECT_EQ(c.model().hip_sign[Simbicon::kRight], -1.0);
+    expect_same_walk(run_scenario(scenario, ten_s), b);
+  }
+}
+
+TEST(SimbiconCharacter, YUpModelWalksTheSameAlongX) {
+  const std::string y_up =
+      scenario_with_model("simbicon_walk.yaml", y_up_2d_model(), "simbicon_yup");
+  LoadedScenario loaded = load_scenario(y_up, {"duration=10"});
+  Simulation run(loaded, {});
+  WalkOutcome b;
+  b.result = run.run();
+  b.steps = run.state_as<Simbicon::State>(0).steps;
+  const Simbicon& c = dynamic_cast<const Simbicon&>(*run.controllers()[0]);
+  EXPECT_LT((c.model().up - Eigen::Vector3d::UnitY()).norm(), 1e-12);
+  EXPECT_EQ(c.model().hip_sign[Simbicon::kLeft], 1.0);
+  expect_same_walk(run_scenario("simbicon_walk.yaml", {"duration=10"}), b);
+  EXPECT_GT(metric(b.result, "distance_m"), 4.0);
+}
+
+TEST(SimbiconCharacter, RejectsAForwardAxisAlongUpAndARollHingeAsPitch) {
+  EXPECT_THROW(run_scenario("simbicon_walk_3d.yaml", {"controllers.0.skeleton.forward=[0, 0, 2]"}),
+               InputError);
+  try {
+    run_scenario("simbicon_walk_3d.yaml", {"controllers.0.skeleton.right_hip=right_hip_roll",
+                                           "controllers.0.skeleton.right_hip_roll=right_hip"});
+    FAIL() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("dof 'right_hip_roll' turns about (1 0 0)"),
+              std::string::npos)
+        << e.what();
+  }
 }
 
 #ifdef STANCE_HAVE_DART
