@@ -19,7 +19,7 @@ set(stance_label_patterns
   physics "^StablePd\\.StandsWherePlainPdDiverges$"
   physics "^DartEngine\\.(BipedFallsAndRestsOnGround|MjcfPendulumPeriod)"
   physics "^PdHoldScenario\\.HoldsOnMujocoAndDart$"
-  physics "^(TorqueLimit|AtlasStand)\\."
+  physics "^(TorqueLimit|AtlasStand|SimbiconAtlas)\\."
   physics "^PushThreshold\\.BipedStand"
   physics "^MocapTracker\\.(MassWalkTenSeconds|Assisted|CrouchInTheClipIsNoFall)"
   physics "^MocapRetarget\\.(Fullbody1Assisted|HumanoidAssisted)"
