@@ -31,8 +31,7 @@ RunResult walk(const std::string& engine, const std::vector<std::string>& overri
 
 void expect_walks(const RunResult& r, const std::string& what) {
   ASSERT_FALSE(r.diverged) << what << " " << r.divergence;
-  EXPECT_FALSE(r.fell) << what << " fell at " << r.fall_time.value_or(-1) << ": "
-                       << r.fall_reason;
+  EXPECT_FALSE(r.fell) << what << " fell at " << r.fall_time.value_or(-1) << ": " << r.fall_reason;
   EXPECT_NEAR(r.sim_time, 20.0, 1e-6) << what;
   // forward at more than 0.4 m/s, straight: less than 1 m sideways per 10 m
   EXPECT_GT(r.metrics.at("distance_m").get<double>(), 8.0) << what;
@@ -43,9 +42,11 @@ void expect_walks(const RunResult& r, const std::string& what) {
 }
 
 void walks_at_the_gait_and_nearby(const std::string& engine) {
-  for (const std::vector<std::string>& set :
-       {std::vector<std::string>{}, {"torque_scale=0.8"}, {"torque_scale=1.2"},
-        {"timestep=0.0005"}, {"timestep=0.002"}}) {
+  for (const std::vector<std::string>& set : {std::vector<std::string>{},
+                                              {"torque_scale=0.8"},
+                                              {"torque_scale=1.2"},
+                                              {"timestep=0.0005"},
+                                              {"timestep=0.002"}}) {
     const std::string what = engine + (set.empty() ? "" : " " + set[0]);
     expect_walks(walk(engine, set), what);
   }
