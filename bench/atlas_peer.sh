@@ -106,8 +106,8 @@ if os.path.exists(peer_json) and os.path.getsize(peer_json):
     p = json.loads(open(peer_json).read().strip().splitlines()[-1])
     results["dart_example"] = p
     rows.append(row(f"DART's `atlas_simbicon` example (its Controller, \"{p['gait']}\")",
-                    f"DART 6.12, `atlas_v3_no_head.sdf` (STL meshes, {p['collision_detector']}), "
-                    f"{fmt(p['timestep'] * 1e3)} ms",
+                    f"DART 6.12, `atlas_v3_no_head.sdf` (STL meshes, "
+                    f"{p['collision_detector'].upper()}), {p['timestep'] * 1e3:g} ms",
                     p["time_up_s"], p["distance_m"], p["lateral_m"], p["wall_s_per_sim_s"],
                     p["fell"], p["fall_reason"]))
 
@@ -142,7 +142,7 @@ if os.path.exists(summary):
                          "fall_reason": reason, "wall_s_per_sim_s": wall}
     rows.append(row(f"stance, `{name}`",
                     f"DART 6.12, `{os.path.basename(model)}` ({meshes})"
-                    + (f", {fmt(step * 1e3)} ms" if step else ""),
+                    + (f", {step * 1e3:g} ms" if step else ""),
                     end, forward, lateral, wall, sm["fell"] or sm["diverged"], reason))
 
 load = open("/proc/loadavg").read().split()[:3]

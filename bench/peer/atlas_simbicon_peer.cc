@@ -215,15 +215,16 @@ int main(int argc, char** argv) {
       "{\"peer\": \"dart atlas_simbicon\", \"gait\": \"%s\", \"timestep\": %g, "
       "\"duration\": %g, \"sim_time\": %.4f, \"fell\": %s, \"fall_time\": %s, "
       "\"fall_reason\": \"%s\", \"time_up_s\": %.4f, \"distance_m\": %.4f, "
-      "\"lateral_m\": %.4f, \"mean_speed_mps\": %.4f, \"wall_time_s\": %.4f, "
+      "\"lateral_m\": %.4f, \"displacement_m\": %.4f, \"mean_speed_mps\": %.4f, \"wall_time_s\": "
+      "%.4f, "
       "\"wall_s_per_sim_s\": %.4f, \"push_force_n\": %g, \"push_duration_s\": %g, "
       "\"first_push_s\": %g, \"push_every_s\": %g, \"com_height_start_m\": %.4f, "
       "\"ground_size_m\": %g, \"collision_detector\": \"%s\"}\n",
       o.gait.c_str(), dt, o.duration_s, sim_s, fell ? "true" : "false",
       fell ? std::to_string(fall_time).c_str() : "null", fall_reason.c_str(), time_up,
-      forward.dot(walked), left.dot(walked), time_up > 0 ? forward.dot(walked) / time_up : 0.0,
-      wall_s, sim_s > 0 ? wall_s / sim_s : 0.0, o.push_force_n, o.push_duration_s, o.first_push_s,
-      o.push_every_s, com_height0, o.ground_size_m,
-      world->getConstraintSolver()->getCollisionDetector()->getType().c_str());
+      forward.dot(walked), left.dot(walked), (walked - up.dot(walked) * up).norm(),
+      time_up > 0 ? forward.dot(walked) / time_up : 0.0, wall_s, sim_s > 0 ? wall_s / sim_s : 0.0,
+      o.push_force_n, o.push_duration_s, o.first_push_s, o.push_every_s, com_height0,
+      o.ground_size_m, world->getConstraintSolver()->getCollisionDetector()->getType().c_str());
   return 0;
 }
