@@ -128,10 +128,14 @@ int main(int argc, char** argv) {
     std::cerr << "stance_atlas_simbicon_peer: cannot load " << atlas_path << "\n";
     return 71;
   }
-  // the floor: ground.urdf's one box, widened in x and z (its 0.05 m thickness kept)
+  // the floor: ground.urdf's one box (0.05 m thick, centred at y = -0.95), widened in x and z;
+  // heights are measured from its top face
+  double ground_top = 0;
   for (auto* shape_node : ground->getBodyNode(0)->getShapeNodes()) {
-    if (auto box = std::dynamic_pointer_cast<dart::dynamics::BoxShape>(shape_node->getShape()))
-      box->setSize(Eigen::Vector3d(o.ground_size_m, box->getSize().y(), o.ground_size_m));
+    auto box = std::dynamic_pointer_cast<dart::dynamics::BoxShape>(shape_node->getShape());
+    if (!box) continue;
+    box->setSize(Eigen::Vector3d(o.ground_size_m, box->getSize().y(), o.ground_size_m));
+    ground_top = shape_node->getWorldTransform().translation().y() + 0.5 * box->getSize().y();
   }
   world->addSkeleton(ground);
   world->addSkeleton(atlas);
@@ -149,7 +153,6 @@ int main(int argc, char** argv) {
   const Eigen::Vector3d up = world_from_stance * Eigen::Vector3d::UnitZ();
   const Eigen::Vector3d forward = world_from_stance * Eigen::Vector3d::UnitX();
   const Eigen::Vector3d left = world_from_stance * Eigen::Vector3d::UnitY();
-  const double ground_top = -0.95 + 0.025;  // ground.urdf: a 0.05 m box centred at y = -0.95
 
   auto* pelvis = atlas->getBodyNode("pelvis");
   const Eigen::Vector3d pelvis0 = pelvis->getWorldTransform().translation();
@@ -181,7 +184,10 @@ int main(int argc, char** argv) {
       fall_reason = "the state is not finite";
     } else if (h < o.fall_fraction * com_height0) {
       fell = true;
-      fall_reason = "COM below " + std::to_string(o.fall_fraction) + " of its start height";
+      char text[96];
+      std::snprintf(text, sizeof text, "COM %.3f m below %g of its start %.3f m", h,
+                    o.fall_fraction, com_height0);
+      fall_reason = text;
     } else {
       for (const auto& c : world->getLastCollisionResult().getContacts()) {
         const auto* b1 = c.collisionObject1->getShapeFrame()->asShapeNode()->getBodyNodePtr().get();
@@ -211,20 +217,23 @@ int main(int argc, char** argv) {
       (fell ? pelvis_at_fall : Eigen::Vector3d(pelvis->getWorldTransform().translation())) -
       pelvis0;
 
-  std::printf(
-      "{\"peer\": \"dart atlas_simbicon\", \"gait\": \"%s\", \"timestep\": %g, "
-      "\"duration\": %g, \"sim_time\": %.4f, \"fell\": %s, \"fall_time\": %s, "
-      "\"fall_reason\": \"%s\", \"time_up_s\": %.4f, \"distance_m\": %.4f, "
-      "\"lateral_m\": %.4f, \"displacement_m\": %.4f, \"mean_speed_mps\": %.4f, \"wall_time_s\": "
-      "%.4f, "
-      "\"wall_s_per_sim_s\": %.4f, \"push_force_n\": %g, \"push_duration_s\": %g, "
-      "\"first_push_s\": %g, \"push_every_s\": %g, \"com_height_start_m\": %.4f, "
-      "\"ground_size_m\": %g, \"collision_detector\": \"%s\"}\n",
-      o.gait.c_str(), dt, o.duration_s, sim_s, fell ? "true" : "false",
-      fell ? std::to_string(fall_time).c_str() : "null", fall_reason.c_str(), time_up,
-      forward.dot(walked), left.dot(walked), (walked - up.dot(walked) * up).norm(),
-      time_up > 0 ? forward.dot(walked) / time_up : 0.0, wall_s, sim_s > 0 ? wall_s / sim_s : 0.0,
-      o.push_force_n, o.push_duration_s, o.first_push_s, o.push_every_s, com_height0,
-      o.ground_size_m, world->getConstraintSolver()->getCollisionDetector()->getType().c_str());
+  // one JSON line (the names and the strings are plain ASCII: no escaping needed)
+  // clang-format off
+  std::printf("{\"peer\": \"dart atlas_simbicon\", \"gait\": \"%s\", \"timestep\": %g, "
+              "\"duration\": %g, \"sim_time\": %.4f, \"fell\": %s, \"fall_time\": %s, "
+              "\"fall_reason\": \"%s\", \"time_up_s\": %.4f, \"distance_m\": %.4f, "
+              "\"lateral_m\": %.4f, \"displacement_m\": %.4f, \"mean_speed_mps\": %.4f, "
+              "\"wall_time_s\": %.4f, \"wall_s_per_sim_s\": %.4f, \"push_force_n\": %g, "
+              "\"push_duration_s\": %g, \"first_push_s\": %g, \"push_every_s\": %g, "
+              "\"com_height_start_m\": %.4f, \"ground_size_m\": %g, "
+              "\"collision_detector\": \"%s\"}\n",
+              o.gait.c_str(), dt, o.duration_s, sim_s, fell ? "true" : "false",
+              fell ? std::to_string(fall_time).c_str() : "null", fall_reason.c_str(), time_up,
+              forward.dot(walked), left.dot(walked), (walked - up.dot(walked) * up).norm(),
+              time_up > 0 ? forward.dot(walked) / time_up : 0.0, wall_s,
+              sim_s > 0 ? wall_s / sim_s : 0.0, o.push_force_n, o.push_duration_s,
+              o.first_push_s, o.push_every_s, com_height0, o.ground_size_m,
+              world->getConstraintSolver()->getCollisionDetector()->getType().c_str());
+  // clang-format on
   return 0;
 }
