@@ -22,7 +22,7 @@ SANITIZE_BUILD ?= build-sanitize
 FUZZ_RUN ?= ci
 SECONDS ?= 60
 
-.PHONY: demo test test-fast build install deps bench bench-python clean format eval-track \
+.PHONY: demo test test-fast build install deps bench bench-atlas bench-python clean format eval-track \
   robustness-maps compare-seed \
   sanitize-build test-sanitize fuzz
 
@@ -73,8 +73,13 @@ demo: build
 
 # the benchmarks and the seed's S0 loop in one run, printed as the README's table
 bench: deps $(BUILD)/CMakeCache.txt
-	cmake --build $(BUILD) -j$(JOBS) --target stance_bench
+	cmake --build $(BUILD) -j$(JOBS) --target stance_bench stance_cli stance_atlas_simbicon_peer
 	@bash bench/report.sh $(BUILD)
+
+# the README's section "The peer: DART's atlas_simbicon" alone (make bench runs it too)
+bench-atlas: deps $(BUILD)/CMakeCache.txt
+	cmake --build $(BUILD) -j$(JOBS) --target stance_cli stance_atlas_simbicon_peer
+	@bash bench/atlas_peer.sh $(BUILD)
 
 # the planner's tracking matrix (not part of CI: about two hours on 2 cores)
 eval-track: build

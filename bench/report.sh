@@ -255,3 +255,7 @@ if json_out:
     with open(json_out, "w") as f:
         json.dump({"benchmarks": runs, "peer": peer, "context": context}, f, indent=1)
 PY
+
+# the peer of issue 19 in this same run: DART's atlas_simbicon example beside stance's Atlas walk
+echo
+bash "$root/bench/atlas_peer.sh" "$build" ${json_out:+--json "${json_out%.json}_atlas.json"}

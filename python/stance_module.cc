@@ -23,6 +23,7 @@
 #include "math/dare.h"
 #include "params/yaml_params.h"
 #include "scenario/observers.h"
+#include "scenario/robustness.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "scenario/sweep.h"
@@ -1176,4 +1177,94 @@ candidate scored by its worst run over the nominal setting and the neighbours ("
 the GIL released; the same results for any thread count. Returns a dict: values (candidates x
 params), robust_score, worst_time_up, mean_metric, generation, failed_runs (numpy arrays in
 evaluation order; row 0 is the start), best (an index), best_sets (--set lines), notes.)");
+  m.def(
+      "robustness",
+      [](const std::string& path, const std::string& body, int directions, int phases,
+         double push_duration, double max_force, double tolerance, double at, double phase_spacing,
+         double recovery_window, int max_steps, const std::string& point,
+         const py::object& overrides, const std::string& engine, std::optional<double> duration,
+         int threads) {
+        RobustnessOptions o;
+        o.body = body;
+        o.directions = directions;
+        o.phases = phases;
+        o.push_duration = push_duration;
+        o.max_force = max_force;
+        o.tolerance = tolerance;
+        o.at = at;
+        o.phase_spacing_s = phase_spacing;
+        o.recovery_window_s = recovery_window;
+        o.max_recovery_steps = max_steps;
+        parse_push_point(point, o.point, o.offset);
+        o.engine = engine;
+        o.duration = duration;
+        o.threads = threads;
+        LoadedScenario loaded = load_scenario(path, override_list(overrides));
+        RobustnessResult r;
+        {
+          py::gil_scoped_release release;
+          r = run_robustness(loaded, o);
+        }
+        // thresholds as a directions x phases grid, trials flat in the order they ran
+        const py::ssize_t nd = r.directions.size(), np_ = r.phase_fractions.size();
+        py::array_t<double> threshold({nd, np_}), fell_at({nd, np_}), angles(nd), starts(np_);
+        py::array_t<int> outcome({nd, np_});
+        std::vector<const RobustnessTrial*> trials;
+        for (py::ssize_t d = 0; d < nd; ++d) {
+          angles.mutable_at(d) = r.angles_deg[d];
+          for (py::ssize_t p = 0; p < np_; ++p) {
+            const RobustnessCell& c = r.cell(d, p);
+            threshold.mutable_at(d, p) = c.threshold;
+            fell_at.mutable_at(d, p) = c.fell ? *c.fell : std::nan("");
+            outcome.mutable_at(d, p) = c.outcome_at_threshold;
+            for (const auto& t : c.trials) trials.push_back(&t);
+          }
+        }
+        for (py::ssize_t p = 0; p < np_; ++p) starts.mutable_at(p) = r.push_starts[p];
+        const py::ssize_t nt = trials.size();
+        py::array_t<int> t_dir(nt), t_phase(nt), t_outcome(nt), t_steps(nt);
+        py::array_t<double> t_force(nt), t_fall(nt), t_detour(nt);
+        for (py::ssize_t i = 0; i < nt; ++i) {
+          const RobustnessTrial& t = *trials[i];
+          t_dir.mutable_at(i) = t.direction;
+          t_phase.mutable_at(i) = t.phase;
+          t_force.mutable_at(i) = t.force;
+          t_outcome.mutable_at(i) = t.outcome;
+          t_fall.mutable_at(i) = t.fall_time ? *t.fall_time : std::nan("");
+          t_steps.mutable_at(i) = t.recovery_steps;
+          t_detour.mutable_at(i) = t.detour_m;
+        }
+        py::dict trial;
+        trial["direction"] = t_dir;
+        trial["phase"] = t_phase;
+        trial["force"] = t_force;
+        trial["outcome"] = t_outcome;
+        trial["fall_time"] = t_fall;
+        trial["recovery_steps"] = t_steps;
+        trial["detour_m"] = t_detour;
+        py::dict d;
+        d["threshold"] = threshold;
+        d["fell_at"] = fell_at;
+        d["outcome"] = outcome;
+        d["angle_deg"] = angles;
+        d["push_start"] = starts;
+        d["walker"] = r.walker;
+        d["planar"] = r.planar;
+        d["feet"] = r.feet;
+        d["trials"] = trial;
+        d["summary"] = json_to_py(robustness_summary(o, r));
+        d["notes"] = r.notes;
+        return d;
+      },
+      py::arg("path"), py::arg("body"), py::arg("directions") = 8, py::arg("phases") = 4,
+      py::arg("push_duration") = 0.2, py::arg("max_force") = 800.0, py::arg("tolerance") = 2.0,
+      py::arg("at") = 2.0, py::arg("phase_spacing") = 0.25, py::arg("recovery_window") = 3.0,
+      py::arg("max_steps") = 3, py::arg("point") = "com", py::arg("overrides") = py::none(),
+      py::arg("engine") = "", py::arg("duration") = std::nullopt, py::arg("threads") = 0,
+      R"(`stance robustness`: the largest push survived per direction and phase (docs/robustness.md),
+the GIL released; the same results for any thread count. Returns a dict: threshold, fell_at (NaN:
+max_force survived) and outcome (outcome code at the threshold) as directions x phases numpy
+arrays; angle_deg per direction; push_start per phase; walker, planar, feet; trials (numpy arrays
+in the order the trials ran: direction, phase, force, outcome, fall_time, recovery_steps,
+detour_m); summary (summary.json's content) and notes.)");
 }

@@ -46,8 +46,8 @@ Errors: stance.InputError (a ValueError) carries the CLI's one-line message with
 line or the parameter; stance.DivergenceError (a RuntimeError) is the CLI's exit code 3, with
 ``.result``.
 
-Batch: stance.sweep and stance.tune return numpy arrays and release the GIL while C++ runs, as
-Simulation.run does.
+Batch: stance.sweep, stance.tune and stance.robustness return numpy arrays and release the GIL
+while C++ runs, as Simulation.run does.
 """
 
 from ._stance import (  # noqa: F401
@@ -72,6 +72,7 @@ from ._stance import (  # noqa: F401
     load,
     lqr_state_cost,
     plot_force_offset,
+    robustness,
     solve_dare,
     spectral_radius,
     sweep,
@@ -88,7 +89,7 @@ __all__ = [
     "EngineState", "InputError", "JointInfo", "JointType", "LqrDesign", "LqrSetPoint",
     "RunResult", "Simulation", "SimulationState", "design_lqr", "find_lqr_setpoint",
     "linearize_fd", "linearize_fd_forces", "load", "lqr_gain", "lqr_state_cost",
-    "plot_force_offset", "run", "solve_dare", "spectral_radius", "sweep", "tune", "view",
+    "plot_force_offset", "robustness", "run", "solve_dare", "spectral_radius", "sweep", "tune", "view",
 ]
 
 

@@ -179,3 +179,37 @@ def test_tune_returns_the_cli_table(tmp, method):
     np.testing.assert_allclose(t["robust_score"], table["robust_score"], rtol=1e-8)  # 9 digits
     np.testing.assert_array_equal(t["generation"], table["generation"])
     assert len(t["best_sets"]) == 2
+
+
+def test_robustness_returns_the_cli_map(tmp):
+    # a small map (2 directions, 1 phase of standing) from Python and from the CLI: the same
+    # thresholds, outcomes and summary
+    path = SCENARIOS / "biped_stand.yaml"
+    opts = dict(body="h_pelvis", directions=2, phases=1, max_force=300.0, tolerance=10.0,
+                at=1.0, duration=2.5, threads=2, engine="mujoco")
+    rc, _, err = run_cli("robustness", path, "--body", "h_pelvis", "--directions", 2, "--phases",
+                         1, "--max", 300, "--tolerance", 10, "--at", 1.0, "--duration", 2.5,
+                         "--threads", 2, "--engine", "mujoco", "--no-plot", "--quiet",
+                         "--out", tmp)
+    assert rc == 0, err
+    m = stance.robustness(str(path), **opts)
+    assert m["threshold"].shape == (2, 1) and m["threshold"].dtype == np.float64
+    assert m["outcome"].dtype == np.int32 and m["angle_deg"].tolist() == [0.0, 180.0]
+    table = np.genfromtxt(tmp / "thresholds.csv", delimiter=",", names=True)
+    np.testing.assert_allclose(m["threshold"][:, 0], table["threshold_n"], rtol=1e-8)
+    np.testing.assert_array_equal(m["outcome"][:, 0], table["outcome_at_threshold"])
+    assert 0 < m["threshold"].min() < 300
+    # every trial at the threshold survived and the bracket above it fell
+    t = m["trials"]
+    for d in range(2):
+        mine = (t["direction"] == d)
+        ok = np.isin(t["outcome"][mine], [0, 3])
+        assert t["force"][mine][ok].max() == m["threshold"][d, 0]
+        assert t["force"][mine][~ok].min() == m["fell_at"][d, 0]
+    assert m["summary"] == read_summary(tmp)
+
+
+def test_robustness_bad_body_is_an_input_error():
+    with pytest.raises(stance.InputError, match="no_such_body"):
+        stance.robustness(str(SCENARIOS / "biped_stand.yaml"), body="no_such_body",
+                          directions=2, phases=1)

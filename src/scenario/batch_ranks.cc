@@ -1,10 +1,16 @@
 #include "scenario/batch_ranks.h"
 
+#include <algorithm>
+#include <chrono>
+#include <condition_variable>
 #include <cstdint>
 #include <cstdlib>
 #include <cstring>
+#include <deque>
 #include <exception>
+#include <mutex>
 #include <stdexcept>
+#include <thread>
 #include <vector>
 
 #include "scenario/sweep.h"
@@ -50,6 +56,116 @@ BatchRanks::~BatchRanks() {
 #endif
 }
 
+#ifdef STANCE_HAVE_MPI
+namespace {
+constexpr int kAskTag = 7101, kGiveTag = 7102;
+
+// Self-scheduling over ranks: rank 0 holds the next unstarted index; its own workers take from
+// it directly and its calling thread hands indices to the other ranks on request, so a rank
+// whose runs end early (a fall) takes more. Only the calling threads talk to MPI
+// (MPI_THREAD_FUNNELED). Each item's result depends on its index alone, so the files do not
+// depend on who ran what. Returns the indices this rank ran; the first job exception is kept
+// in `error` and later items are skipped (their results do not count: every rank throws).
+std::vector<int> run_self_scheduled(int n, int threads, int rank, int size,
+                                    const std::function<void(int)>& job,
+                                    std::exception_ptr& error) {
+  const int workers =
+      std::max(1, threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency()));
+  std::mutex m;
+  std::condition_variable work_cv, main_cv;
+  std::deque<int> queue;
+  int busy = 0;
+  bool no_more = false;
+  std::vector<int> ran;
+  auto worker = [&]() {
+    for (;;) {
+      int i;
+      {
+        std::unique_lock<std::mutex> lock(m);
+        work_cv.wait(lock, [&] { return !queue.empty() || no_more; });
+        if (queue.empty()) return;
+        i = queue.front();
+        queue.pop_front();
+        ++busy;
+      }
+      bool skip;
+      {
+        std::lock_guard<std::mutex> lock(m);
+        skip = static_cast<bool>(error);
+      }
+      std::exception_ptr failed;
+      if (!skip) {
+        try {
+          job(i);
+        } catch (...) {
+          failed = std::current_exception();
+        }
+      }
+      {
+        std::lock_guard<std::mutex> lock(m);
+        if (failed && !error) error = failed;
+        ran.push_back(i);
+        --busy;
+      }
+      main_cv.notify_one();
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int k = 0; k < workers; ++k) pool.emplace_back(worker);
+
+  int next = 0;             // rank 0: the next unstarted index
+  int ranks_told_done = 0;  // rank 0: ranks that got the end mark
+  bool exhausted = false;   // this rank got an index >= n
+  auto take = [&]() -> int {
+    if (rank == 0) return next < n ? next++ : n;
+    int ask = 1, given = n;
+    MPI_Send(&ask, 1, MPI_INT, 0, kAskTag, MPI_COMM_WORLD);
+    MPI_Recv(&given, 1, MPI_INT, 0, kGiveTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+    return given;
+  };
+  for (;;) {
+    if (rank == 0) {
+      // answer every waiting request from another rank
+      for (int flag = 1; flag;) {
+        MPI_Status status;
+        MPI_Iprobe(MPI_ANY_SOURCE, kAskTag, MPI_COMM_WORLD, &flag, &status);
+        if (!flag) break;
+        int ask = 0;
+        MPI_Recv(&ask, 1, MPI_INT, status.MPI_SOURCE, kAskTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+        const int given = next < n ? next++ : n;
+        if (given == n) ++ranks_told_done;
+        MPI_Send(&given, 1, MPI_INT, status.MPI_SOURCE, kGiveTag, MPI_COMM_WORLD);
+      }
+    }
+    {
+      std::unique_lock<std::mutex> lock(m);
+      // keep every worker busy; no index waits here while another rank could take it
+      while (!exhausted && static_cast<int>(queue.size()) + busy < workers) {
+        lock.unlock();
+        const int i = take();
+        lock.lock();
+        if (i >= n) {
+          exhausted = true;
+          no_more = true;
+        } else {
+          queue.push_back(i);
+        }
+        work_cv.notify_all();
+      }
+      const bool idle = exhausted && queue.empty() && busy == 0;
+      if (idle && (rank != 0 || ranks_told_done == size - 1)) break;
+      // rank 0 polls for requests; the others wait for a worker to finish
+      main_cv.wait_for(lock, std::chrono::microseconds(rank == 0 ? 200 : 20000));
+    }
+  }
+  work_cv.notify_all();
+  for (auto& t : pool) t.join();
+  std::sort(ran.begin(), ran.end());
+  return ran;
+}
+}  // namespace
+#endif
+
 void BatchRanks::distributed_for(int n, int threads, const std::function<void(int)>& job,
                                  const std::function<std::string(int)>& encode,
                                  const std::function<void(int, const std::string&)>& decode,
@@ -59,14 +175,8 @@ void BatchRanks::distributed_for(int n, int threads, const std::function<void(in
     return;
   }
 #ifdef STANCE_HAVE_MPI
-  std::vector<int> mine;
-  for (int i = rank_; i < n; i += size_) mine.push_back(i);
   std::exception_ptr error;
-  try {
-    parallel_for(static_cast<int>(mine.size()), threads, [&](int k) { job(mine[k]); });
-  } catch (...) {
-    error = std::current_exception();
-  }
+  const std::vector<int> mine = run_self_scheduled(n, threads, rank_, size_, job, error);
   // this rank's results: (index, length, bytes) one after another
   std::string packed;
   for (int i : mine) {

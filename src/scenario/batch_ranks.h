@@ -5,9 +5,10 @@
 // initialises MPI, so its stderr and exit stay as they are. In a build without MPI
 // (STANCE_WITH_MPI=OFF) there is always one rank.
 //
-// Work item i runs on rank i % size; the results are encoded as text, gathered at rank 0 and
-// decoded there, so rank 0 holds exactly what a single process would have computed and writes
-// every output. Results do not depend on the rank or thread count.
+// Work items are handed out by rank 0 as ranks free up (a run that falls ends early); the results
+// are encoded as text, gathered at rank 0 and decoded there, so rank 0 holds exactly what a single
+// process would have computed and writes every output. Results do not depend on the rank or thread
+// count.
 #pragma once
 
 #include <functional>
@@ -24,9 +25,9 @@ class BatchRanks {
   int size() const { return size_; }
   bool root() const { return rank_ == 0; }
 
-  // job(i) for this rank's indices of [0, n) on `threads` threads; then encode(i) of every
-  // rank's indices is gathered at rank 0, which calls decode(i, text) for the other ranks' (an
-  // empty text: that item did not finish). An exception in this rank's jobs is rethrown after
+  // job(i) for the indices of [0, n) this rank is handed, on `threads` threads; then encode(i)
+  // of every rank's indices is gathered at rank 0, which calls decode(i, text) for the other ranks'
+  // (an empty text: that item did not finish). An exception in this rank's jobs is rethrown after
   // the gather; one in another rank's makes every rank throw.
   // every_rank: every rank decodes the others' items (for work whose next step needs all the
   // results on every rank, as a tuner's next generation does)

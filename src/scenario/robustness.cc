@@ -473,6 +473,35 @@ RobustnessResult run_robustness(
   return result;
 }
 
+nlohmann::json robustness_summary(const RobustnessOptions& o, const RobustnessResult& r) {
+  nlohmann::json s = r.summary();
+  s["scenario"] = r.scenario;
+  s["engine"] = r.engine;
+  s["body"] = o.body;
+  s["point"] = o.point;
+  s["offset_m"] = {o.offset.x(), o.offset.y(), o.offset.z()};
+  s["kind"] = r.walker ? "walker" : "standing";
+  s["planar"] = r.planar;
+  if (r.walker) s["step_period_s"] = r.step_period_s;
+  s["feet"] = r.feet;
+  s["duration_s"] = r.duration_s;
+  s["push_duration_s"] = o.push_duration;
+  s["max_force_n"] = o.max_force;
+  s["tolerance_n"] = o.tolerance;
+  s["recovery_window_s"] = o.recovery_window_s;
+  s["max_recovery_steps"] = o.max_recovery_steps;
+  s["directions"] = r.directions.size();
+  s["phases"] = r.phase_fractions.size();
+  s["push_starts_s"] = r.push_starts;
+  s["unpushed_fall_time_s"] =
+      r.unpushed_fall_time ? nlohmann::json(*r.unpushed_fall_time) : nlohmann::json(nullptr);
+  int trials = 0;
+  for (const auto& c : r.cells) trials += static_cast<int>(c.trials.size());
+  s["trials"] = trials;
+  s["notes"] = r.notes;
+  return s;
+}
+
 void write_robustness_outputs(const std::string& dir, const RobustnessOptions& o,
                               const RobustnessResult& r) {
   namespace fs = std::filesystem;
@@ -504,32 +533,7 @@ void write_robustness_outputs(const std::string& dir, const RobustnessOptions& o
                          c.trials.size());
     file.commit();
   }
-  nlohmann::json s = r.summary();
-  s["scenario"] = r.scenario;
-  s["engine"] = r.engine;
-  s["body"] = o.body;
-  s["point"] = o.point;
-  s["offset_m"] = {o.offset.x(), o.offset.y(), o.offset.z()};
-  s["kind"] = r.walker ? "walker" : "standing";
-  s["planar"] = r.planar;
-  if (r.walker) s["step_period_s"] = r.step_period_s;
-  s["feet"] = r.feet;
-  s["duration_s"] = r.duration_s;
-  s["push_duration_s"] = o.push_duration;
-  s["max_force_n"] = o.max_force;
-  s["tolerance_n"] = o.tolerance;
-  s["recovery_window_s"] = o.recovery_window_s;
-  s["max_recovery_steps"] = o.max_recovery_steps;
-  s["directions"] = r.directions.size();
-  s["phases"] = r.phase_fractions.size();
-  s["push_starts_s"] = r.push_starts;
-  s["unpushed_fall_time_s"] =
-      r.unpushed_fall_time ? nlohmann::json(*r.unpushed_fall_time) : nlohmann::json(nullptr);
-  int trials = 0;
-  for (const auto& c : r.cells) trials += static_cast<int>(c.trials.size());
-  s["trials"] = trials;
-  s["notes"] = r.notes;
-  write_file_atomically(folder / "summary.json", s.dump(2) + "\n");
+  write_file_atomically(folder / "summary.json", robustness_summary(o, r).dump(2) + "\n");
 }
 
 namespace {

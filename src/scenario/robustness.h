@@ -122,6 +122,9 @@ RobustnessResult run_robustness(
 nlohmann::json cell_to_json(const RobustnessCell& cell);
 RobustnessCell cell_from_json(const nlohmann::json& j);
 
+// summary.json's content: the result's summary with the options and what was chosen
+nlohmann::json robustness_summary(const RobustnessOptions& options, const RobustnessResult& result);
+
 // robustness.csv, thresholds.csv and summary.json into dir (created if needed)
 void write_robustness_outputs(const std::string& dir, const RobustnessOptions& options,
                               const RobustnessResult& result);

@@ -7,7 +7,7 @@
 #                 every machine: what passed here passes there (make test-sanitize).
 # Seeds: the files under tests/fuzz/corpus/<target>/ (the inputs that crashed stance before)
 # plus the shipped files: models, scenarios, joint maps and dart-doc's .skel worlds.
-# Fails on the first crash, leak or sanitizer report; prints executions per target.
+# Fails when any target crashes, leaks or gets a sanitizer report; prints executions per target.
 set -euo pipefail
 build=$(cd "$1" && pwd)
 seconds=$2
@@ -56,20 +56,18 @@ make_seeds() {
   return 0
 }
 
-cd "$build/fuzz"
-mkdir -p crashes
-for target in "${targets[@]}"; do
-  seeds=$build/fuzz/seeds/$target
+# one target: its seeds once (SECONDS = 0) or its budget; prints one line, returns 1 on a finding
+fuzz_one() {
+  local target=$1 seeds=$build/fuzz/seeds/$1 log=$build/fuzz/$1.log work budget slow runs start
   make_seeds "$target" "$seeds"
-  log=$build/fuzz/$target.log
   if [ "$seconds" = 0 ]; then
     ./fuzz_"$target" -runs=0 -artifact_prefix=crashes/"$target"- "$seeds" >"$log" 2>&1 || {
       tail -40 "$log"
       echo "fuzz $target: FAILED on its seeds"
-      exit 1
+      return 1
     }
     echo "fuzz $target: $(ls "$seeds" | wc -l) seeds ran clean"
-    continue
+    return 0
   fi
   work=$build/fuzz/corpus/$target
   budget=(-max_total_time="$seconds")
@@ -95,8 +93,29 @@ for target in "${targets[@]}"; do
     -artifact_prefix=crashes/"$target"- "$work" "$seeds" >"$log" 2>&1 || {
     tail -60 "$log"
     echo "fuzz $target: CRASHED (artifact in $build/fuzz/crashes/)"
-    exit 1
+    return 1
   }
   runs=$(grep -o 'stat::number_of_executed_units: *[0-9]*' "$log" | grep -o '[0-9]*$' || echo '?')
   echo "fuzz $target: $runs executions in $(($(date +%s) - start)) s, 0 crashes"
+}
+
+cd "$build/fuzz"
+mkdir -p crashes
+# the targets run side by side, FUZZ_JOBS at a time (default: one per core); each is one
+# single-threaded libFuzzer process with its own fixed budget, so the results do not depend on it
+jobs=${FUZZ_JOBS:-$(nproc)}
+failed=0
+running=0
+for target in "${targets[@]}"; do
+  if [ "$running" -ge "$jobs" ]; then
+    wait -n || failed=1
+    running=$((running - 1))
+  fi
+  fuzz_one "$target" &
+  running=$((running + 1))
 done
+while [ "$running" -gt 0 ]; do
+  wait -n || failed=1
+  running=$((running - 1))
+done
+exit "$failed"
