@@ -21,7 +21,7 @@ for scenario in scenarios/*.yaml; do
   run "$scenario"
 done
 # the same scenarios on the other engine
-for name in pd_hold biped_stand biped_skateboard simbicon_walk; do
+for name in pd_hold biped_stand biped_skateboard simbicon_walk simbicon_fullbody1; do
   [ -f "scenarios/$name.yaml" ] && run "scenarios/$name.yaml" --engine dart
 done
 echo "outputs in $out/"
