@@ -60,15 +60,34 @@ void write_stl(const std::string& path, const float v[9]) {
   out.write(reinterpret_cast<const char*>(&attribute), 2);
 }
 
+// a folder of this process's own: ctest runs these tests as parallel processes, and a file
+// one of them rewrites (foot.stl, two.urdf) must not change under another's reader
+struct PrivateFolder {
+  std::filesystem::path path =
+      std::filesystem::temp_directory_path() / ("stance_robot_tests_" + std::to_string(::getpid()));
+  PrivateFolder() { std::filesystem::create_directories(path); }
+  ~PrivateFolder() {
+    std::error_code ignored;
+    std::filesystem::remove_all(path, ignored);
+  }
+};
+
 std::string temp_dir() {
-  return std::filesystem::path(test::write_temp_file("robot_probe.txt", "")).parent_path();
+  static const PrivateFolder folder;
+  return folder.path.string();
+}
+
+std::string write_file(const std::string& name, const std::string& text) {
+  const std::string path = temp_dir() + "/" + name;
+  std::ofstream(path) << text;
+  return path;
 }
 
 std::string write_robot(const std::string& name, const std::string& text) {
   const float tri[9] = {-0.1f, -0.05f, -0.02f, 0.2f, 0.05f, -0.02f, 0.0f, 0.0f, 0.03f};
   write_stl(temp_dir() + "/foot.stl", tri);
-  test::write_temp_file("foot.dae", "<COLLADA/>");
-  return test::write_temp_file(name, text);
+  write_file("foot.dae", "<COLLADA/>");
+  return write_file(name, text);
 }
 
 std::string error_of(const std::string& name, const std::string& text,
@@ -111,14 +130,14 @@ TEST(RobotModel, MeshBoundsOfBinaryAndAsciiStl) {
   EXPECT_NEAR(b.min().x(), -0.2, 1e-7);
   EXPECT_NEAR(b.max().x(), 0.4, 1e-7);
   EXPECT_NEAR(b.max().z(), 0.03, 1e-7);
-  const std::string ascii = test::write_temp_file(
+  const std::string ascii = write_file(
       "tri_ascii.stl",
       "solid t\nfacet normal 0 0 1\nouter loop\nvertex 0 0 0\nvertex 1 2 3\nvertex -1 0 0\n"
       "endloop\nendfacet\nendsolid t\n");
   const Eigen::AlignedBox3d a = mesh_bounds("m", 1, ascii, Eigen::Vector3d::Ones());
   EXPECT_EQ(a.min(), Eigen::Vector3d(-1, 0, 0));
   EXPECT_EQ(a.max(), Eigen::Vector3d(1, 2, 3));
-  const std::string bad = test::write_temp_file("bad.stl", "not a mesh");
+  const std::string bad = write_file("bad.stl", "not a mesh");
   try {
     mesh_bounds("robot.urdf", 7, bad, Eigen::Vector3d::Ones());
     FAIL() << "no error";
@@ -240,7 +259,7 @@ TEST(RobotModel, SdfReadsPosesInTheModelFrame) {
   </model>
 </sdf>
 )";
-  const RobotModel m = read_robot("m.sdf", test::write_temp_file("m.sdf", sdf), {});
+  const RobotModel m = read_robot("m.sdf", write_file("m.sdf", sdf), {});
   EXPECT_EQ(m.root_joint, "root");
   EXPECT_NEAR(m.pose.translation().z(), 1, 1e-15);
   EXPECT_TRUE(m.joints[0].parent_to_child.translation().isApprox(Eigen::Vector3d(0.5, 0, 0)));
