@@ -78,6 +78,7 @@ std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
     throw InputError("MuJoCo loads one MJCF/URDF file per world; use <include> to compose");
   const ModelFile& mf = spec.models.front();
   const std::string path = resolve_model_path(mf.path);
+  check_mjcf_root(mf.path, path);
   world.models.push_back({path, path, "", model_format(path), mf.offset});
   return open_mujoco_engine(world);
 }
@@ -90,7 +91,10 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
     BackendModel model{mf.path, path, "", model_format(path), mf.offset};
     // DART's parsers assert or crash on bad values: stance's own checks go first, located
     if (model.format == ModelFormat::kSkel) check_skel_for_dart(path);
-    if (model.format == ModelFormat::kMjcf) check_mujoco_compiles(model);
+    if (model.format == ModelFormat::kMjcf) {
+      check_mjcf_root(mf.path, path);
+      check_mujoco_compiles(model);
+    }
     if (is_robot_format(model.format)) {
       const RobotModel robot = read_robot(mf.path, path, mf.robot);
       model.text = robot_text_for_dart(mf.path, path, mf.robot);

@@ -3,6 +3,8 @@
 #include <cstdlib>
 #include <filesystem>
 
+#include <tinyxml2.h>
+
 #include "core/error.h"
 
 namespace stance {
@@ -36,6 +38,19 @@ std::string resolve_model_path(const std::string& path) {
     throw InputError(path + ": no such file (looked for " + resolved + ")");
   }
   return resolved;
+}
+
+void check_mjcf_root(const std::string& name, const std::string& path) {
+  tinyxml2::XMLDocument doc;
+  if (doc.LoadFile(path.c_str()) != tinyxml2::XML_SUCCESS) return;
+  const tinyxml2::XMLElement* root = doc.RootElement();
+  if (!root || std::string(root->Name()) == "mujoco") return;
+  const std::string what = root->Name();
+  std::string hint = "an MJCF file's root is <mujoco>";
+  if (what == "robot") hint += "; a URDF file must be named .urdf";
+  if (what == "sdf") hint += "; an SDF file must be named .sdf";
+  if (what == "skel") hint += "; a SKEL file must be named .skel";
+  throw InputError(located(name, root->GetLineNum(), "root element <" + what + ">: " + hint));
 }
 
 }  // namespace stance

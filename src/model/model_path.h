@@ -16,4 +16,10 @@ namespace stance {
 // Throws InputError "<path>: no such file" when the resolved file does not exist.
 std::string resolve_model_path(const std::string& path);
 
+// An MJCF file's root element must be <mujoco>: MuJoCo's mj_loadXML would hand a <robot> root to
+// its own URDF importer (which crashed on fuzzed input and differs from stance's URDF reader).
+// Throws InputError "<name>:<line>: root element <x>: ..." otherwise; a file that is not
+// well-formed XML is left to MuJoCo, whose message has the line.
+void check_mjcf_root(const std::string& name, const std::string& path);
+
 }  // namespace stance

@@ -302,8 +302,12 @@ YAML::Node load_yaml_text(const std::string& text, const YamlTextSource& source)
 }
 
 YAML::Node load_yaml_file(const std::string& path) {
-  if (!std::filesystem::exists(path)) throw InputError(path + ": no such file");
-  if (std::filesystem::is_directory(path)) throw InputError(path + ": a folder, not a YAML file");
+  std::error_code ec;
+  const bool exists = std::filesystem::exists(path, ec);
+  if (ec) throw InputError(path + ": " + ec.message());
+  if (!exists) throw InputError(path + ": no such file");
+  if (std::filesystem::is_directory(path, ec))
+    throw InputError(path + ": a folder, not a YAML file");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path + ": cannot open");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());

@@ -34,7 +34,10 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
         !std::filesystem::path(m.file).is_absolute() && !base_dir.empty()) {
       auto candidate = std::filesystem::path(base_dir) / m.file;
       // paths relative to the YAML's folder, falling back to the working directory
-      if (std::filesystem::exists(candidate) || !std::filesystem::exists(m.file))
+      // (a name the file system refuses, e.g. too long, counts as absent: the model's own
+      // loading then reports it with the file and line)
+      std::error_code ignored;
+      if (std::filesystem::exists(candidate, ignored) || !std::filesystem::exists(m.file, ignored))
         m.file = candidate.lexically_normal().string();
     }
     for (std::string& dir : m.package_path)

@@ -221,5 +221,31 @@ TEST(MujocoEngine, BadInput) {
   }
 }
 
+// a .xml file whose root is <robot> is refused with its line before MuJoCo sees it, on both
+// engines: mj_loadXML would hand it to MuJoCo's own URDF importer, which segfaulted on a
+// fuzzed file (fuzz_model), and stance reads URDF through its own reader (.urdf)
+TEST(MujocoEngine, AnXmlFileWithARobotRootIsRefusedWithItsLine) {
+  WorldSpec spec;
+  spec.models.push_back(
+      {test::write_temp_file("robot_as.xml",
+                             "<?xml version=\"1.0\"?>\n<!-- a URDF -->\n<robot name=\"r\">\n"
+                             "  <link name=\"a\"/>\n</robot>\n")});
+  for (const char* engine : {"mujoco", "dart"}) {
+#ifndef STANCE_HAVE_DART
+    if (std::string(engine) == "dart") continue;
+#endif
+    try {
+      make_engine(engine, spec);
+      ADD_FAILURE() << engine << ": loaded";
+    } catch (const InputError& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("robot_as.xml:3: root element <robot>: an MJCF file's root is "
+                          "<mujoco>; a URDF file must be named .urdf"),
+                std::string::npos)
+          << engine << ": " << what;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace stance

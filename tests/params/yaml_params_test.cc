@@ -161,6 +161,18 @@ TEST(YamlParams, MalformedFileNamesLine) {
   EXPECT_THROW(load_yaml_file("/no/such.yaml"), InputError);
 }
 
+// a name the file system refuses (longer than NAME_MAX) is bad input naming it, not an internal
+// error (fuzz_scenario: std::filesystem::exists threw)
+TEST(YamlParams, AFileNameTooLongIsBadInput) {
+  const std::string path = "/tmp/" + std::string(5000, 'a') + ".yaml";
+  try {
+    load_yaml_file(path);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": File name too long");
+  }
+}
+
 // the exact message a strict load of `text` (as file "s.yaml") throws, or "" when it loads
 std::string strict_error(const std::string& text) {
   try {

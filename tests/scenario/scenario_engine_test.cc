@@ -61,3 +61,21 @@ TEST(ScenarioEngine, KeyframeOnDartIsBadInputNamingTheKey) {
 
 }  // namespace
 }  // namespace stance
+
+namespace stance {
+namespace {
+// a model name the file system refuses is looked up without throwing (fuzz_scenario found
+// std::filesystem::exists throwing there): the model's loading then names it, exit 2
+TEST(ScenarioEngine, AModelNameTooLongIsBadInput) {
+  const std::string yaml = test::write_temp_file(
+      "long_model.yaml", "name: x\nmodel: " + std::string(5000, 'm') + ".xml\nduration: 1\n");
+  try {
+    LoadedScenario loaded = load_scenario(yaml, {});
+    Simulation sim(loaded, {});
+    FAIL() << "loaded";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("mmmm.xml"), std::string::npos) << e.what();
+  }
+}
+}  // namespace
+}  // namespace stance
