@@ -71,8 +71,8 @@ print('[' + ', '.join(out) + ']')")
   fi
 fi
 
-"$python" - "$tmp" "$note" "$json_out" "$scenario" "$duration" "$push_n" "$push_s" \
-  "$push_first" "$push_every" "$fall_fraction" <<'PY'
+PYTHONPATH="$root/bench" "$python" - "$tmp" "$note" "$json_out" "$scenario" "$duration" \
+  "$push_n" "$push_s" "$push_first" "$push_every" "$fall_fraction" <<'PY'
 import csv, datetime, json, os, sys
 
 import yaml
@@ -80,14 +80,7 @@ import yaml
 tmp, note, json_out, scenario = sys.argv[1:5]
 duration, push_n, push_s, push_first, push_every, fall_fraction = sys.argv[5:11]
 
-def fmt(x, digits=3):
-    if x is None:
-        return "n/a"
-    if x == 0:
-        return "0"
-    from math import floor, log10
-    d = max(0, digits - 1 - int(floor(log10(abs(x)))))
-    return f"{x:.{d}f}"
+from bench_format import fmt
 
 def fixed(x, unit):
     # two decimals, no "-0.00"

@@ -71,7 +71,7 @@ if [ -x "$stance" ]; then
   } >"$tmp/batch.txt"
 fi
 
-"$python" - "$tmp" "$peer_note" "$json_out" <<'PY'
+PYTHONPATH="$root/bench" "$python" - "$tmp" "$peer_note" "$json_out" <<'PY'
 import json, os, sys
 
 tmp, peer_note, json_out = sys.argv[1], sys.argv[2], sys.argv[3]
@@ -97,14 +97,7 @@ def time_in(name, unit):
     scale = {"ns": 1, "us": 1e3, "ms": 1e6, "s": 1e9}
     return b["real_time"] * scale[b["time_unit"]] / scale[unit]
 
-def fmt(x, digits=3):
-    if x is None:
-        return "n/a"
-    if x == 0:
-        return "0"
-    from math import floor, log10
-    d = max(0, digits - 1 - int(floor(log10(abs(x)))))
-    return f"{x:.{d}f}"
+from bench_format import fmt
 
 def pct(x):
     return "n/a" if x is None else f"{100 * x:.1f}%"
