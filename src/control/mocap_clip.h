@@ -77,6 +77,7 @@ struct MocapBalanceParams {
   double cv_coronal = 0.2;
   double stance_hip_world_weight = 1;  // stance hip: 1 servoes the pelvis, 0 the reference angle
   bool swing_foot_world = false;       // swing foot at its reference world orientation
+  bool level_planted_feet = true;  // free mode: the clip's planted feet turned level (retarget.h)
   double gravity_compensation = 0;     // weight fraction carried through the stance leg(s)
   double root_force_kp = 0;            // N/m: virtual force holding the root over the stance foot
   double root_force_kd = 0;            // N s/m
@@ -94,6 +95,8 @@ struct MocapBalanceParams {
     v("stance_hip_world_weight", stance_hip_world_weight,
       {.min = 0, .max = 1, .help = "free mode: 1 pelvis servo, 0 the reference hip angle"});
     v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});
+    v("level_planted_feet", level_planted_feet,
+      {.help = "free mode: turn the clip's planted feet level"});
     v("gravity_compensation", gravity_compensation,
       {.min = 0, .max = 2, .help = "free mode: weight fraction carried through the stance leg"});
     v("root_force_kp", root_force_kp,

@@ -52,7 +52,22 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
       map_path = std::filesystem::path(base_dir) / map_path;
     map = read_joint_map(map_path.string());
   }
-  motion_ = std::make_shared<RetargetedMotion>(*clip_.reference, map, *probe, ctx.duration_s);
+  // the legs, as clip segments: the balance layer's, the fall rule's and the planted feet's
+  int hip_seg[2] = {-1, -1}, foot_seg[2] = {-1, -1};
+  const MotionSkeleton& sk = clip_.reference->skeleton();
+  find_mocap_legs(sk, {params.left_hip, params.right_hip, params.left_foot, params.right_foot},
+                  hip_seg, foot_seg);
+  // free mode stands on level feet: each foot segment and the segments below it
+  std::vector<int> level_feet;
+  if (mode_ == MocapRootMode::kFree && params.level_planted_feet)
+    for (int seg = 0; seg < sk.segment_count(); ++seg)
+      for (int a = seg; a >= 0; a = sk.segments[a].parent)
+        if (a == foot_seg[0] || a == foot_seg[1]) {
+          level_feet.push_back(seg);
+          break;
+        }
+  motion_ = std::make_shared<RetargetedMotion>(*clip_.reference, map, *probe, ctx.duration_s,
+                                               level_feet);
   const Eigen::Vector3d g = engine.gravity();
   up_ = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
 
@@ -72,10 +87,6 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
   // the legs, as mapped bodies: the balance layer's, the fall rule's feet and the foot skate's
   const auto& bodies = motion_->bodies();
   {
-    const MotionSkeleton& sk = clip_.reference->skeleton();
-    int hip_seg[2], foot_seg[2];
-    find_mocap_legs(sk, {params.left_hip, params.right_hip, params.left_foot, params.right_foot},
-                    hip_seg, foot_seg);
     for (int side = 0; side < 2; ++side)
       for (size_t i = 0; i < bodies.size(); ++i) {
         if (bodies[i].segment == hip_seg[side]) hip_[side] = static_cast<int>(i);
@@ -495,12 +506,19 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
     if (parent >= 0) base = engine.body_pose(parent).quat * base;
     motion_->set_body_local(i, (base.conjugate() * world).normalized(), s.q_ref);
   };
-  set_world(hip_[swing], delta * yaw_fix * s.bal_world[hip_[swing]]);
-  if (p.swing_foot_world) set_world(foot_[swing], yaw_fix * s.bal_world[foot_[swing]]);
-  // the stance hip: the joint rotation that puts the pelvis at its reference over the thigh as
-  // it is, blended with the reference's own
-  const int hip = hip_[s.stance];
-  if (engine.body_parent(bodies[hip].body) == root_body) {
+  // the swing servo only while the swing foot is off the ground: a foot that is down is a
+  // second stance foot, and servoing its thigh would drag it
+  const bool swinging = !touch[swing];
+  if (swinging) {
+    set_world(hip_[swing], delta * yaw_fix * s.bal_world[hip_[swing]]);
+    if (p.swing_foot_world) set_world(foot_[swing], yaw_fix * s.bal_world[foot_[swing]]);
+  }
+  // the stance hip (both hips when both feet are down): the joint rotation that puts the pelvis
+  // at its reference over the thigh as it is, blended with the reference's own
+  for (int side = 0; side < 2; ++side) {
+    const int hip = hip_[side];
+    if ((side != s.stance && swinging) || engine.body_parent(bodies[hip].body) != root_body)
+      continue;
     const Eigen::Quaterniond tilt = Eigen::Quaterniond(Eigen::AngleAxisd(c[kPelvisPitch], -lat)) *
                                     Eigen::Quaterniond(Eigen::AngleAxisd(c[kPelvisRoll], fwd));
     const Eigen::Quaterniond pelvis = tilt * yaw_fix * s.bal_world[root_mapped_];

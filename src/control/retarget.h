@@ -53,8 +53,12 @@ class RetargetedMotion {
   // pass of the clip; the reference loops or clamps). `probe` is a scratch engine of the model:
   // its state is overwritten. Throws InputError for unknown names, a root segment that is not
   // mapped, or a model without a free root.
+  // `level_feet`: clip segments (feet and toes) whose bodies are turned level while the clip
+  // has them planted: within 2 cm of their planted height (the 20th percentile of their
+  // heights) and below 0.3 m/s, fading out by 5 cm and 0.8 m/s. A foot whose capture is tilted
+  // then stands on its sole, not on an edge.
   RetargetedMotion(const ReferenceMotion& reference, const JointMap& map, Engine& probe,
-                   double duration_s);
+                   double duration_s, const std::vector<int>& level_feet = {});
 
   int nq() const { return nq_; }
   int nv() const { return nv_; }

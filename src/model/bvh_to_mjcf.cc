@@ -95,6 +95,11 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
       Geom g;
       g.to = e;
       g.radius = std::clamp(o.limb_radius_fraction * len, o.min_radius_m, o.max_radius_m);
+      // a shin ends one radius short of the ankle: its round end must not reach below the foot's
+      // sole, or the character stands on two balls and no ankle torque can balance it
+      for (int c : seg.children)
+        if (is_foot_segment_name(sk.segments[c].name) && (sk.segments[c].offset - e).norm() < 1e-9)
+          g.to = e * std::max(0.0, 1 - g.radius / len);
       geoms[k].push_back(g);
       any_bone = true;
     }

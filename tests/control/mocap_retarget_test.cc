@@ -29,12 +29,14 @@ struct OwnCharacter {
   std::unique_ptr<ReferenceMotion> reference;
   JointMap map;
 
-  explicit OwnCharacter(const std::string& height_offset) {
+  explicit OwnCharacter(const std::string& height_offset,
+                        BvhClip from = make_synthetic_walk_clip(), bool loop = true)
+      : clip(std::move(from)) {
     BvhCharacterOptions o;
     BvhCharacter c = make_bvh_character(clip, o);
     xml = test::write_temp_file("retarget_own.xml", c.mjcf);
     ReferenceOptions ro;
-    ro.loop = true;
+    ro.loop = loop;
     reference = std::make_unique<ReferenceMotion>(clip, c.skeleton, ro);
     std::string text = "height_offset: " + height_offset + "\njoints:\n";
     for (const auto& s : c.skeleton.segments) text += "  " + s.name + ": " + s.name + "\n";
@@ -89,6 +91,78 @@ TEST(Retarget, AutomaticHeightPutsTheLowestPointOnTheFloor) {
       lifted.clip, make_bvh_character(lifted.clip, o).skeleton, ro);
   RetargetedMotion down(*lifted.reference, lifted.map, *probe, 0);
   EXPECT_NEAR(down.height_offset_m(), motion.height_offset_m() - 0.1, 1e-4);
+}
+
+// a clip that stands still on feet pitched 12 degrees toes-down, then lifts the left leg
+// (hip and knee flexed: the foot 20 cm up)
+BvhClip tilted_feet_clip() {
+  BvhClip clip = make_synthetic_walk_clip();
+  const int frames = 120, n = clip.joint_count();
+  const Eigen::Vector3d root = clip.positions[0];
+  clip.frame_count = frames;
+  clip.rotations.assign(static_cast<size_t>(frames) * n, Eigen::Quaterniond::Identity());
+  clip.positions.assign(static_cast<size_t>(frames) * clip.position_joint_count, root);
+  clip.raw.setZero(frames, clip.channel_count);
+  auto joint = [&](const char* name) {
+    for (int j = 0; j < n; ++j)
+      if (clip.joints[j].name == name) return j;
+    return -1;
+  };
+  const double deg = std::numbers::pi / 180;
+  for (int f = 0; f < frames; ++f) {
+    for (const char* foot : {"LeftFoot", "RightFoot"})
+      clip.rotation(f, joint(foot)) = Eigen::AngleAxisd(12 * deg, Eigen::Vector3d::UnitX());
+    if (f >= 80) {
+      clip.rotation(f, joint("LeftUpLeg")) = Eigen::AngleAxisd(-50 * deg, Eigen::Vector3d::UnitX());
+      clip.rotation(f, joint("LeftLeg")) = Eigen::AngleAxisd(60 * deg, Eigen::Vector3d::UnitX());
+    }
+  }
+  return clip;
+}
+
+// free mode levels the clip's planted feet (near their planted height and slow) and leaves a
+// lifted foot, and every other body, as the clip has them
+TEST(Retarget, LevelsPlantedFeetAndNothingElse) {
+  OwnCharacter own("0", tilted_feet_clip(), false);
+  auto probe = engine_of("mujoco", own.xml);
+  const MotionSkeleton& sk = own.reference->skeleton();
+  const std::vector<int> feet = {sk.find_segment("LeftFoot"), sk.find_segment("RightFoot")};
+  RetargetedMotion as_is(*own.reference, own.map, *probe, 0);
+  RetargetedMotion level(*own.reference, own.map, *probe, 0, feet);
+  ASSERT_EQ(as_is.frame_count(), level.frame_count());
+  const double dt = level.frame_time_s();
+  auto mapped = [&](int segment) {
+    int i = 0;
+    while (level.bodies()[i].segment != segment) ++i;
+    return i;
+  };
+  // a foot body's tilt: the angle of its rest up (the sole's normal) from the world's up
+  auto tilt_deg = [&](const RetargetedMotion& m, int f, int i) {
+    const Eigen::Vector3d up = m.sample_body_pose(f * dt, i).quat * Eigen::Vector3d::UnitZ();
+    return std::acos(std::clamp(up.z(), -1.0, 1.0)) * 180 / std::numbers::pi;
+  };
+  const int left = mapped(feet[0]), right = mapped(feet[1]);
+  for (int f = 0; f < level.frame_count(); ++f) {
+    SCOPED_TRACE(f);
+    EXPECT_NEAR(tilt_deg(as_is, f, right), 12, 0.5);
+    EXPECT_LT(tilt_deg(level, f, right), 0.01);
+    if (f < 75) {
+      EXPECT_NEAR(tilt_deg(as_is, f, left), 12, 0.5);
+      EXPECT_LT(tilt_deg(level, f, left), 0.01);
+    } else if (f > 85) {  // lifted: as the clip
+      EXPECT_GT(level.sample_body_pose(f * dt, left).pos.z() -
+                    level.sample_body_pose(0, left).pos.z(), 0.1);
+      EXPECT_LT(geodesic_angle(as_is.sample_body_pose(f * dt, left).quat,
+                               level.sample_body_pose(f * dt, left).quat), 1e-9);
+    }
+    // the bodies above the feet, and the root's path, are the clip's
+    for (int i = 0; i < static_cast<int>(level.bodies().size()); ++i) {
+      if (i == left || i == right) continue;
+      const BodyPose a = as_is.sample_body_pose(f * dt, i), b = level.sample_body_pose(f * dt, i);
+      EXPECT_LT(geodesic_angle(a.quat, b.quat), 1e-9) << level.bodies()[i].name;
+      EXPECT_LT((a.pos - b.pos).norm(), 1e-9) << level.bodies()[i].name;
+    }
+  }
 }
 
 TEST(Retarget, SameTableOnMujocoAndDart) {

@@ -99,5 +99,57 @@ TEST(BvhToMjcf, WritesTheFile) {
   EXPECT_THROW(write_bvh_character(bvh + ".missing", xml, {}), InputError);
 }
 
+// lowered at its rest pose (joints at zero) until it first touches the floor, a character
+// touches with its feet only: a shin's round end must not reach below the sole (it did on
+// clips whose foot bone drops little, as CMU's: the character stood on two balls)
+std::vector<std::string> first_touching_bodies(const BvhClip& clip, const std::string& tag) {
+  BvhCharacter ch = make_bvh_character(clip, BvhCharacterOptions{});
+  WorldSpec spec;
+  spec.models.push_back({test::write_temp_file(tag + ".xml", ch.mjcf)});
+  auto engine = make_mujoco_engine(spec);
+  auto* mj = dynamic_cast<MujocoEngine*>(engine.get());
+  Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(mj->model()->qpos0, engine->nq());
+  std::vector<std::string> touching;
+  for (double h = 3; h > -1 && touching.empty(); h -= 0.0005) {
+    q[2] = h;  // the free joint's height
+    engine->set_positions(q);
+    engine->forward();
+    for (int i = 0; i < engine->num_contacts(); ++i) {
+      const Contact c = engine->contact(i);
+      touching.push_back(engine->body_name(c.body1 >= 0 ? c.body1 : c.body2));
+    }
+  }
+  return touching;
+}
+
+TEST(BvhToMjcf, StandsOnItsFeetNotOnItsShins) {
+  // a foot bone that drops 2 cm from the ankle to the toe, under a 42 cm shin (capsule radius
+  // 5.5 cm): the old shin reached 3 cm below the sole
+  const std::string flat_foot =
+      "HIERARCHY\nROOT Hips\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition "
+      "Zrotation Xrotation Yrotation\n JOINT Spine\n {\n  OFFSET 0 30 0\n  CHANNELS 3 Zrotation "
+      "Xrotation Yrotation\n  End Site\n  {\n   OFFSET 0 30 0\n  }\n }\n"
+      " JOINT LeftUpLeg\n {\n  OFFSET 9 -6 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "  JOINT LeftLeg\n  {\n   OFFSET 0 -44 0\n   CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "   JOINT LeftAnkle\n   {\n    OFFSET 0 -42 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "    End Site\n    {\n     OFFSET 0 -2 14\n    }\n   }\n  }\n }\n"
+      " JOINT RightUpLeg\n {\n  OFFSET -9 -6 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "  JOINT RightLeg\n  {\n   OFFSET 0 -44 0\n   CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "   JOINT RightAnkle\n   {\n    OFFSET 0 -42 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "    End Site\n    {\n     OFFSET 0 -2 14\n    }\n   }\n  }\n }\n}\n"
+      "MOTION\nFrames: 1\nFrame Time: 0.01\n0 95 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0\n";
+  std::vector<std::pair<std::string, BvhClip>> clips = {
+      {"synthetic_walk", make_synthetic_walk_clip()},
+      {"flat_foot", read_bvh(test::write_temp_file("flat_foot.bvh", flat_foot))}};
+  for (const char* file : {"mass_walk.bvh", "cmu_131_01.bvh"})
+    if (std::filesystem::exists(shared_bvh(file))) clips.emplace_back(file, read_bvh(shared_bvh(file)));
+  for (const auto& [tag, clip] : clips) {
+    SCOPED_TRACE(tag);
+    const std::vector<std::string> touching = first_touching_bodies(clip, tag + "_rest");
+    ASSERT_FALSE(touching.empty());
+    for (const std::string& body : touching) EXPECT_TRUE(is_foot_segment_name(body)) << body;
+  }
+}
+
 }  // namespace
 }  // namespace stance
