@@ -667,7 +667,10 @@ void Simulation::detect_fall() {
       s.fall_time = e.time();
     }
   }
-  if (judged) return;
+  if (judged) {
+    if (s.fell) snapshot_controller_metrics();
+    return;
+  }
   if (h < fall.com_height_fraction * s.com_height0) {
     s.fell = true;
     s.fall_time = e.time();
@@ -684,6 +687,14 @@ void Simulation::detect_fall() {
       }
     }
   }
+  if (s.fell) snapshot_controller_metrics();
+}
+
+// once per run, on the step that detects the fall (the only allocation of a step)
+void Simulation::snapshot_controller_metrics() {
+  nlohmann::json m = nlohmann::json::object();
+  for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->add_metrics(*states_[i], m);
+  progress_.controller_metrics_at_fall = m.dump();
 }
 
 bool Simulation::done() const {
@@ -712,8 +723,14 @@ RunResult Simulation::result() const {
     r.fall_time = s.fall_time;
     r.fall_reason = s.fall_reason;
   }
-  r.diverged = s.diverged;
+  // a body lying on the floor may tangle its joints until the state blows up: that run fell, and
+  // its divergence is a footnote to the fall, not an error of the run
+  const bool diverged_after_fall = s.diverged && s.fell && s.diverged_at >= s.fall_time;
+  r.diverged = s.diverged && !diverged_after_fall;
   r.divergence = s.divergence;
+  if (diverged_after_fall)
+    r.fall_reason += fmt::format(" (then diverged {:.3f} s later: {})", s.diverged_at - s.fall_time,
+                                 s.divergence);
   nlohmann::json& m = r.metrics;
   m["torque_rms"] = s.torque_samples ? std::sqrt(s.torque_sq_sum / s.torque_samples) : 0.0;
   m["max_abs_torque"] = s.max_abs_torque;
@@ -737,7 +754,11 @@ RunResult Simulation::result() const {
   }
   m["pushes_applied"] = static_cast<int>(model_->pushes.size());
   m["pushes_survived"] = survived;
-  for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->add_metrics(*states_[i], m);
+  // a state that blew up after the fall says nothing of the walk: its metrics are the fall's
+  if (diverged_after_fall && !s.controller_metrics_at_fall.empty())
+    m.update(nlohmann::json::parse(s.controller_metrics_at_fall));
+  else
+    for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->add_metrics(*states_[i], m);
   if (model_->plans) {
     const CorrectionPlan& plan = s.plan;
     nlohmann::json& pm = m["planner"];

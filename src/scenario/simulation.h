@@ -162,6 +162,9 @@ struct RunProgress {
   long clamped_steps = 0;
   Eigen::VectorXd velocity_sent;  // the velocity commands the engine holds, dim nv; NaN: none
   CorrectionPlan plan;            // the planner's correction being applied
+  // the controllers' metrics (JSON) as they were when the run fell: if the state blows up on the
+  // floor afterwards, a walk's distance and speed are those it had, not the blown-up state's
+  std::string controller_metrics_at_fall;
 
   template <class A>
   void serialize(A& a) {
@@ -170,6 +173,7 @@ struct RunProgress {
     a(torque_samples), a(velocity_sent), a(com_last), a(peak_limit_ratio), a(peak_limit_dof);
     a(clamped_steps);
     plan.serialize(a);
+    a(controller_metrics_at_fall);
   }
 };
 
@@ -275,6 +279,7 @@ class Simulation {
  private:
   void start_run();
   void detect_fall();
+  void snapshot_controller_metrics();
   // the controllers' (and the planner's) outputs into out_; false (diverged) when non-finite
   bool compute_controls();
   void limit_torques();

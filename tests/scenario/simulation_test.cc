@@ -324,6 +324,56 @@ TEST_P(NanController, AnEngineBlowUpLeavesFiniteMetrics) {
   std::filesystem::remove_all(dir);
 }
 
+// a body lying on the floor may blow up after its fall: the run fell (it is no error of the
+// run), the fall's reason tells of the divergence after it, and the summary's numbers are finite
+TEST_P(NanController, ADivergenceAfterAFallIsReportedAsTheFall) {
+  RunOptions o = quiet(GetParam());
+  o.duration = 4;
+  // unpowered, the biped collapses; a NaN 0.3 s later (within the second run on past a fall)
+  const std::vector<std::string> unpowered = {"controllers=[{type: stable_pd, kp: 0, kd: 0}]"};
+  Simulation collapse(load_scenario(scenario("biped_stand.yaml"), unpowered), o);
+  collapse.replace_controller(0, std::make_shared<NanAfter>(1e9));
+  const RunResult fall = collapse.run();
+  ASSERT_TRUE(fall.fell);
+  ASSERT_FALSE(fall.diverged);
+  Simulation sim(load_scenario(scenario("biped_stand.yaml"), unpowered), o);
+  sim.replace_controller(0, std::make_shared<NanAfter>(*fall.fall_time + 0.3));
+  const RunResult r = sim.run();
+  EXPECT_TRUE(r.fell);
+  EXPECT_FALSE(r.diverged) << r.divergence;
+  EXPECT_DOUBLE_EQ(*r.fall_time, *fall.fall_time);
+  EXPECT_NE(r.fall_reason.find("(then diverged 0.3"), std::string::npos) << r.fall_reason;
+  EXPECT_NE(r.fall_reason.find("output a non-finite torque"), std::string::npos) << r.fall_reason;
+  for (const auto& [key, value] : r.metrics.items())
+    if (!value.is_object()) EXPECT_TRUE(value.is_number()) << key << ": " << value;
+}
+
+// a walker whose state blows up on the floor after its fall: its distance and speed are those
+// it had when it fell, not those of the blown-up state
+TEST(SimulationLoop, AWalkerThatBlowsUpAfterItsFallKeepsTheMetricsOfItsFall) {
+  const std::vector<std::string> shove = {
+      "perturbations=[{body: torso, force: [900, 0, 0], start: 2.0, duration: 0.2}]"};
+  RunOptions o = quiet();
+  o.duration = 6;
+  Simulation until_fall(load_scenario(scenario("simbicon_walk.yaml"), shove), o);
+  while (!until_fall.progress().fell && until_fall.step()) {
+  }
+  ASSERT_TRUE(until_fall.progress().fell);
+  const RunResult at_fall = until_fall.result();
+  Simulation whole(load_scenario(scenario("simbicon_walk.yaml"), shove), o);
+  whole.add_controller(std::make_shared<NanAfter>(*at_fall.fall_time + 0.5));
+  const RunResult r = whole.run();
+  ASSERT_TRUE(r.fell);
+  EXPECT_FALSE(r.diverged);
+  EXPECT_NEAR(r.sim_time, *r.fall_time + 0.5, 1e-2);
+  for (const char* key : {"distance_m", "mean_speed_mps", "step_count", "flight_fraction"})
+    EXPECT_EQ(r.metrics[key], at_fall.metrics[key]) << key;
+  // the walk went on moving in that half second: the metrics would differ without the rule
+  Simulation on_the_floor(load_scenario(scenario("simbicon_walk.yaml"), shove), o);
+  const RunResult no_blow_up = on_the_floor.run();
+  EXPECT_NE(no_blow_up.metrics["distance_m"], at_fall.metrics["distance_m"]);
+}
+
 // an interrupt (SIGINT's flag) stops the run before its next step; the outputs say so
 TEST(SimulationLoop, InterruptStopsTheRunAndWritesItsFiles) {
   const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
