@@ -387,6 +387,25 @@ std::optional<double> metric_at(const nlohmann::json& metrics, const std::string
     if (!value) return std::nullopt;
     return weight * *value;
   }
+  // a one-sided penalty: below(m,c) = max(0, c - m), above(m,c) = max(0, m - c)
+  for (const char* side : {"below(", "above("}) {
+    const std::string open = side;
+    if (path.rfind(open, 0) != 0 || path.back() != ')') continue;
+    const size_t comma = path.rfind(',');
+    if (comma == std::string::npos || comma < open.size()) return std::nullopt;
+    double bound = 0;
+    try {
+      size_t used = 0;
+      const std::string text = path.substr(comma + 1, path.size() - comma - 2);
+      bound = std::stod(text, &used);
+      if (used != text.size()) return std::nullopt;
+    } catch (const std::exception&) {
+      return std::nullopt;
+    }
+    std::optional<double> value = metric_at(metrics, path.substr(open.size(), comma - open.size()));
+    if (!value) return std::nullopt;
+    return std::max(0.0, open == "below(" ? bound - *value : *value - bound);
+  }
   const nlohmann::json* j = &metrics;
   if (metrics.is_object() && metrics.contains(path)) {
     j = &metrics[path];

@@ -75,8 +75,9 @@ std::optional<double> yaml_number_at(const YAML::Node& root, const std::string& 
 void apply_neighbour(YAML::Node& root, const Neighbour& n);
 
 // a number at a dotted path into a run's metrics ("mocap.mean_joint_error_deg"); also accepts a
-// top-level key that itself contains dots, and weighted sums of such paths
-// ("mocap.mean_joint_error_deg+2*mocap.mean_root_error_m")
+// top-level key that itself contains dots, weighted sums of such paths
+// ("mocap.mean_joint_error_deg+2*mocap.mean_root_error_m") and one-sided penalties,
+// below(path,c) = max(0, c - value) and above(path,c) = max(0, value - c)
 std::optional<double> metric_at(const nlohmann::json& metrics, const std::string& path);
 
 struct TuneOptions {

@@ -83,6 +83,15 @@ TEST(Tune, RobustScoreIsTheWorstRun) {
   EXPECT_DOUBLE_EQ(*metric_at(m, "0.5*a.x+b+b"), 8.75);
   EXPECT_FALSE(metric_at(m, "a.x+c"));
   EXPECT_FALSE(metric_at(m, "two*b"));
+  // one-sided penalties: a floor on a speed, a ceiling on an error
+  EXPECT_DOUBLE_EQ(*metric_at(m, "below(b,5.5)"), 1.5);
+  EXPECT_DOUBLE_EQ(*metric_at(m, "below(b,3)"), 0.0);
+  EXPECT_DOUBLE_EQ(*metric_at(m, "above(a.x,1)"), 0.5);
+  EXPECT_DOUBLE_EQ(*metric_at(m, "above(a.x,2)"), 0.0);
+  EXPECT_DOUBLE_EQ(*metric_at(m, "-20*b+1000*below(b,4.25)"), -80 + 250.0);
+  EXPECT_FALSE(metric_at(m, "below(b)"));
+  EXPECT_FALSE(metric_at(m, "below(b,x)"));
+  EXPECT_FALSE(metric_at(m, "below(c,1)"));
 }
 
 TEST(Tune, MultiplicativeNeighbourScalesTheCurrentValue) {
