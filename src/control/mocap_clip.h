@@ -75,6 +75,8 @@ struct MocapBalanceParams {
   double cv_sagittal = 0.2;  // rad s/m: ... and on its velocity
   double cd_coronal = 0.5;
   double cv_coronal = 0.2;
+  double path_feedback = 0.15;   // rad/m: swing-thigh feedback on the root's offset from the clip's path
+  double heading_return = 0.2;   // fraction of the heading error the targets do not follow
   double stance_hip_world_weight = 1;  // stance hip: 1 servoes the pelvis, 0 the reference angle
   bool swing_foot_world = false;       // swing foot at its reference world orientation
   bool level_planted_feet = true;  // free mode: the clip's planted feet turned level (retarget.h)
@@ -92,6 +94,11 @@ struct MocapBalanceParams {
     v("cv_sagittal", cv_sagittal, {.unit = "rad s/m", .min = -100, .max = 100});
     v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
     v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
+    v("path_feedback", path_feedback,
+      {.unit = "rad/m", .min = -10, .max = 10,
+       .help = "free mode: steps back towards the clip's root path"});
+    v("heading_return", heading_return,
+      {.min = 0, .max = 1, .help = "free mode: share of the heading error steered back"});
     v("stance_hip_world_weight", stance_hip_world_weight,
       {.min = 0, .max = 1, .help = "free mode: 1 pelvis servo, 0 the reference hip angle"});
     v("swing_foot_world", swing_foot_world, {.help = "free mode: swing foot world orientation"});

@@ -482,17 +482,22 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
   const Eigen::Vector3d fwd = heading(root.quat), fwd_ref = heading(s.bal_world[root_mapped_]);
   const Eigen::Vector3d lat = s.up.cross(fwd), lat_ref = s.up.cross(fwd_ref);
   const double yaw_error = std::atan2(s.up.dot(fwd_ref.cross(fwd)), fwd_ref.dot(fwd));
-  const Eigen::Quaterniond yaw_fix(Eigen::AngleAxisd(yaw_error, s.up));
+  // the targets follow most of the simulated heading; the rest steers back to the clip's
+  const Eigen::Quaterniond yaw_fix(Eigen::AngleAxisd((1 - p.heading_return) * yaw_error, s.up));
   // SIMBICON feedback on the root's offset from the stance ankle and its velocity
   const Eigen::Vector3d ankle = engine.body_pose(bodies[foot_[s.stance]].body).pos;
   const Eigen::Vector3d ankle_ref = s.bal_pos[foot_[s.stance]];
   const Eigen::Vector3d d = root.pos - ankle, d_ref = s.bal_pos[root_mapped_] - ankle_ref;
   const Eigen::Vector3d vel = engine.body_velocity(root_body).tail<3>();
   const Eigen::Vector3d vel_ref = (s.bal_pos_ahead[root_mapped_] - s.bal_pos[root_mapped_]) / h;
-  const double th_sag = std::clamp(p.cd_sagittal * (d.dot(fwd) - d_ref.dot(fwd_ref)) +
+  // ... and on the root's drift from the clip's path: a step placed to walk back onto it
+  const Eigen::Vector3d path_error = horizontal(root.pos - s.bal_pos[root_mapped_]);
+  const double th_sag = std::clamp(p.path_feedback * path_error.dot(fwd) +
+                                       p.cd_sagittal * (d.dot(fwd) - d_ref.dot(fwd_ref)) +
                                        p.cv_sagittal * (vel.dot(fwd) - vel_ref.dot(fwd_ref)),
                                    -0.8, 0.8);
-  const double th_cor = std::clamp(p.cd_coronal * (d.dot(lat) - d_ref.dot(lat_ref)) +
+  const double th_cor = std::clamp(p.path_feedback * path_error.dot(lat) +
+                                       p.cd_coronal * (d.dot(lat) - d_ref.dot(lat_ref)) +
                                        p.cv_coronal * (vel.dot(lat) - vel_ref.dot(lat_ref)),
                                    -0.5, 0.5);
   // the planner's offsets act after the clamps: it may go where the feedback alone may not
