@@ -248,23 +248,46 @@ void collect_inertials(const std::string& shown_name, const tinyxml2::XMLElement
   }
 }
 
-// tabs, carriage returns and newlines in attribute values -> spaces: MuJoCo reads them as the
-// separators they are, DART 6.12's MJCF parser misreads a number after one (a capsule's fromto
-// with "\r0.15" became a zero length, and CapsuleShape asserts); true when anything changed
-bool normalize_attribute_whitespace(tinyxml2::XMLElement* parent) {
+// every whitespace character in attribute values and element text -> a space. The readers that
+// check a file first (MuJoCo's, stance's SKEL and URDF/SDF checks) take a tab, a line break, a
+// form feed or a vertical tab as the separator it is; DART 6.12's parsers split numbers on spaces
+// only and assert on the count (a capsule's fromto with "\r0.15" became a zero length; "0 1\f0"
+// as an SDF axis or "0 0 0\v0 0 0" as a SKEL transformation abort in toVector3d/toIsometry3d).
+// True when anything changed.
+bool normalize_whitespace_for_dart(tinyxml2::XMLElement* parent) {
+  static constexpr const char* kOtherSpaces = "\t\n\v\f\r";
+  auto normalized = [](std::string& value) {
+    if (value.find_first_of(kOtherSpaces) == std::string::npos) return false;
+    for (char& c : value)
+      if (std::strchr(kOtherSpaces, c) != nullptr && c != '\0') c = ' ';
+    return true;
+  };
   bool changed = false;
   for (tinyxml2::XMLElement* e = parent->FirstChildElement(); e; e = e->NextSiblingElement()) {
     for (const tinyxml2::XMLAttribute* a = e->FirstAttribute(); a; a = a->Next()) {
       std::string value = a->Value();
-      if (value.find_first_of("\t\r\n") == std::string::npos) continue;
-      for (char& c : value)
-        if (c == '\t' || c == '\r' || c == '\n') c = ' ';
+      if (!normalized(value)) continue;
       e->SetAttribute(a->Name(), value.c_str());
       changed = true;
     }
-    changed = normalize_attribute_whitespace(e) || changed;
+    if (e->FirstChildElement() == nullptr && e->GetText() != nullptr) {
+      std::string text = e->GetText();
+      if (normalized(text)) {
+        e->SetText(text.c_str());
+        changed = true;
+      }
+    }
+    changed = normalize_whitespace_for_dart(e) || changed;
   }
   return changed;
+}
+
+// the file's text with normalize_whitespace_for_dart applied; empty when nothing changed
+std::string text_normalized_for_dart(tinyxml2::XMLDocument& doc) {
+  if (doc.RootElement() == nullptr || !normalize_whitespace_for_dart(doc.RootElement())) return "";
+  tinyxml2::XMLPrinter printer;
+  doc.Print(&printer);
+  return printer.CStr();
 }
 
 // the numeric vectors DART 6.12's MJCF parser reads with a fixed size (its toVector3d and kin
@@ -443,7 +466,7 @@ MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& f
   patched = expand_freejoints(doc.RootElement()) || patched;
   patched = drop_sites(doc.RootElement()) || patched;
   patched = bound_infinite_planes(doc.RootElement()) || patched;
-  patched = normalize_attribute_whitespace(doc.RootElement()) || patched;
+  patched = normalize_whitespace_for_dart(doc.RootElement()) || patched;
   check_vector_attributes(shown_name, doc.RootElement());
   if (!root->FirstChildElement("default")) {
     tinyxml2::XMLElement* fill = doc.NewElement("default");
@@ -487,7 +510,11 @@ dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::stri
       if (format == ModelFormat::kSkel) {
         tinyxml2::XMLDocument doc;
         load_xml(shown_name, file, doc);
-        world = dart::utils::SkelParser::readWorld(uri);
+        const std::string patched = text_normalized_for_dart(doc);
+        world = patched.empty() ? dart::utils::SkelParser::readWorld(uri)
+                                : dart::utils::SkelParser::readWorld(
+                                      uri, std::make_shared<PatchedFileRetriever>(uri.toString(),
+                                                                                  patched));
       } else if (format == ModelFormat::kMjcf) {
         const MjcfPreflight mjcf = preflight_mjcf(shown_name, file);
         dart::utils::MjcfParser::Options options;
@@ -503,8 +530,15 @@ dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::stri
       } else {
         // URDF and SDF: checked and patched by the factory (model/robot_model.h)
         dart::common::ResourceRetrieverPtr retriever;
-        if (!model.text.empty())
-          retriever = std::make_shared<PatchedFileRetriever>(uri.toString(), model.text);
+        if (!model.text.empty()) {
+          tinyxml2::XMLDocument doc;
+          std::string text = model.text;
+          if (doc.Parse(text.c_str(), text.size()) == tinyxml2::XML_SUCCESS) {
+            const std::string patched = text_normalized_for_dart(doc);
+            if (!patched.empty()) text = patched;
+          }
+          retriever = std::make_shared<PatchedFileRetriever>(uri.toString(), text);
+        }
         SkeletonPtr skeleton;
         if (format == ModelFormat::kSdf) {
           dart::utils::SdfParser::Options options(
