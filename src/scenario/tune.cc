@@ -506,9 +506,10 @@ TuneResult run_tune(const TuneOptions& o,
 
   // --- the scenario, its defaults and the start point ---------------------------------------
   YAML::Node base = load_yaml_file(o.scenario);
+  // --engine is the scenario's engine, so that a neighbour "engine=dart" still picks its own
+  if (!o.engine.empty()) base["engine"] = o.engine;
   for (const auto& s : o.sets) apply_yaml_override(base, s);
   RunOptions run_options;
-  run_options.engine = o.engine;
   run_options.duration = o.duration;
   run_options.quiet = true;
   // candidates that repeat a controller's parameters on the same world share its model

@@ -267,6 +267,23 @@ TuneOptions arm_options(const std::string& method) {
   return o;
 }
 
+// --engine sets the scenario's engine; a neighbour "engine=dart" still runs on DART (it was
+// overridden by --engine and ran on MuJoCo, so a search "robust on both engines" was not)
+TEST(Tune, AnEngineNeighbourRunsOnItsEngineWhateverTheEngineOption) {
+  auto scores = [](const std::string& engine, const std::string& neighbour) {
+    TuneOptions o = arm_options("cmaes");
+    o.budget = 4;
+    o.engine = engine;
+    o.neighbours = {parse_neighbour(neighbour)};
+    std::vector<double> out;
+    for (const TuneCandidate& c : run_tune(o).candidates) out.push_back(c.mean_metric);
+    return out;
+  };
+  const std::vector<double> dart_neighbour = scores("mujoco", "engine=dart");
+  EXPECT_EQ(dart_neighbour, scores("", "engine=dart"));
+  EXPECT_NE(dart_neighbour, scores("mujoco", "engine=mujoco"));
+}
+
 std::string outputs_of(const TuneOptions& o, const TuneResult& r, const std::string& name) {
   auto dir = std::filesystem::temp_directory_path() / "stance_tests" / name;
   write_tune_outputs(dir.string(), o, r);
