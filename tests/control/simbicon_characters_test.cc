@@ -161,10 +161,9 @@ Character fullbody1(const char* engine) {
               "h_spine",
               Eigen::Vector3d::UnitX(),
               -Eigen::Vector3d::UnitZ(),
-              {{50, 100, 100, 100}}};
-  c.walk_s = 10;
+              {{100, 100, 100, 100}}};
   c.steady_s = 4;
-  c.min_speed = 0.1;
+  c.min_speed = 0.15;
   c.max_drift = 15;
   return c;
 }
