@@ -1029,12 +1029,17 @@ class DartEngine final : public Engine {
     external_forces_since_step_ = false;
   }
 
+  // a speed no simulation reaches: beyond it the state is blowing up (an Euler joint near its
+  // singularity), and DART's next step would overflow to NaN inside its forward dynamics and
+  // abort in GenericJoint's assert instead of returning a NaN state (as MuJoCo's QACC check does)
+  static constexpr double kBlownUpSpeed = 1e6;  // rad/s or m/s
+
   bool state_is_finite() const override {
     if (!positions_usable()) return false;
     // dof by dof: getVelocities() returns a fresh vector
     for (const SkeletonBlock& b : blocks_)
       for (int i = 0; i < b.ndof; ++i)
-        if (!std::isfinite(b.skeleton->getVelocity(i))) return false;
+        if (!(std::abs(b.skeleton->getVelocity(i)) <= kBlownUpSpeed)) return false;
     return true;
   }
   // after a divergence its cause (the load's warnings are not one), else the load's warnings
@@ -1043,10 +1048,13 @@ class DartEngine final : public Engine {
     for (const SkeletonBlock& b : blocks_)
       for (int i = 0; i < b.ndof; ++i) {
         const double q = b.skeleton->getPosition(i), v = b.skeleton->getVelocity(i);
-        if (std::isfinite(q) && std::isfinite(v)) continue;
-        const bool bad_v = !std::isfinite(v);
+        if (std::isfinite(q) && std::abs(v) <= kBlownUpSpeed) continue;
+        const bool bad_v = !(std::abs(v) <= kBlownUpSpeed);
+        const char* what = !bad_v               ? "non-finite position "
+                           : std::isfinite(v)   ? "blown-up velocity "
+                                                : "non-finite velocity ";
         return std::string("DART instability at t=") + number_text(step_start_time_) +
-               " s: " + (bad_v ? "non-finite velocity " : "non-finite position ") +
+               " s: " + what +
                number_text(bad_v ? v : q, "%g") + " on dof '" + dof_name(b.dof_start + i) + "'";
       }
     // all finite, but the squared positions overflow: name the largest
