@@ -1149,6 +1149,7 @@ class DartEngine final : public Engine {
           }
         }
       }
+      check_geometry_in_range(model.name, skeletons);
       if (!world_ && model.format != ModelFormat::kUrdf && model.format != ModelFormat::kSdf) {
         // the first world file supplies gravity, timestep and collision detector
         world_ = parsed;
@@ -1170,6 +1171,33 @@ class DartEngine final : public Engine {
       world_->getConstraintSolver()->setCollisionDetector(
           dart::collision::DARTCollisionDetector::create());
     }
+  }
+
+  // metres from the origin beyond which no shape of a loaded model may reach
+  static constexpr double kMaxGeometryReach = 1e6;
+
+  // a shape far out (a body offset of 1e217 m, say) is finite, but FCL's broadphase builds its
+  // tree from the boxes' volumes, which overflow, and segfaults: refused with the body's name
+  static void check_geometry_in_range(const std::string& shown_name,
+                                      const std::vector<SkeletonPtr>& skeletons) {
+    for (const SkeletonPtr& skel : skeletons)
+      for (size_t b = 0; b < skel->getNumBodyNodes(); ++b) {
+        const BodyNode* bn = skel->getBodyNode(b);
+        for (size_t k = 0; k < bn->getNumShapeNodes(); ++k) {
+          const dart::dynamics::ShapeNode* node = bn->getShapeNode(k);
+          const dart::math::BoundingBox& box = node->getShape()->getBoundingBox();
+          // coordinate-wise: a norm's squares would overflow first
+          const double reach =
+              node->getWorldTransform().translation().cwiseAbs().maxCoeff() +
+              std::max(box.getMin().cwiseAbs().maxCoeff(), box.getMax().cwiseAbs().maxCoeff());
+          if (!(reach <= kMaxGeometryReach))
+            throw InputError(fmt::format(
+                "{}: body '{}': a shape reaches {} m from the origin along an axis at the "
+                "loaded pose; geometry must lie within {} m",
+                shown_name, bn->getName(), number_text(reach, "%g"),
+                number_text(kMaxGeometryReach, "%g")));
+        }
+      }
   }
 
   // true when DART's own (deterministic) detector handles every collision shape
