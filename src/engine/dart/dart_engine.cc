@@ -292,7 +292,11 @@ std::string text_normalized_for_dart(tinyxml2::XMLDocument& doc) {
 
 // the numeric vectors DART 6.12's MJCF parser reads with a fixed size (its toVector3d and kin
 // assert on any other count, where MuJoCo reads what is there): every one must hold exactly that
-// many finite numbers; a geom's or site's `size` holds 1 to 3
+// many finite numbers; a geom's or site's `size` holds 1 to 3. Each number is at most 1e6 in
+// size: a body at 1e217 m is finite, but FCL's broadphase overflows on the boxes' volumes and
+// segfaults at the first collision (found by fuzz_model)
+constexpr double kMaxMjcfMagnitude = 1e6;
+
 void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLElement* parent) {
   static const std::map<std::string, int> kCounts = {
       {"pos", 3},         {"axis", 3},  {"euler", 3},     {"zaxis", 3},  {"gravity", 3},
@@ -315,6 +319,11 @@ void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLE
           throw InputError(
               located(shown_name, e->GetLineNum(),
                       fmt::format("<{}> {}: '{}' is not a finite number", e->Name(), name, token)));
+        if (std::abs(x) > kMaxMjcfMagnitude)
+          throw InputError(located(
+              shown_name, e->GetLineNum(),
+              fmt::format("<{}> {}: {} is out of range (at most {} in size on DART)", e->Name(),
+                          name, token, kMaxMjcfMagnitude)));
         ++count;
       }
       const bool ok = it != kCounts.end() ? count == it->second : count >= 1 && count <= 3;
@@ -1149,7 +1158,6 @@ class DartEngine final : public Engine {
           }
         }
       }
-      check_geometry_in_range(model.name, skeletons);
       if (!world_ && model.format != ModelFormat::kUrdf && model.format != ModelFormat::kSdf) {
         // the first world file supplies gravity, timestep and collision detector
         world_ = parsed;
@@ -1171,33 +1179,6 @@ class DartEngine final : public Engine {
       world_->getConstraintSolver()->setCollisionDetector(
           dart::collision::DARTCollisionDetector::create());
     }
-  }
-
-  // metres from the origin beyond which no shape of a loaded model may reach
-  static constexpr double kMaxGeometryReach = 1e6;
-
-  // a shape far out (a body offset of 1e217 m, say) is finite, but FCL's broadphase builds its
-  // tree from the boxes' volumes, which overflow, and segfaults: refused with the body's name
-  static void check_geometry_in_range(const std::string& shown_name,
-                                      const std::vector<SkeletonPtr>& skeletons) {
-    for (const SkeletonPtr& skel : skeletons)
-      for (size_t b = 0; b < skel->getNumBodyNodes(); ++b) {
-        const BodyNode* bn = skel->getBodyNode(b);
-        for (size_t k = 0; k < bn->getNumShapeNodes(); ++k) {
-          const dart::dynamics::ShapeNode* node = bn->getShapeNode(k);
-          const dart::math::BoundingBox& box = node->getShape()->getBoundingBox();
-          // coordinate-wise: a norm's squares would overflow first
-          const double reach =
-              node->getWorldTransform().translation().cwiseAbs().maxCoeff() +
-              std::max(box.getMin().cwiseAbs().maxCoeff(), box.getMax().cwiseAbs().maxCoeff());
-          if (!(reach <= kMaxGeometryReach))
-            throw InputError(fmt::format(
-                "{}: body '{}': a shape reaches {} m from the origin along an axis at the "
-                "loaded pose; geometry must lie within {} m",
-                shown_name, bn->getName(), number_text(reach, "%g"),
-                number_text(kMaxGeometryReach, "%g")));
-        }
-      }
   }
 
   // true when DART's own (deterministic) detector handles every collision shape
