@@ -292,8 +292,8 @@ std::string text_normalized_for_dart(tinyxml2::XMLDocument& doc) {
 
 // the numeric vectors DART 6.12's MJCF parser reads with a fixed size (its toVector3d and kin
 // assert on any other count, where MuJoCo reads what is there): every one must hold exactly that
-// many finite numbers; a geom's or site's `size` holds 1 to 3. Each number is at most 1e6 in
-// size: a body at 1e217 m is finite, but FCL's broadphase overflows on the boxes' volumes and
+// many finite numbers; a geom's or site's `size` holds 1 to 3. Lengths (pos, fromto, size) are at
+// most 1e6 m: a body at 1e217 m is finite, but FCL's broadphase overflows on the boxes' volumes and
 // segfaults at the first collision (found by fuzz_model)
 constexpr double kMaxMjcfMagnitude = 1e6;
 
@@ -319,7 +319,8 @@ void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLE
           throw InputError(
               located(shown_name, e->GetLineNum(),
                       fmt::format("<{}> {}: '{}' is not a finite number", e->Name(), name, token)));
-        if (std::abs(x) > kMaxMjcfMagnitude)
+        const bool length = name == "pos" || name == "fromto" || name == "size";
+        if (length && std::abs(x) > kMaxMjcfMagnitude)
           throw InputError(located(
               shown_name, e->GetLineNum(),
               fmt::format("<{}> {}: {} is out of range (at most {} in size on DART)", e->Name(),
