@@ -75,17 +75,17 @@ struct MocapBalanceParams {
   double cv_sagittal = 0.2;  // rad s/m: ... and on its velocity
   double cd_coronal = 0.5;
   double cv_coronal = 0.2;
-  double path_feedback = 0.15;   // rad/m: swing-thigh feedback on the root's offset from the clip's path
-  double heading_return = 0.2;   // fraction of the heading error the targets do not follow
+  double path_feedback = 0.15;  // rad/m: swing thigh per metre of the root off the clip's path
+  double heading_return = 0.2;  // fraction of the heading error the targets do not follow
   double stance_hip_world_weight = 1;  // stance hip: 1 servoes the pelvis, 0 the reference angle
   bool swing_foot_world = false;       // swing foot at its reference world orientation
-  bool level_planted_feet = true;  // free mode: the clip's planted feet turned level (retarget.h)
-  double gravity_compensation = 0;     // weight fraction carried through the stance leg(s)
-  double root_force_kp = 0;            // N/m: virtual force holding the root over the stance foot
-  double root_force_kd = 0;            // N s/m
-  double root_force_kd_z = 0;          // N s/m, along up
-  std::string left_hip, right_hip;     // thigh joints (clip names); empty: found from the feet
-  std::string left_foot, right_foot;   // feet; empty: the first foot/toe/ankle segment per leg
+  bool level_planted_feet = true;   // free mode: the clip's planted feet turned level (retarget.h)
+  double gravity_compensation = 0;  // weight fraction carried through the stance leg(s)
+  double root_force_kp = 0;         // N/m: virtual force holding the root over the stance foot
+  double root_force_kd = 0;         // N s/m
+  double root_force_kd_z = 0;       // N s/m, along up
+  std::string left_hip, right_hip;  // thigh joints (clip names); empty: found from the feet
+  std::string left_foot, right_foot;  // feet; empty: the first foot/toe/ankle segment per leg
 
   template <class V>
   void visit(V& v) {
@@ -95,7 +95,9 @@ struct MocapBalanceParams {
     v("cd_coronal", cd_coronal, {.unit = "rad/m", .min = -100, .max = 100});
     v("cv_coronal", cv_coronal, {.unit = "rad s/m", .min = -100, .max = 100});
     v("path_feedback", path_feedback,
-      {.unit = "rad/m", .min = -10, .max = 10,
+      {.unit = "rad/m",
+       .min = -10,
+       .max = 10,
        .help = "free mode: steps back towards the clip's root path"});
     v("heading_return", heading_return,
       {.min = 0, .max = 1, .help = "free mode: share of the heading error steered back"});

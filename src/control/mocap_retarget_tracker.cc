@@ -66,8 +66,8 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
           level_feet.push_back(seg);
           break;
         }
-  motion_ = std::make_shared<RetargetedMotion>(*clip_.reference, map, *probe, ctx.duration_s,
-                                               level_feet);
+  motion_ =
+      std::make_shared<RetargetedMotion>(*clip_.reference, map, *probe, ctx.duration_s, level_feet);
   const Eigen::Vector3d g = engine.gravity();
   up_ = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
 

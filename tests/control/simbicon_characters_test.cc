@@ -1,7 +1,8 @@
 // SIMBICON on characters that users bring (issue 19): each shipped walk holds for 20 s at its
-// gait, with the controller's gains x0.8 and x1.2 and the timestep halved and doubled, and survives 0.2 s pushes on the torso
-// forward, back and to either side at one phase: 100 N where the walk holds it, otherwise the
-// measured force it holds (docs/simbicon.md gives each character's thresholds).
+// gait, with the controller's gains x0.8 and x1.2 and the timestep halved and doubled, and survives
+// 0.2 s pushes on the torso forward, back and to either side at one phase: 100 N where the walk
+// holds it, otherwise the measured force it holds (docs/simbicon.md gives each character's
+// thresholds).
 #include <gtest/gtest.h>
 
 #include <array>

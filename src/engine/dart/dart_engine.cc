@@ -295,7 +295,7 @@ std::string text_normalized_for_dart(tinyxml2::XMLDocument& doc) {
 // many finite numbers; a geom's or site's `size` holds 1 to 3. Lengths (pos, fromto, size) are at
 // most 1e6 m: a body at 1e217 m is finite, but FCL's broadphase overflows on the boxes' volumes and
 // segfaults at the first collision (found by fuzz_model)
-constexpr double kMaxMjcfMagnitude = 1e6;
+constexpr double kMaxMjcfLength = 1e6;
 
 void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLElement* parent) {
   static const std::map<std::string, int> kCounts = {
@@ -320,11 +320,11 @@ void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLE
               located(shown_name, e->GetLineNum(),
                       fmt::format("<{}> {}: '{}' is not a finite number", e->Name(), name, token)));
         const bool length = name == "pos" || name == "fromto" || name == "size";
-        if (length && std::abs(x) > kMaxMjcfMagnitude)
-          throw InputError(located(
-              shown_name, e->GetLineNum(),
-              fmt::format("<{}> {}: {} is out of range (at most {} in size on DART)", e->Name(),
-                          name, token, kMaxMjcfMagnitude)));
+        if (length && std::abs(x) > kMaxMjcfLength)
+          throw InputError(
+              located(shown_name, e->GetLineNum(),
+                      fmt::format("<{}> {}: {} is out of range (at most {} in size on DART)",
+                                  e->Name(), name, token, kMaxMjcfLength)));
         ++count;
       }
       const bool ok = it != kCounts.end() ? count == it->second : count >= 1 && count <= 3;
@@ -521,10 +521,10 @@ dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::stri
         tinyxml2::XMLDocument doc;
         load_xml(shown_name, file, doc);
         const std::string patched = text_normalized_for_dart(doc);
-        world = patched.empty() ? dart::utils::SkelParser::readWorld(uri)
-                                : dart::utils::SkelParser::readWorld(
-                                      uri, std::make_shared<PatchedFileRetriever>(uri.toString(),
-                                                                                  patched));
+        world = patched.empty()
+                    ? dart::utils::SkelParser::readWorld(uri)
+                    : dart::utils::SkelParser::readWorld(
+                          uri, std::make_shared<PatchedFileRetriever>(uri.toString(), patched));
       } else if (format == ModelFormat::kMjcf) {
         const MjcfPreflight mjcf = preflight_mjcf(shown_name, file);
         dart::utils::MjcfParser::Options options;
@@ -1060,12 +1060,12 @@ class DartEngine final : public Engine {
         const double q = b.skeleton->getPosition(i), v = b.skeleton->getVelocity(i);
         if (std::isfinite(q) && std::abs(v) <= kBlownUpSpeed) continue;
         const bool bad_v = !(std::abs(v) <= kBlownUpSpeed);
-        const char* what = !bad_v               ? "non-finite position "
-                           : std::isfinite(v)   ? "blown-up velocity "
-                                                : "non-finite velocity ";
+        const char* what = !bad_v             ? "non-finite position "
+                           : std::isfinite(v) ? "blown-up velocity "
+                                              : "non-finite velocity ";
         return std::string("DART instability at t=") + number_text(step_start_time_) +
-               " s: " + what +
-               number_text(bad_v ? v : q, "%g") + " on dof '" + dof_name(b.dof_start + i) + "'";
+               " s: " + what + number_text(bad_v ? v : q, "%g") + " on dof '" +
+               dof_name(b.dof_start + i) + "'";
       }
     // all finite, but the squared positions overflow: name the largest
     int worst = 0;
