@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/model_format.h"
 
 namespace stance {
 
@@ -65,6 +66,13 @@ class Reader {
     return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
   }
 
+  // an element whose numbers are lengths (URDF origin and shapes, SDF pose and shapes)
+  static bool is_length(const XMLElement* el) {
+    static const std::set<std::string> kLengths = {"origin", "box",  "sphere", "cylinder", "mesh",
+                                                   "pose",   "size", "radius", "length",   "scale"};
+    return kLengths.count(el->Name()) > 0;
+  }
+
   // whitespace-separated finite numbers; `count` < 0 accepts any count
   std::vector<double> numbers(const XMLElement* el, const std::string& t, const std::string& what,
                               int count) const {
@@ -83,6 +91,9 @@ class Reader {
         while (*stop != '\0' && !std::isspace(static_cast<unsigned char>(*stop))) ++stop;
         fail(el, fmt::format("{}: '{}' is not a finite number", what, std::string(p, stop)));
       }
+      if (std::abs(v) > kMaxModelLength && is_length(el))
+        fail(el, fmt::format("{}: {} is out of range (lengths are at most {} m)", what, v,
+                             kMaxModelLength));
       values.push_back(v);
       p = end;
     }

@@ -16,6 +16,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/model_format.h"
 #include "model/model_path.h"
 
 namespace stance {
@@ -148,6 +149,14 @@ class Reader {
     return a;
   }
 
+  // an element whose numbers are lengths (or a joint's initial state, which places bodies)
+  static bool is_length(const XMLElement* el) {
+    static const std::set<std::string> kLengths = {"transformation", "size",       "radius",
+                                                   "height",         "base_width", "base_depth",
+                                                   "offset",         "init_pos",   "init_vel"};
+    return kLengths.count(el->Name()) > 0;
+  }
+
   // all whitespace-separated numbers of the element's text; `count` < 0 accepts any count
   std::vector<double> numbers(const XMLElement* el, int count) const {
     std::string t = text(el);
@@ -166,6 +175,9 @@ class Reader {
         while (*stop != '\0' && !std::isspace(static_cast<unsigned char>(*stop))) ++stop;
         fail(el, fmt::format("<{}>: '{}' is not a number", el->Name(), std::string(p, stop)));
       }
+      if (std::abs(v) > kMaxModelLength && is_length(el))
+        fail(el, fmt::format("<{}>: {} is out of range (lengths are at most {} m)", el->Name(), v,
+                             kMaxModelLength));
       values.push_back(v);
       p = end;
     }

@@ -854,6 +854,62 @@ TEST(DartEngine, MjcfNumbersBeyondAMillionAreRefusedWithTheLine) {
   EXPECT_NEAR(near->body_pose(near->require_body("leg")).pos.y(), 1000, 1e-9);
 }
 
+// the same bound in SKEL, URDF and SDF, whose readers run before DART's: a link 1.3e217 m away
+// is refused with its file and line, one 1 km away loads where it is
+TEST(DartEngine, SkelUrdfAndSdfLengthsBeyondAMillionAreRefusedWithTheLine) {
+  struct Case {
+    const char* name;
+    std::string text;  // '@' is the far link's distance along y
+    int line;          // of the far number
+  };
+  const std::vector<Case> cases = {
+      {"far.skel",
+       "<skel version=\"1.0\"><world name=\"w\"><skeleton name=\"s\">\n"
+       "<body name=\"a\"><inertia><mass>2</mass></inertia></body>\n"
+       "<body name=\"b\">\n<transformation>0 @ 0 0 0 0</transformation>\n"
+       "<inertia><mass>1</mass></inertia></body>\n"
+       "<joint type=\"free\" name=\"root\"><parent>world</parent><child>a</child></joint>\n"
+       "<joint type=\"revolute\" name=\"j\"><parent>a</parent><child>b</child>"
+       "<axis><xyz>1 0 0</xyz></axis></joint>\n</skeleton></world></skel>\n",
+       4},
+      {"far.urdf",
+       "<robot name=\"r\">\n<link name=\"a\"><inertial><mass value=\"2\"/>"
+       "<inertia ixx=\"0.1\" iyy=\"0.1\" izz=\"0.1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>"
+       "</inertial></link>\n<link name=\"b\"><inertial><mass value=\"1\"/>"
+       "<inertia ixx=\"0.1\" iyy=\"0.1\" izz=\"0.1\" ixy=\"0\" ixz=\"0\" iyz=\"0\"/>"
+       "</inertial></link>\n<joint name=\"j\" type=\"revolute\"><parent link=\"a\"/>"
+       "<child link=\"b\"/>\n<origin xyz=\"0 @ 0\"/><axis xyz=\"1 0 0\"/>"
+       "<limit lower=\"-1\" upper=\"1\" effort=\"10\" velocity=\"5\"/></joint>\n"
+       "</robot>\n",
+       5},
+      {"far.sdf",
+       "<sdf version=\"1.4\"><model name=\"m\">\n<link name=\"a\"><inertial><mass>2</mass>"
+       "</inertial></link>\n<link name=\"b\">\n<pose>0 @ 0 0 0 0</pose></link>\n"
+       "<joint name=\"j\" type=\"revolute\"><parent>a</parent><child>b</child>"
+       "<axis><xyz>1 0 0</xyz></axis></joint>\n</model></sdf>\n",
+       4}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.name);
+    auto with = [&](const std::string& y) {
+      std::string text = c.text;
+      text.replace(text.find('@'), 1, y);
+      return write_temp(c.name, text);
+    };
+    const std::string message = dart_load_error(with("-1.3e217"));
+    EXPECT_NE(message.find(std::string(c.name) + ":" + std::to_string(c.line) + ":"),
+              std::string::npos)
+        << message;
+    EXPECT_NE(message.find("is out of range (lengths are at most 1000000 m)"), std::string::npos)
+        << message;
+    WorldSpec spec;
+    spec.models.push_back({with("1000"), {}});
+    std::unique_ptr<Engine> near;
+    ASSERT_NO_THROW(near = make_dart_engine(spec));
+    near->forward();
+    EXPECT_NEAR(near->body_pose(near->require_body("b")).pos.y(), 1000, 1e-9);
+  }
+}
+
 // dart-doc's soft-body and mesh worlds load as they did before the checks
 TEST(DartEngine, DartDocSoftBodyMeshAndShapeWorldsLoad) {
   if (!std::filesystem::exists("/usr/share/doc/dart/data/skel/softBodies.skel"))

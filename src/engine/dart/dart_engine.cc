@@ -46,6 +46,7 @@
 #include <unordered_map>
 
 #include "core/error.h"
+#include "core/model_format.h"
 #include "engine/backend_world.h"
 #include "engine/engine.h"
 
@@ -293,9 +294,7 @@ std::string text_normalized_for_dart(tinyxml2::XMLDocument& doc) {
 // the numeric vectors DART 6.12's MJCF parser reads with a fixed size (its toVector3d and kin
 // assert on any other count, where MuJoCo reads what is there): every one must hold exactly that
 // many finite numbers; a geom's or site's `size` holds 1 to 3. Lengths (pos, fromto, size) are at
-// most 1e6 m: a body at 1e217 m is finite, but FCL's broadphase overflows on the boxes' volumes and
-// segfaults at the first collision (found by fuzz_model)
-constexpr double kMaxMjcfLength = 1e6;
+// most kMaxModelLength.
 
 void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLElement* parent) {
   static const std::map<std::string, int> kCounts = {
@@ -320,11 +319,11 @@ void check_vector_attributes(const std::string& shown_name, const tinyxml2::XMLE
               located(shown_name, e->GetLineNum(),
                       fmt::format("<{}> {}: '{}' is not a finite number", e->Name(), name, token)));
         const bool length = name == "pos" || name == "fromto" || name == "size";
-        if (length && std::abs(x) > kMaxMjcfLength)
+        if (length && std::abs(x) > kMaxModelLength)
           throw InputError(
               located(shown_name, e->GetLineNum(),
                       fmt::format("<{}> {}: {} is out of range (at most {} in size on DART)",
-                                  e->Name(), name, token, kMaxMjcfLength)));
+                                  e->Name(), name, token, kMaxModelLength)));
         ++count;
       }
       const bool ok = it != kCounts.end() ? count == it->second : count >= 1 && count <= 3;
