@@ -14,8 +14,7 @@
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace stance;
   if (size < 2) return 0;
-  // STANCE_FUZZ_MODEL_ENGINE pins the engine (CI's fixed-budget run pins MuJoCo: in the clang
-  // tree DART's SKEL loading asserts depending on what ran before; README, "Sanitizers")
+  // STANCE_FUZZ_MODEL_ENGINE=mujoco or dart pins the engine (to fuzz one engine's path alone)
   static const char* const kPinned = std::getenv("STANCE_FUZZ_MODEL_ENGINE");
   const std::string engine = kPinned ? kPinned : (data[0] & 1) != 0 ? "dart" : "mujoco";
   static const char* const kNames[4] = {"fuzz.xml", "fuzz.skel", "fuzz.urdf", "fuzz.sdf"};
