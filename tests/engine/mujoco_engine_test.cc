@@ -201,6 +201,30 @@ TEST(MujocoEngine, DivergenceIsReported) {
   EXPECT_NE(e->last_warning().find("t="), std::string::npos);
 }
 
+// MuJoCo's reset clears its warning counters: a second blow-up after a restore (a planner's
+// rollouts restore one start state again and again) must still be reported, not run on from
+// t = 0 (a rollout then ran its horizon again from 0: a 0.3 s run took over 300 s)
+TEST(MujocoEngine, DivergenceAfterARestoreIsReportedToo) {
+  auto e = load_chain();
+  EngineState start;
+  for (int k = 0; k < 10; ++k) e->step();
+  e->save_state(start);
+  const double t0 = e->time();
+  for (int round = 0; round < 3; ++round) {
+    SCOPED_TRACE(round);
+    e->restore_state(start);
+    Eigen::VectorXd tau = Eigen::VectorXd::Zero(e->nv());
+    tau[9] = 1e30;
+    e->set_generalized_forces(tau);
+    e->step();
+    for (int k = 0; k < 3 && e->state_is_finite(); ++k) e->step();
+    EXPECT_FALSE(e->state_is_finite());
+  }
+  e->restore_state(start);
+  EXPECT_TRUE(e->state_is_finite());
+  EXPECT_DOUBLE_EQ(e->time(), t0);
+}
+
 TEST(MujocoEngine, BadInput) {
   WorldSpec missing;
   missing.models.push_back({"/nonexistent/model.xml"});

@@ -563,10 +563,13 @@ void MujocoEngine::step() {
   pending_tau_.setZero();
   mju_zero(d_->xfrc_applied, 6 * m_->nbody);
   forwarded_ = false;
-  // MuJoCo resets the data on a bad acceleration and counts a warning: that is a divergence
+  // MuJoCo resets the data on a bad acceleration and counts a warning: that is a divergence.
+  // The reset also clears the counters, so a second reset after a restore can leave the count
+  // where it was; the clock, set back to 0, shows it either way (a planner's rollout otherwise
+  // ran its horizon again from t = 0)
   int seen = d_->warning[mjWARN_BADQACC].number + d_->warning[mjWARN_BADQPOS].number +
              d_->warning[mjWARN_BADQVEL].number;
-  if (seen != warnings_seen_) {
+  if (seen != warnings_seen_ || d_->time < t_before) {
     warnings_seen_ = seen;
     diverged_ = true;
     last_warning_ =
