@@ -34,7 +34,7 @@ double hinge_sign(const Eigen::Vector3d& axis_world, const Eigen::Vector3d& righ
 
 SimbiconGaitStats simbicon_gait_stats(const std::vector<SimbiconStep>& steps, int skip) {
   SimbiconGaitStats s;
-  double sum_l = 0, sum_l2 = 0, sum_d = 0, sum_d2 = 0;
+  double sum_l = 0, sum_l2 = 0, sum_d = 0, sum_d2 = 0, sum_w = 0;
   std::array<double, 2> side_l{}, side_d{};
   std::array<int, 2> side_n{};
   for (size_t i = std::max(0, skip); i < steps.size(); ++i) {
@@ -44,6 +44,7 @@ SimbiconGaitStats simbicon_gait_stats(const std::vector<SimbiconStep>& steps, in
     sum_l2 += st.length_m * st.length_m;
     sum_d += st.duration_s;
     sum_d2 += st.duration_s * st.duration_s;
+    sum_w += st.width_m;
     side_l[st.foot] += st.length_m;
     side_d[st.foot] += st.duration_s;
     ++side_n[st.foot];
@@ -52,6 +53,7 @@ SimbiconGaitStats simbicon_gait_stats(const std::vector<SimbiconStep>& steps, in
   const double n = s.steps;
   s.step_length_mean = sum_l / n;
   s.step_duration_mean = sum_d / n;
+  s.step_width_mean = sum_w / n;
   s.step_length_std =
       std::sqrt(std::max(0.0, sum_l2 / n - s.step_length_mean * s.step_length_mean));
   s.step_duration_std =
@@ -199,6 +201,26 @@ Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext&, const
     m.knee_sign[side] = sign(m.knee[side]);
     m.ankle_sign[side] = sign(m.ankle[side]);
   }
+  if (!k.spine_roll.empty()) {
+    if (!m.spatial)
+      throw InputError("simbicon skeleton.spine_roll: only for a 3D biped (name the hip rolls)");
+    m.spine_roll = engine.require_dof(k.spine_roll);
+    const JointInfo& j = engine.joint(engine.dof_joint(m.spine_roll));
+    engine.point_jacobian(j.body, engine.body_pose(j.body).pos, jac_none, jac_rot);
+    const Eigen::Vector3d axis = jac_rot.col(m.spine_roll).normalized();
+    const Eigen::Vector3d forward = m.heading * Eigen::Vector3d::UnitX();
+    if (j.type != JointType::kHinge || std::abs(axis.dot(forward)) < std::sqrt(0.5))
+      throw InputError(fmt::format(
+          "simbicon skeleton.spine_roll: dof '{}' is not a hinge about the character's forward "
+          "axis",
+          k.spine_roll));
+    // the lean turns the upper body about forward relative to the torso: the hinge's angle when
+    // the upper body is its child, minus it when the torso is on the child's side
+    bool torso_is_child = false;
+    for (int b = m.torso; b >= 0 && !torso_is_child; b = engine.body_parent(b))
+      torso_is_child = b == j.body;
+    m.spine_sign = (axis.dot(forward) > 0 ? 1.0 : -1.0) * (torso_is_child ? -1.0 : 1.0);
+  }
 }
 
 void Simbicon::reset_state(State& s, const Engine& engine) const {
@@ -219,8 +241,9 @@ void Simbicon::reset_state(State& s, const Engine& engine) const {
   s.start_time = s.last_time = engine.time();
   s.last_strike_s = engine.time();
   const int stance = s.fsm < 2 ? kRight : kLeft;
-  s.last_stance_ankle_x =
-      (model_.heading * Eigen::Vector3d::UnitX()).dot(engine.body_pose(model_.foot[stance]).pos);
+  const Eigen::Vector3d stance_ankle = engine.body_pose(model_.foot[stance]).pos;
+  s.last_stance_ankle_x = (model_.heading * Eigen::Vector3d::UnitX()).dot(stance_ankle);
+  s.last_stance_ankle_y = (model_.heading * Eigen::Vector3d::UnitY()).dot(stance_ankle);
   s.flight_time_s = 0;
   s.steps.clear();
   s.state_time_sum.fill(0);
@@ -251,12 +274,15 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
       ++s.state_count[s.fsm];
       if (cur.ends_on_contact) {
         // a strike: the swing foot becomes the stance foot
-        const double ankle_x =
-            (m.heading * Eigen::Vector3d::UnitX()).dot(engine.body_pose(m.foot[swing]).pos);
+        const Eigen::Vector3d foot = engine.body_pose(m.foot[swing]).pos;
+        const double ankle_x = (m.heading * Eigen::Vector3d::UnitX()).dot(foot);
+        const double ankle_y = (m.heading * Eigen::Vector3d::UnitY()).dot(foot);
         if (s.steps.size() < static_cast<size_t>(m.params.max_recorded_steps))
-          s.steps.push_back(
-              {t, swing, ankle_x, ankle_x - s.last_stance_ankle_x, t - s.last_strike_s});
+          s.steps.push_back({t, swing, ankle_x, ankle_x - s.last_stance_ankle_x,
+                             t - s.last_strike_s,
+                             m.spatial ? std::abs(ankle_y - s.last_stance_ankle_y) : 0.0});
         s.last_stance_ankle_x = ankle_x;
+        s.last_stance_ankle_y = ankle_y;
         s.last_strike_s = t;
       }
       s.fsm = (s.fsm + 1) % 4;
@@ -344,6 +370,11 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
     out.tau[m.ankle_roll[swing]] += joint_servo(engine, m.ankle_roll[swing], 0.0, gn.swing_ankle);
     out.tau[m.ankle_roll[stance]] +=
         joint_servo(engine, m.ankle_roll[stance], 0.0, gn.stance_ankle);
+    if (m.spine_roll >= 0) {
+      // leaning towards the stance leg is a turn about +forward for the right leg
+      const double lean = (stance == kRight ? 1.0 : -1.0) * tg.spine_roll;
+      out.tau[m.spine_roll] += joint_servo(engine, m.spine_roll, m.spine_sign * lean, gn.spine);
+    }
     add_leg_servos(m, s.fsm, tg, gn, dc_ankle, engine, out);
     return;
   }
@@ -459,6 +490,7 @@ void Simbicon::state_metrics(const State& s, nlohmann::json& metrics) const {
   metrics["step_length_std_m"] = g.step_length_std;
   metrics["step_duration_mean_s"] = g.step_duration_mean;
   metrics["step_duration_std_s"] = g.step_duration_std;
+  metrics["step_width_mean_m"] = g.step_width_mean;
   metrics["step_length_asymmetry"] = g.length_asymmetry;
   metrics["step_duration_asymmetry"] = g.duration_asymmetry;
   nlohmann::json per_state = nlohmann::json::array();
@@ -474,10 +506,11 @@ void Simbicon::state_metrics(const State& s, nlohmann::json& metrics) const {
 void Simbicon::state_outputs(const State& s, const std::string& out_dir) const {
   AtomicFile file(std::filesystem::path(out_dir) / "steps.csv");
   std::ostream& f = file.stream();
-  f << "time,foot,ankle_x,length_m,duration_s\n";
+  f << "time,foot,ankle_x,length_m,duration_s,width_m\n";
   for (const SimbiconStep& st : s.steps)
-    f << fmt::format("{:.6f},{},{:.6f},{:.6f},{:.6f}\n", st.time_s,
-                     st.foot == kRight ? "right" : "left", st.ankle_x, st.length_m, st.duration_s);
+    f << fmt::format("{:.6f},{},{:.6f},{:.6f},{:.6f},{:.6f}\n", st.time_s,
+                     st.foot == kRight ? "right" : "left", st.ankle_x, st.length_m, st.duration_s,
+                     st.width_m);
   file.commit();
 }
 

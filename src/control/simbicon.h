@@ -53,6 +53,7 @@ struct SimbiconStateTargets {
   double torso_roll = 0;      // rad, world
   double cd_lateral = 0;      // rad/m, coronal feedback on the lateral distance
   double cv_lateral = 0;      // rad s/m, coronal feedback on the lateral velocity
+  double spine_roll = 0;      // rad, the upper body's lean towards the stance leg
 
   template <class V>
   void visit(V& v) {
@@ -89,6 +90,11 @@ struct SimbiconStateTargets {
        .min = -100,
        .max = 100,
        .help = "3D: coronal feedback on lateral velocity"});
+    v("spine_roll", spine_roll,
+      {.unit = "rad",
+       .min = -1.5,
+       .max = 1.5,
+       .help = "3D: upper body's lean towards the stance leg (skeleton.spine_roll)"});
   }
 };
 
@@ -108,7 +114,7 @@ struct SimbiconJointGain {
 };
 
 struct SimbiconGains {
-  SimbiconJointGain torso, swing_hip, swing_knee, swing_ankle, stance_knee, stance_ankle;
+  SimbiconJointGain torso, swing_hip, swing_knee, swing_ankle, stance_knee, stance_ankle, spine;
   double stance_hip_max_torque = 1e9;  // N m
 
   template <class V>
@@ -119,6 +125,7 @@ struct SimbiconGains {
     v("swing_ankle", swing_ankle);
     v("stance_knee", stance_knee);
     v("stance_ankle", stance_ankle);
+    v("spine", spine, {.help = "3D: the spine_roll servo"});
     v("stance_hip_max_torque", stance_hip_max_torque, {.unit = "N m", .min = 0});
   }
 };
@@ -154,6 +161,8 @@ struct SimbiconSkeleton {
   // 3D: set all six to control a spatial biped; empty = planar
   std::string left_hip_roll, right_hip_roll, left_hip_yaw, right_hip_yaw;
   std::string left_ankle_roll, right_ankle_roll;
+  // 3D, optional: a roll hinge between the torso and the upper body, leaned by spine_roll
+  std::string spine_roll;
   // the character frame in the world: zero up = minus gravity; forward is made normal to up
   Eigen::Vector3d up = Eigen::Vector3d::Zero();
   Eigen::Vector3d forward = Eigen::Vector3d::UnitX();
@@ -178,6 +187,8 @@ struct SimbiconSkeleton {
     v("right_hip_yaw", right_hip_yaw);
     v("left_ankle_roll", left_ankle_roll);
     v("right_ankle_roll", right_ankle_roll);
+    v("spine_roll", spine_roll,
+      {.help = "3D, optional: dof, roll hinge between the torso and the upper body"});
     v("up", up, {.help = "character's up axis, world; 0 0 0: minus gravity"});
     v("forward", forward, {.help = "character's forward axis, world (made normal to up)"});
   }
@@ -218,6 +229,7 @@ struct SimbiconStep {
   double ankle_x = 0;     // m, landing foot's ankle along +x
   double length_m = 0;    // ankle_x minus the previous stance ankle's
   double duration_s = 0;  // since the previous strike (or the start)
+  double width_m = 0;     // 3D: sideways from the previous stance ankle (0 on a planar model)
 };
 
 // the per-run data: the FSM and what it has recorded
@@ -228,7 +240,7 @@ struct SimbiconState {
   double d = 0, v = 0;          // m, m/s, the feedback inputs
   double start_x = 0, last_x = 0, start_time = 0, last_time = 0;
   double last_strike_s = 0;
-  double last_stance_ankle_x = 0;
+  double last_stance_ankle_x = 0, last_stance_ankle_y = 0;  // m, along forward and left
   double flight_time_s = 0;         // with neither foot on the ground (a run's flight phases)
   std::vector<SimbiconStep> steps;  // reserved to max_recorded_steps at reset
   std::array<double, 4> state_time_sum{};  // s, completed states
@@ -239,7 +251,8 @@ struct SimbiconState {
   template <class A>
   void serialize(A& a) {
     a(fsm), a(state_start_s), a(swing_hip_target), a(d), a(v), a(start_x), a(last_x);
-    a(start_time), a(last_time), a(last_strike_s), a(last_stance_ankle_x), a(flight_time_s);
+    a(start_time), a(last_time), a(last_strike_s), a(last_stance_ankle_x), a(last_stance_ankle_y);
+    a(flight_time_s);
     a(steps), a(state_time_sum), a(state_count), a(lateral_start), a(lateral_last);
     a(jac_rot), a(jac_none);
   }
@@ -259,6 +272,8 @@ class Simbicon final : public TypedController<SimbiconState> {
     bool use_com = false;
     bool spatial = false;  // 3D: hip roll/yaw and ankle roll dofs present
     std::array<int, 2> hip_roll{{-1, -1}}, hip_yaw{{-1, -1}}, ankle_roll{{-1, -1}};
+    int spine_roll = -1;    // dof, or -1
+    double spine_sign = 1;  // the spine hinge's angle per radian of lean about forward
     // the character frame in the world: the rotation whose columns are forward, left, up
     Eigen::Quaterniond frame_quat = Eigen::Quaterniond::Identity();
     Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // world, unit
@@ -309,6 +324,7 @@ struct SimbiconGaitStats {
   int steps = 0;
   double step_length_mean = 0, step_length_std = 0;      // m
   double step_duration_mean = 0, step_duration_std = 0;  // s
+  double step_width_mean = 0;                            // m
   double length_asymmetry = 0;    // |mean right - mean left| / mean, right = right foot lands
   double duration_asymmetry = 0;  // same, for step durations
 };

@@ -48,16 +48,18 @@ TEST(SimbiconPitch, MatchesHingeAngleAboutMinusY) {
 }
 
 TEST(SimbiconGaitStats, MeansStdAndAsymmetry) {
-  // right steps 0.6 m / 0.5 s, left steps 0.4 m / 0.3 s, after two start-up steps
+  // right steps 0.6 m / 0.5 s / 0.3 m wide, left steps 0.4 m / 0.3 s / 0.1 m wide, after two
+  // start-up steps
   std::vector<SimbiconStep> steps = {{0.1, 0, 0, 5.0, 9.0}, {0.2, 1, 0, 5.0, 9.0}};
   for (int i = 0; i < 10; ++i)
-    steps.push_back({1.0 + i, i % 2, 0, i % 2 ? 0.4 : 0.6, i % 2 ? 0.3 : 0.5});
+    steps.push_back({1.0 + i, i % 2, 0, i % 2 ? 0.4 : 0.6, i % 2 ? 0.3 : 0.5, i % 2 ? 0.1 : 0.3});
   SimbiconGaitStats s = simbicon_gait_stats(steps, 2);
   EXPECT_EQ(s.steps, 10);
   EXPECT_NEAR(s.step_length_mean, 0.5, 1e-12);
   EXPECT_NEAR(s.step_length_std, 0.1, 1e-12);
   EXPECT_NEAR(s.step_duration_mean, 0.4, 1e-12);
   EXPECT_NEAR(s.step_duration_std, 0.1, 1e-12);
+  EXPECT_NEAR(s.step_width_mean, 0.2, 1e-12);
   EXPECT_NEAR(s.length_asymmetry, 0.2 / 0.5, 1e-12);
   EXPECT_NEAR(s.duration_asymmetry, 0.2 / 0.4, 1e-12);
 }
