@@ -15,7 +15,7 @@ set(stance_label_patterns
   viz "^(ViewerTest|RecorderTest|SceneViewTest)\\."
   physics "^(BipedStand|BipedSkateboard|LqrBalance|SimbiconWalk|SimbiconGaits|Simbicon3d|SimbiconCharacter)\\."
   physics "^SimbiconDart\\.Walks"
-  physics "^(SimbiconHumanoid|SimbiconFullbody1|SimbiconSpine)\\."
+  physics "^(SimbiconHumanoid|SimbiconFullbody1|SimbiconSpine|SimbiconSteps)\\."
   physics "^SlopeWalker\\.(Walks|LockedKnees)"
   physics "^StablePd\\.StandsWherePlainPdDiverges$"
   physics "^DartEngine\\.(BipedFallsAndRestsOnGround|MjcfPendulumPeriod)"

@@ -7,6 +7,9 @@
 
 #include <array>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <string>
 
 #include "control/simbicon.h"
 #include "scenario/scenario.h"
@@ -265,6 +268,45 @@ TEST(SimbiconSpine, RefusesAHingeThatIsNotARollAndAPlanarBiped) {
   }
   EXPECT_THROW(load("simbicon_walk.yaml", {"controllers.0.skeleton.spine_roll=left_hip"}),
                InputError);
+}
+
+// step width: each strike's sideways distance from the previous stance ankle, in steps.csv's
+// width_m and the mean in the metrics; the humanoid's feet land about 0.46 m apart, a planar
+// walker's width is 0
+TEST(SimbiconSteps, WidthIsTheSidewaysDistanceBetweenStanceAnkles) {
+  const std::string dir = ::testing::TempDir() + "simbicon_step_width";
+  std::filesystem::remove_all(dir);
+  RunOptions opt;
+  opt.duration = 6.0;
+  opt.out_dir = dir;
+  LoadedScenario loaded = load_scenario(scenario_path("simbicon_humanoid.yaml"), {});
+  Simulation run(loaded, opt);
+  const RunResult r = run.run();
+  ASSERT_FALSE(r.fell);
+  const std::vector<SimbiconStep>& steps = run.state_as<Simbicon::State>(2).steps;
+  ASSERT_GT(steps.size(), 6u);
+  double sum = 0;
+  for (size_t i = 2; i < steps.size(); ++i) {
+    EXPECT_GT(steps[i].width_m, 0.2) << "step " << i;
+    EXPECT_LT(steps[i].width_m, 0.8) << "step " << i;
+    sum += steps[i].width_m;
+  }
+  EXPECT_NEAR(r.metrics.at("step_width_mean_m").get<double>(), sum / (steps.size() - 2), 1e-12);
+  std::ifstream csv(dir + "/steps.csv");
+  std::string header, row;
+  std::getline(csv, header);
+  EXPECT_EQ(header, "time,foot,ankle_x,length_m,duration_s,width_m");
+  std::getline(csv, row);
+  EXPECT_NEAR(std::stod(row.substr(row.rfind(',') + 1)), steps[0].width_m, 1e-6);
+
+  LoadedScenario planar = load_scenario(scenario_path("simbicon_walk.yaml"), {});
+  RunOptions two;
+  two.duration = 2.0;
+  Simulation walk(planar, two);
+  walk.run();
+  const std::vector<SimbiconStep>& planar_steps = walk.state_as<Simbicon::State>(0).steps;
+  ASSERT_FALSE(planar_steps.empty());
+  for (const SimbiconStep& st : planar_steps) EXPECT_EQ(st.width_m, 0.0);
 }
 
 }  // namespace
