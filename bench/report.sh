@@ -189,7 +189,7 @@ def planner(prefix):
         if key.startswith(prefix + "/"):
             found[key.split("/")[1]] = key
     return found
-for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 ms step"),
+for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 ms step, 2 ms rollouts"),
                       ("BM_PlannerMocap", "planner tracking the synthetic walk, MuJoCo")):
     p = planner(prefix)
     if "1" in p and "2" in p:

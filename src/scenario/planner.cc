@@ -28,6 +28,13 @@ Eigen::Vector3d horizontal(const Eigen::Vector3d& x, const Eigen::Vector3d& up) 
   return x - up.dot(x) * up;
 }
 
+// the mean origin of the feet
+Eigen::Vector3d support_center(const PlannerModel& m, const Engine& e) {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int b : m.support_bodies) sum += e.body_pose(b).pos;
+  return sum / static_cast<double>(m.support_bodies.size());
+}
+
 }  // namespace
 
 // ---- the plan
@@ -168,6 +175,8 @@ std::shared_ptr<const PlannerModel> make_planner_model(
   pm->params = params;
   pm->rollout = std::move(rollout);
   std::unique_ptr<Engine> engine = model.make_engine();
+  engine->restore_state(model.initial);
+  engine->forward();
   const Engine& e = *engine;
   // the controllers' own corrections
   pm->controller_first.assign(model.controllers.size(), -1);
@@ -202,6 +211,10 @@ std::shared_ptr<const PlannerModel> make_planner_model(
     pm->root_body = 0;
     pm->root_up_local = e.body_pose(0).quat.conjugate() * model.up;
   }
+  for (int b = 0; b < static_cast<int>(model.allowed_contact.size()); ++b)
+    if (model.allowed_contact[b]) pm->support_bodies.push_back(b);
+  if (!pm->support_bodies.empty())
+    pm->com_over_support0 = horizontal(e.com() - support_center(*pm, e), model.up);
   return pm;
 }
 
@@ -293,8 +306,10 @@ double Planner::rollout(Simulation& sim, Candidate& c) const {
       const Eigen::Vector3d vel = horizontal(e.com_velocity(), up);
       const double h = std::max(1e-3, up.dot(com) - m.scenario.fall.ground_height);
       const double g = std::max(1e-6, e.gravity().norm());
-      const Eigen::Vector3d offset =
-          horizontal(com - sim.progress_.com0, up) + std::sqrt(h / g) * vel;
+      const Eigen::Vector3d anchor = model_->support_bodies.empty()
+                                         ? sim.progress_.com0
+                                         : support_center(*model_, e) + model_->com_over_support0;
+      const Eigen::Vector3d offset = horizontal(com - anchor, up) + std::sqrt(h / g) * vel;
       double tilt = 0;
       if (model_->root_body >= 0) {
         const Eigen::Vector3d root_up = e.body_pose(model_->root_body).quat * model_->root_up_local;

@@ -63,6 +63,10 @@ struct PlannerModel {
   std::vector<int> controller_first;  // per controller: its first dimension, or -1
   int root_body = -1;                 // the first mobile body: its path and tilt
   Eigen::Vector3d root_up_local = Eigen::Vector3d::UnitZ();  // `up` in the root's frame at start
+  // standing keeps the COM where it started over the feet (fall.allowed_contacts), so a step
+  // moves the balance target with the feet; without feet, where it started in the world
+  std::vector<int> support_bodies;
+  Eigen::Vector3d com_over_support0 = Eigen::Vector3d::Zero();  // horizontal, at the start
   // the model rollouts step (the scenario's, at the planner's timestep, planning off)
   std::shared_ptr<const SimulationModel> rollout;
 };

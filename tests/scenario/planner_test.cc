@@ -2,6 +2,7 @@
 // with a plan, and what it is for: a standing biped taking pushes its ankle strategy cannot.
 #include "scenario/planner.h"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <functional>
@@ -208,11 +209,13 @@ TEST(Planner, ARestoredRunPlansAsTheRunThatWentOn) {
   EXPECT_EQ(a.progress().plan.plans, b.progress().plan.plans);
 }
 
-// how long biped_stand_planner stays up after a 150 N forward push on the spine at 1 s (the
-// ankle strategy alone takes about 92 N), with or without the planner
-double stays_up_s(bool plan, const std::vector<std::string>& setting) {
-  std::vector<std::string> sets = {"perturbations.0.force=[150, 0, 0]", "duration=2.6",
-                                   "planner.threads=2",
+// how long biped_stand_planner stays up, up to `duration`, after a forward push on the spine at
+// 2 s (the ankle strategy alone takes 92 N there; docs/biped.md)
+double stays_up_s(bool plan, double force, double duration,
+                  const std::vector<std::string>& setting) {
+  std::vector<std::string> sets = {fmt::format("perturbations.0.force=[{}, 0, 0]", force),
+                                   "perturbations.0.start=2.0",
+                                   fmt::format("duration={}", duration), "planner.threads=2",
                                    std::string("planner.enabled=") + (plan ? "true" : "false")};
   sets.insert(sets.end(), setting.begin(), setting.end());
   RunResult r =
@@ -220,16 +223,30 @@ double stays_up_s(bool plan, const std::vector<std::string>& setting) {
   return r.fell ? *r.fall_time : r.sim_time;
 }
 
-// Not a threshold at one tuned point: at the defaults, kp 0.8x and 1.2x and another seed, the
-// planned run stays up clearly longer than the same push without the planner (or does not fall)
-TEST(PlannerStanding, OutlastsTheAnkleStrategyAfterAPushItCannotTake) {
-  for (const std::vector<std::string>& setting : std::vector<std::vector<std::string>>{
-           {}, {"controllers.0.kp=320"}, {"controllers.0.kp=480"}, {"seed=2"}}) {
+// 1.5x the ankle strategy's threshold, not at one tuned point: at the defaults, another seed, kp
+// 0.8x and 1.2x and a 0.5 ms and a 2 ms step, the push floors the unplanned biped within 1.5 s,
+// and the planned one stays up at least 0.8 s longer (at 5 of the 6 it does not fall; the
+// planner does not hold 1.5x everywhere yet, docs/planner.md)
+TEST(PlannerStanding, OutlastsTheAnkleStrategyAfterOneAndAHalfTimesItsPush) {
+  const double push = 1.5 * 92, duration = 4.5;
+  for (const std::vector<std::string>& setting :
+       std::vector<std::vector<std::string>>{{},
+                                             {"seed=2"},
+                                             {"controllers.0.kp=320"},
+                                             {"controllers.0.kp=480"},
+                                             {"timestep=0.0005"},
+                                             {"timestep=0.002"}}) {
     SCOPED_TRACE(setting.empty() ? "defaults" : setting[0]);
-    const double base = stays_up_s(false, setting);
-    EXPECT_LT(base, 2.2) << "the push should floor the unplanned biped";
-    EXPECT_GT(stays_up_s(true, setting), base + 0.15);
+    const double base = stays_up_s(false, push, duration, setting);
+    EXPECT_LT(base, 3.5) << "the push should floor the unplanned biped";
+    EXPECT_GT(stays_up_s(true, push, duration, setting), base + 0.8);
   }
+}
+
+// the planner must not unsettle quiet standing (with a near-free correction it swayed the
+// biped sideways until it fell at 4-5 s with no push at all)
+TEST(PlannerStanding, StandsUnpushed) {
+  EXPECT_GT(stays_up_s(true, 0, 8, {}), 8 - 1e-6);
 }
 
 }  // namespace
