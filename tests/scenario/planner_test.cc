@@ -209,6 +209,27 @@ TEST(Planner, ARestoredRunPlansAsTheRunThatWentOn) {
   EXPECT_EQ(a.progress().plan.plans, b.progress().plan.plans);
 }
 
+// standing's balance target moves with the feet: the same stance moved 0.5 m along the floor
+// after the start plans at the same cost (anchored to the start COM, it would pay 20 x 0.5^2 = 5)
+TEST(Planner, StandingBalanceTargetFollowsTheFeet) {
+  const std::vector<std::string> sets = {"planner.enabled=true", "planner.samples=4",
+                                         "planner.horizon_s=0.15", "planner.threads=1",
+                                         "planner.cost.capture=20"};
+  auto first_plan_cost = [&](double shift) {
+    Simulation sim(load_scenario(scenario("biped_stand.yaml"), sets), quiet());
+    Eigen::VectorXd q(sim.engine().nq());
+    sim.engine().get_positions(q);
+    q[0] += shift;  // the free root's x, along the floor (the model is y-up)
+    sim.engine().set_positions(q);
+    sim.engine().forward();
+    EXPECT_TRUE(sim.step());
+    return sim.progress().plan.cost_sum;
+  };
+  const double here = first_plan_cost(0), moved = first_plan_cost(0.5);
+  EXPECT_GT(here, 0);
+  EXPECT_NEAR(moved, here, 0.05);
+}
+
 // how long biped_stand_planner stays up, up to `duration`, after a forward push on the spine at
 // 2 s (the ankle strategy alone takes 92 N there; docs/biped.md)
 double stays_up_s(bool plan, double force, double duration,
