@@ -41,8 +41,8 @@ struct PlannerCostWeights {
 
 struct PlannerParams {
   bool enabled = false;
-  int samples = 12;                 // candidates per planning step, the current plan included
-  double horizon_s = 0.35;          // s
+  int samples = 32;                 // candidates per planning step, the current plan included
+  double horizon_s = 0.5;           // s
   double interval_s = 0.04;         // s between planning steps
   int knots = 4;                    // spline knots over the horizon (piecewise linear)
   double noise = 1;                 // standard deviation, in units of each dimension's scale
