@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "app/commands.h"
+#include "control/mocap_retarget_tracker.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
@@ -49,12 +50,14 @@ void expect_tracked(const RunResult& r, bool success = true) {
   EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 8.0) << m.dump();
 }
 
-// the tracker's shared kp (MocapRetargetParams) x0.8
-constexpr const char* kSofterKp = "controllers.0.kp=1600";
+// the tracker's shared kp times a factor
+std::string kp_times(double factor) {
+  return "controllers.0.kp=" + std::to_string(MocapRetargetParams{}.kp * factor);
+}
 
 TEST(PlannerTracking, SyntheticWalkAtTheDefaultsAndSofterGains) {
   const std::string s = track_scenario(synthetic_walk(), "track_walk");
-  for (const char* set : {"seed=1", kSofterKp}) {
+  for (const std::string& set : {std::string("seed=1"), kp_times(0.8)}) {
     SCOPED_TRACE(set);
     expect_tracked(track(s, {set}));
   }
@@ -86,7 +89,7 @@ TEST(PlannerTracking, SyntheticWalkOnTheHumanoidAtTheDefaultsAndStifferGains) {
       track_scenario(synthetic_walk(), "track_walk_humanoid", true,
                      test::source_dir() + "/models/maps/synthetic_walk_to_humanoid.yaml",
                      "mujoco://model/humanoid/humanoid.xml");
-  for (const char* set : {"seed=1", "controllers.0.kp=2400"}) {
+  for (const std::string& set : {std::string("seed=1"), kp_times(1.2)}) {
     SCOPED_TRACE(set);
     expect_tracked(track(s, {set}));
   }
