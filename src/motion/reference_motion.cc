@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include <fmt/format.h>
 
@@ -17,6 +18,144 @@ bool name_matches(const std::string& name, const std::vector<std::string>& patte
     if (!p.empty() && name.find(p) != std::string::npos) return true;
   return false;
 }
+
+// The synthetic run's legs and root, in the skeleton's sagittal plane (Y up, Z forward; cm, s,
+// degrees). The root advances at a constant speed and moves vertically as a body under a
+// half-sine vertical ground force in stance and ballistically in flight, so that the force
+// averages to the weight over a step: the clip asks only for what a body can do. The stance
+// foot's toe tip is planted on the floor while the heel rises; a swing ankle moves from its
+// take-off place and velocity to its landing ones along a cubic Hermite curve, lifted in
+// between. Both legs' angles follow from hip and ankle by two-link inverse kinematics.
+class SyntheticRunGait {
+ public:
+  static constexpr double kHipDrop = 6, kThigh = 44, kShank = 42, kToeDown = 7, kToeAhead = 16;
+
+  SyntheticRunGait(const SyntheticWalkOptions& o, double (*root_pitch_deg)(double phase))
+      : o_(o),
+        pitch_(root_pitch_deg),
+        period_(o.period_s),
+        stance_(o.stance_fraction * o.period_s),
+        speed_(100 * o.run_speed_mps) {
+    if (!(o.stance_fraction > 0 && o.stance_fraction < 0.5))
+      throw InputError("synthetic run: stance_fraction must be in (0, 0.5)");
+    const double step = period_ / 2, g = 981;
+    force_ = std::numbers::pi * g * step / (2 * stance_);  // the stance's peak, per unit mass
+    // the root's height at mid-stance: the stance knee never straighter than run_knee_min_deg
+    double lo = 40, hi = 120;
+    for (int it = 0; it < 60; ++it) {
+      mid_height_ = 0.5 * (lo + hi);
+      double least = 1e9;
+      for (int k = 0; k <= 20; ++k) {
+        const double tau = (k / 20.0 - 0.5) * stance_;
+        Foot f = stance_foot(tau, tau);
+        double hip, knee, ankle;
+        solve(tau, f, hip, knee, ankle);
+        least = std::min(least, knee);
+      }
+      (least < o.run_knee_min_deg ? hi : lo) = mid_height_;
+    }
+  }
+
+  // the root's height and advance at time t; right mid-stance at t = 0, left at period / 2
+  double root_height(double t) const {
+    const double g = 981, pi = std::numbers::pi, step = period_ / 2;
+    const double tau = std::abs(std::remainder(t, step)), w = stance_ / 2;
+    const double c = force_ * stance_ * stance_ / (pi * pi);
+    if (tau <= w) return mid_height_ + c * (1 - std::cos(pi * tau / stance_)) - g * tau * tau / 2;
+    const double take_off = mid_height_ + c - g * w * w / 2, u = tau - w;
+    return take_off + g * (step - stance_) / 2 * u - g * u * u / 2;
+  }
+  double root_advance(double t) const { return speed_ * t; }
+
+  // leg s's (0 left, 1 right) joint angles at time t
+  void leg_angles(int s, double t, double& hip, double& knee, double& ankle) const {
+    const double mid = s == 1 ? 0 : period_ / 2;
+    const double tau = std::remainder(t - mid, period_), w = stance_ / 2;
+    if (std::abs(tau) <= w) return solve(t, stance_foot(t, tau), hip, knee, ankle);
+    // the swing: from take-off (tau = w) to the next landing (tau = period - w)
+    const double since = tau > 0 ? tau - w : tau + period_ - w, span = period_ - stance_;
+    const double h = 1e-5, start = t - since, end = start + span;
+    const Foot f0 = stance_foot(start, w), f0b = stance_foot(start - h, w - h);
+    const Foot f1 = stance_foot(end, -w), f1b = stance_foot(end + h, -w + h);
+    const double u = since / span, u2 = u * u, u3 = u2 * u;
+    auto hermite = [&](double p0, double r0, double p1, double r1) {
+      r0 *= span, r1 *= span;
+      return (2 * u3 - 3 * u2 + 1) * p0 + (u3 - 2 * u2 + u) * r0 + (-2 * u3 + 3 * u2) * p1 +
+             (u3 - u2) * r1;
+    };
+    // the ankle about the hip in polar form (reach and angle) at take-off, landing and h on
+    double reach[4], angle[4];
+    const Foot ends[4] = {f0, f0b, f1, f1b};
+    const double times[4] = {start, start - h, end, end + h};
+    for (int k = 0; k < 4; ++k) {
+      double hy, hz;
+      hip_at(times[k], hy, hz);
+      reach[k] = std::hypot(ends[k].y - hy, ends[k].z - hz);
+      angle[k] = std::atan2(hz - ends[k].z, hy - ends[k].y);
+    }
+    // the reach: stopping its stance extension at take-off and starting its compression at
+    // landing (a step in its rate, as at a real foot's push-off and impact), folded in between
+    const double fold = std::sin(std::numbers::pi * u);
+    const double d = hermite(reach[0], std::min(0.0, (reach[0] - reach[1]) / h), reach[2],
+                             std::max(0.0, (reach[3] - reach[2]) / h)) -
+                     o_.run_ankle_lift_cm * fold * fold;
+    const double b =
+        hermite(angle[0], (angle[0] - angle[1]) / h, angle[2], (angle[3] - angle[2]) / h);
+    double hy, hz;
+    hip_at(t, hy, hz);
+    Foot f;
+    f.y = hy - d * std::cos(b);
+    f.z = hz - d * std::sin(b);
+    f.pitch = hermite(f0.pitch, (f0.pitch - f0b.pitch) / h, f1.pitch, (f1b.pitch - f1.pitch) / h);
+    solve(t, f, hip, knee, ankle);
+  }
+
+ private:
+  struct Foot {
+    double y = 0, z = 0, pitch = 0;  // the ankle (cm) and the foot's pitch in the world (rad)
+  };
+  void hip_at(double t, double& y, double& z) const {
+    const double p = pitch_(2 * std::numbers::pi * t / period_) * std::numbers::pi / 180;
+    y = root_height(t) - kHipDrop * std::cos(p);
+    z = root_advance(t) - kHipDrop * std::sin(p);
+  }
+  // a stance foot at time t, tau after its mid-stance (|tau| <= stance / 2): the toe tip planted
+  // run_toe_ahead_cm ahead of the hip at mid-stance, the heel rising from flat at landing
+  Foot stance_foot(double t, double tau) const {
+    const double deg = std::numbers::pi / 180;
+    auto foot_pitch = [&](double at) {
+      const double u = at / stance_ + 0.5;
+      return o_.run_foot_pitch_deg * deg * u * u;
+    };
+    double hy, hz;
+    hip_at(t - tau, hy, hz);
+    const double toe_z = hz + o_.run_toe_ahead_cm;
+    Foot f;
+    f.pitch = foot_pitch(tau);
+    f.y = kToeDown * std::cos(f.pitch) + kToeAhead * std::sin(f.pitch);
+    f.z = toe_z - (kToeAhead * std::cos(f.pitch) - kToeDown * std::sin(f.pitch));
+    return f;
+  }
+  // the leg's joint angles (deg) that put its ankle at f with the foot at f's pitch
+  void solve(double t, const Foot& f, double& hip, double& knee, double& ankle) const {
+    const double deg = std::numbers::pi / 180;
+    double hy, hz;
+    hip_at(t, hy, hz);
+    const double ry = f.y - hy, rz = f.z - hz, d = std::hypot(ry, rz);
+    const double l1 = kThigh, l2 = kShank;
+    const double k = std::acos(std::clamp((d * d - l1 * l1 - l2 * l2) / (2 * l1 * l2), -1.0, 1.0));
+    const double alpha =
+        std::acos(std::clamp((l1 * l1 + d * d - l2 * l2) / (2 * l1 * d), -1.0, 1.0));
+    const double a1 = std::atan2(-rz, -ry) - alpha, a2 = a1 + k;
+    hip = a1 / deg - pitch_(2 * std::numbers::pi * t / period_);
+    knee = k / deg;
+    ankle = (f.pitch - a2) / deg;
+  }
+
+  const SyntheticWalkOptions& o_;
+  double (*pitch_)(double);
+  double period_, stance_, speed_, force_ = 0, mid_height_ = 0;
+};
 
 }  // namespace
 
@@ -341,87 +480,26 @@ BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
   const double a_hip = o.hip_amplitude_deg * pi / 180;
   const double stride = o.stride_scale * 2 * 2 * leg * std::sin(a_hip);  // cm per cycle
   const double stand = 6 + leg;
-  // a leg's angles (deg) at its own phase ph: hip flexion is a negative X rotation (the leg
-  // swings towards +Z); the knee bends in swing (peaking after mid-swing) and at mid-stance
+  // a walking leg's angles (deg) at its own phase ph: hip flexion is a negative X rotation (the
+  // leg swings towards +Z); the knee bends in swing (peaking after mid-swing) and at mid-stance
   auto leg_angles = [&](double ph, double& hip, double& knee, double& ankle) {
     hip = -o.hip_amplitude_deg * std::sin(ph);
-    // a walk's swing bend peaks after mid-swing; a run's peaks at mid-swing (the other leg's
-    // mid-stance) and spans the whole, longer swing, still bent at landing
-    const double half = pi * (1.1 - o.stance_fraction);  // the run's bend: half its span
-    double swing = o.stance_fraction > 0
-                       ? std::max(0.0, std::cos(std::remainder(ph, 2 * pi) * (pi / 2) / half))
-                       : std::max(0.0, std::sin(ph + 0.6));
+    double swing = std::max(0.0, std::sin(ph + 0.6));
     double stance = std::max(0.0, -std::cos(ph));  // 1 at mid-stance
     knee = 5 + o.knee_swing_deg * swing * swing + o.stance_knee_deg * stance * stance;
     ankle = -0.3 * hip - 0.35 * knee + 3;
   };
-  auto root_pitch = [&](double phase) { return 2.0 * std::sin(2 * phase); };
-  // the lowest bone point of leg s's foot (ankle or toe) below the root, cm along Y, at the
-  // cycle's phase (the root's yaw, a few degrees, is left out)
-  auto foot_low = [&](int s, double phase) {
-    double hip, knee, ankle;
-    leg_angles(phase + (s == 0 ? 0 : pi), hip, knee, ankle);
-    const double a1 = (root_pitch(phase) + hip) * pi / 180, a2 = a1 + knee * pi / 180,
-                 a3 = a2 + ankle * pi / 180;
-    const double ankle_y = -6 - 44 * std::cos(a1) - 42 * std::cos(a2);
-    return std::min(ankle_y, ankle_y - 7 * std::cos(a3) - 16 * std::sin(a3));
-  };
-  // a run's root height: the stance foot on the floor (mid-stances every pi of phase, the right
-  // leg's at 0), and ballistic flight between take-off and landing
-  auto run_height = [&](double phase) {
-    const double w = pi * o.stance_fraction;  // half a stance, in phase
-    const long k = std::lround(phase / pi);
-    const double d = phase - k * pi;
-    auto standing = [&](long m) { return m % 2 == 0 ? 1 : 0; };  // right at even multiples
-    if (std::abs(d) <= w) return -foot_low(standing(k), phase);
-    const long from = d > 0 ? k : k - 1;
-    const double b0 = from * pi + w, b1 = (from + 1) * pi - w;
-    const double h0 = -foot_low(standing(from), b0), h1 = -foot_low(standing(from + 1), b1);
-    const double flight_s = (b1 - b0) / (2 * pi) * o.period_s, u = (phase - b0) / (b1 - b0);
-    const double apex = 981 * flight_s * flight_s / 8;  // cm: g T^2 / 8
-    return (1 - u) * h0 + u * h1 + 4 * apex * u * (1 - u);
-  };
-  // the ankle of leg s ahead of the root, cm along Z, and its rate per unit of phase
-  auto foot_ahead = [&](int s, double phase) {
-    double hip, knee, ankle;
-    leg_angles(phase + (s == 0 ? 0 : pi), hip, knee, ankle);
-    const double a1 = (root_pitch(phase) + hip) * pi / 180, a2 = a1 + knee * pi / 180;
-    return -44 * std::sin(a1) - 42 * std::sin(a2);
-  };
-  auto foot_ahead_rate = [&](int s, double phase) {
-    const double h = 1e-6;
-    return (foot_ahead(s, phase + h) - foot_ahead(s, phase - h)) / (2 * h);
-  };
-  // a run's root advance: over the stance foot planted on the floor, at the take-off speed in
-  // flight; `advance` is one step's, mid-stance to mid-stance
-  const double w_run = pi * o.stance_fraction;
-  auto run_forward_from = [&](long k, double phase, double advance) {
-    const int s = k % 2 == 0 ? 1 : 0;  // the right leg stands at even multiples of pi
-    const double planted = k * advance + foot_ahead(s, k * pi);
-    if (phase <= k * pi + w_run) return planted - foot_ahead(s, phase);
-    const double b0 = k * pi + w_run;
-    return planted - foot_ahead(s, b0) - foot_ahead_rate(s, b0) * (phase - b0);
-  };
-  double step_advance = 0;
-  if (o.stance_fraction > 0) {
-    const double landing = pi - w_run;
-    const double at_landing = run_forward_from(0, landing, 0);
-    // the landing foot's place fixes the next stance; mid-stance follows
-    step_advance = at_landing + foot_ahead(0, landing) - foot_ahead(0, pi);
-  }
-  auto run_forward = [&](double phase) {
-    const long k = std::lround(phase / pi);
-    const double d = phase - k * pi;
-    return run_forward_from(d < -w_run ? k - 1 : k, phase, step_advance);
-  };
+  // captureless: the run's gait takes it as a function pointer
+  auto root_pitch = [](double phase) { return 2.0 * std::sin(2 * phase); };
+  std::optional<SyntheticRunGait> run;
+  if (o.stance_fraction > 0) run.emplace(o, +root_pitch);
   for (int f = 0; f < frames; ++f) {
     double phase = 2 * pi * f / (frames - 1);
     std::string row;
-    double z =
-        o.stance_fraction > 0 ? run_forward(phase) - run_forward(0) : stride * f / (frames - 1);
-    double y = o.stance_fraction > 0
-                   ? run_height(phase)
-                   : stand * std::cos(a_hip * 0.7) + o.bounce_cm * std::cos(2 * phase);
+    const double t = o.period_s * f / (frames - 1);
+    const double z = run ? run->root_advance(t) : stride * f / (frames - 1);
+    const double y = run ? run->root_height(t)
+                         : stand * std::cos(a_hip * 0.7) + o.bounce_cm * std::cos(2 * phase);
     row += fmt::format("0 {:.6f} {:.6f} 0 {:.6f} {:.6f}", y, z, root_pitch(phase),
                        4.0 * std::sin(phase));
     row += fmt::format(" 0 {:.6f} 0", o.lean_deg);                        // spine: lean
@@ -437,7 +515,10 @@ BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
     }
     for (int s = 0; s < 2; ++s) {
       double hip, knee, ankle;
-      leg_angles(phase + (s == 0 ? 0 : pi), hip, knee, ankle);
+      if (run)
+        run->leg_angles(s, o.period_s * f / (frames - 1), hip, knee, ankle);
+      else
+        leg_angles(phase + (s == 0 ? 0 : pi), hip, knee, ankle);
       row += fmt::format(" 0 {:.6f} 0 0 {:.6f} 0 0 {:.6f} 0", hip, knee, ankle);
     }
     text += row + "\n";
@@ -448,14 +529,12 @@ BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
 SyntheticWalkOptions synthetic_run_options() {
   SyntheticWalkOptions o;
   o.name = "synthetic_run.bvh";
-  o.period_s = 0.7;
-  o.hip_amplitude_deg = 30;
-  o.knee_swing_deg = 90;
-  o.stance_knee_deg = 25;
+  o.period_s = 0.7;  // 171 steps a minute
+  o.stance_fraction = 0.3;
+  o.run_speed_mps = 2.5;
   o.arm_amplitude_deg = 25;
   o.elbow_deg = 60;
   o.lean_deg = 8;
-  o.stance_fraction = 0.25;
   return o;
 }
 

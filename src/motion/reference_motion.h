@@ -147,29 +147,34 @@ class ReferenceMotion {
 // knees, ankles, arms and the root height follow smooth periodic curves; the root advances at
 // the speed the stance leg's swing implies, so the feet slide only a little. Not a captured
 // human walk: a stand-in with the right structure. synthetic_run_options() makes it a run with
-// a flight phase: a shorter cycle, wider hips, bent stance knees, and a root that moves over the
-// planted stance foot and flies ballistically between take-off and landing.
+// a flight phase, generated the other way round so that a body can do it: the root at a
+// constant speed, rising and falling as under a half-sine ground force in stance and
+// ballistically in flight; the stance foot planted, its leg by inverse kinematics; the swing leg
+// by smooth curves between take-off and landing.
 struct SyntheticWalkOptions {
   std::string name = "synthetic_walk.bvh";  // the clip's source name
   double period_s = 1.1;                    // one full cycle (two steps)
   double frame_time_s = 1.0 / 60;
-  double hip_amplitude_deg = 22;
-  double knee_swing_deg = 55;  // extra knee flexion at mid-swing
-  double stance_knee_deg = 0;  // extra knee flexion at mid-stance
+  double hip_amplitude_deg = 22;  // a walk's
+  double knee_swing_deg = 55;     // extra knee flexion at mid-swing
+  double stance_knee_deg = 0;     // a walk's extra knee flexion at mid-stance
   double arm_amplitude_deg = 15;
   double elbow_deg = 15;  // elbow flexion, and as much again at the back of the arm swing
   double lean_deg = 3;    // forward lean of the spine
-  // the root's height oscillation at twice the cycle's frequency (cm): > 0 highest at
-  // mid-stance (a walk's vaulting), < 0 lowest at mid-stance (a run's compression)
+  // a walk's root height oscillation at twice the cycle's frequency (cm), highest at mid-stance
   double bounce_cm = 1.2;
   double stride_scale = 1;  // a walk's root advance per cycle over the stance legs' sweep
-  // > 0: a run; each leg stands this fraction of the cycle and the rest between the two
-  // stances is flight. The root moves over the planted stance foot (its height and advance;
-  // bounce_cm and stride_scale are unused) and flies at its take-off velocity.
+  // > 0 (and < 0.5): a run; each leg stands this fraction of the cycle, and the rest between
+  // the two stances is flight
   double stance_fraction = 0;
+  double run_speed_mps = 2.5;      // a run's forward speed
+  double run_knee_min_deg = 15;    // a run's least knee bend in stance (sets the root's height)
+  double run_foot_pitch_deg = 30;  // a run's heel rise at take-off (flat at landing)
+  double run_toe_ahead_cm = 0;     // a run's planted toe ahead of the hip at mid-stance
+  double run_ankle_lift_cm = 30;   // a run's swing ankle raised at mid-swing over its path
 };
 BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& options = {});
-// the synthetic run: 0.7 s cycles with both feet off the ground around each step's middle
+// the synthetic run: 2.5 m/s at 171 steps a minute, 40% of each step in flight
 SyntheticWalkOptions synthetic_run_options();
 
 // the yaw (rotation about +z) part of an orientation whose body axes are a Z-up rest frame

@@ -242,8 +242,9 @@ TEST(SyntheticRun, HasAFlightPhaseAndLoopsSeamlessly) {
     if (std::min(h[0], h[1]) > 0.01) ++flight;
     if (std::min(h[0], h[1]) < 0.005) ++stance;
   }
-  // the stance foot stays planted: its ankle moves along the floor by less than 3 cm while it
-  // is on the floor (the generator plans the root in the sagittal plane, without its yaw sway)
+  // the stance foot stays planted: its lowest point (the toe tip, while the heel rises) moves
+  // along the floor by less than 2 cm while it is on the floor (the generator plans the legs in
+  // the sagittal plane, without the root's yaw sway)
   const MotionSkeleton& sk = ref.skeleton();
   std::vector<Eigen::Vector3d> pos;
   std::vector<Eigen::Quaterniond> rot;
@@ -256,18 +257,37 @@ TEST(SyntheticRun, HasAFlightPhaseAndLoopsSeamlessly) {
     foot_heights(ref, pose, h);
     ref.forward_kinematics(pose, pos, rot);
     for (int side = 0; side < 2; ++side) {
-      const Eigen::Vector3d ankle = pos[sk.find_segment(side == 0 ? "LeftFoot" : "RightFoot")];
+      const int k = sk.find_segment(side == 0 ? "LeftFoot" : "RightFoot");
+      Eigen::Vector3d low = pos[k];
+      for (const auto& e : sk.segments[k].bone_ends)
+        if ((pos[k] + rot[k] * e).z() < low.z()) low = pos[k] + rot[k] * e;
       const bool down = h[side] < 0.005;
-      if (down && !on[side]) planted[side] = ankle;
-      if (down) slide = std::max(slide, (ankle - planted[side]).head<2>().norm());
+      if (down && !on[side]) planted[side] = low;
+      if (down) slide = std::max(slide, (low - planted[side]).head<2>().norm());
       on[side] = down;
     }
   }
   std::cout << "synthetic run: " << ref.frame_count() << " frames, " << flight << " in flight, "
-            << stance << " in stance; the planted ankle slides " << slide << " m\n";
-  EXPECT_LT(slide, 0.03);
-  EXPECT_GE(flight, 4);
-  EXPECT_GE(stance, 4);
+            << stance << " in stance; the planted toe slides " << slide << " m\n";
+  EXPECT_LT(slide, 0.02);
+  EXPECT_GE(flight, 10);
+  EXPECT_GE(stance, 10);
+  // a body can do it: the root flies ballistically (about -g while both feet are up), and its
+  // horizontal speed stays within 2% of 2.5 m/s (the old run asked for 3 g forward in stance)
+  const double dt_frame = ref.frame_time_s();
+  ReferencePose p0 = ref.make_pose(), p1 = ref.make_pose(), p2 = ref.make_pose();
+  for (int f = 1; f + 1 < ref.frame_count(); ++f) {
+    ref.frame_pose(f - 1, p0), ref.frame_pose(f, p1), ref.frame_pose(f + 1, p2);
+    const Eigen::Vector3d v = (p2.root_position - p0.root_position) / (2 * dt_frame);
+    EXPECT_NEAR(v.head<2>().norm(), 2.5, 0.05) << "frame " << f;
+    double h0[2], h1[2], h2[2];
+    foot_heights(ref, p0, h0), foot_heights(ref, p1, h1), foot_heights(ref, p2, h2);
+    if (std::min({h0[0], h0[1], h1[0], h1[1], h2[0], h2[1]}) > 0.002) {
+      const double a = (p2.root_position.z() - 2 * p1.root_position.z() + p0.root_position.z()) /
+                       (dt_frame * dt_frame);
+      EXPECT_NEAR(a, -9.81, 0.3) << "frame " << f;
+    }
+  }
   // the loop: across the seam the pose changes no more than between two frames inside the clip
   double inside_rot = 0, inside_pos = 0;
   ReferencePose a = ref.make_pose(), b = ref.make_pose();
