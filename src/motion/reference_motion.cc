@@ -28,7 +28,8 @@ bool name_matches(const std::string& name, const std::vector<std::string>& patte
 // between. Both legs' angles follow from hip and ankle by two-link inverse kinematics.
 class SyntheticRunGait {
  public:
-  static constexpr double kHipDrop = 6, kThigh = 44, kShank = 42, kToeDown = 7, kToeAhead = 16;
+  static constexpr double kHipSide = 9, kHipDrop = 6, kThigh = 44, kShank = 42, kToeDown = 7,
+                          kToeAhead = 16;
 
   SyntheticRunGait(const SyntheticWalkOptions& o, double (*root_pitch_deg)(double phase))
       : o_(o),
@@ -40,6 +41,8 @@ class SyntheticRunGait {
       throw InputError("synthetic run: stance_fraction must be in (0, 0.5)");
     const double step = period_ / 2, g = 981;
     force_ = std::numbers::pi * g * step / (2 * stance_);  // the stance's peak, per unit mass
+    // each thigh rolled in so that the feet land run_step_width_cm apart (about 80 cm below)
+    roll_ = std::asin(std::clamp((kHipSide - o.run_step_width_cm / 2) / 80, -0.5, 0.5));
     // the root's height at mid-stance: the stance knee never straighter than run_knee_min_deg
     double lo = 40, hi = 120;
     for (int it = 0; it < 60; ++it) {
@@ -66,6 +69,8 @@ class SyntheticRunGait {
     return take_off + g * (step - stance_) / 2 * u - g * u * u / 2;
   }
   double root_advance(double t) const { return speed_ * t; }
+  // the roll (deg) of leg s's thigh towards the midline (a Z rotation), undone at its foot
+  double leg_roll_deg(int s) const { return (s == 0 ? -1 : 1) * roll_ * 180 / std::numbers::pi; }
 
   // leg s's (0 left, 1 right) joint angles at time t
   void leg_angles(int s, double t, double& hip, double& knee, double& ankle) const {
@@ -141,7 +146,8 @@ class SyntheticRunGait {
     const double deg = std::numbers::pi / 180;
     double hy, hz;
     hip_at(t, hy, hz);
-    const double ry = f.y - hy, rz = f.z - hz, d = std::hypot(ry, rz);
+    // the leg's plane is rolled in by roll_ (run_step_width_cm): its height in that plane
+    const double ry = (f.y - hy) / std::cos(roll_), rz = f.z - hz, d = std::hypot(ry, rz);
     const double l1 = kThigh, l2 = kShank;
     const double k = std::acos(std::clamp((d * d - l1 * l1 - l2 * l2) / (2 * l1 * l2), -1.0, 1.0));
     const double alpha =
@@ -155,6 +161,7 @@ class SyntheticRunGait {
   const SyntheticWalkOptions& o_;
   double (*pitch_)(double);
   double period_, stance_, speed_, force_ = 0, mid_height_ = 0;
+  double roll_ = 0;  // rad, each leg's roll towards the body's midline
 };
 
 }  // namespace
@@ -519,7 +526,9 @@ BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& o) {
         run->leg_angles(s, o.period_s * f / (frames - 1), hip, knee, ankle);
       else
         leg_angles(phase + (s == 0 ? 0 : pi), hip, knee, ankle);
-      row += fmt::format(" 0 {:.6f} 0 0 {:.6f} 0 0 {:.6f} 0", hip, knee, ankle);
+      const double roll = run ? run->leg_roll_deg(s) : 0;
+      row +=
+          fmt::format(" {:.6f} {:.6f} 0 0 {:.6f} 0 {:.6f} {:.6f} 0", roll, hip, knee, -roll, ankle);
     }
     text += row + "\n";
   }

@@ -172,6 +172,7 @@ struct SyntheticWalkOptions {
   double run_foot_pitch_deg = 30;  // a run's heel rise at take-off (flat at landing)
   double run_toe_ahead_cm = 0;     // a run's planted toe ahead of the hip at mid-stance
   double run_ankle_lift_cm = 30;   // a run's swing ankle raised at mid-swing over its path
+  double run_step_width_cm = 8;    // a run's feet apart sideways (the hips are 18 cm apart)
 };
 BvhClip make_synthetic_walk_clip(const SyntheticWalkOptions& options = {});
 // the synthetic run: 2.5 m/s at 171 steps a minute, 40% of each step in flight

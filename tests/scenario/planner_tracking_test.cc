@@ -1,13 +1,15 @@
 // The planner over the one tracker in free mode, on the shared defaults (no per-clip gains):
-// each clip of the evaluation (scripts/eval_track.sh) but the run tracked for 3 s without a fall
-// and with PHC's success, at the defaults and at one nearby setting; the same walk falls without
-// the planner; the plan is the same for any thread count.
+// each clip of the evaluation (scripts/eval_track.sh) tracked for 3 s without a fall and with
+// PHC's success, at the defaults and at one nearby setting; the same walk falls without the
+// planner; the plan is the same for any thread count.
 #include <gtest/gtest.h>
 
 #include <filesystem>
 
 #include "app/commands.h"
 #include "control/mocap_retarget_tracker.h"
+#include "motion/bvh.h"
+#include "motion/reference_motion.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
@@ -78,6 +80,19 @@ TEST(PlannerTracking, CmuClipAtTheDefaultsAndAnotherSeed) {
   if (!std::filesystem::exists(bvh)) GTEST_SKIP() << bvh << " is absent";
   const std::string s = track_scenario(bvh, "track_cmu", false);
   for (const char* set : {"seed=1", "seed=2"}) {
+    SCOPED_TRACE(set);
+    expect_tracked(track(s, {set}));
+  }
+}
+
+// the synthetic run (a flight phase in every step), written as `stance bvh synth-run` does
+TEST(PlannerTracking, SyntheticRunAtTheDefaultsAndStifferGains) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "stance_tests";
+  std::filesystem::create_directories(dir);
+  const std::string bvh = (dir / ("synthetic_run_" + std::to_string(::getpid()) + ".bvh")).string();
+  write_bvh(make_synthetic_walk_clip(synthetic_run_options()), bvh);
+  const std::string s = track_scenario(bvh, "track_run");
+  for (const std::string& set : {std::string("seed=1"), kp_times(1.2)}) {
     SCOPED_TRACE(set);
     expect_tracked(track(s, {set}));
   }
