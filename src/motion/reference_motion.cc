@@ -23,9 +23,10 @@ bool name_matches(const std::string& name, const std::vector<std::string>& patte
 // degrees). The root advances at a constant speed and moves vertically as a body under a
 // half-sine vertical ground force in stance and ballistically in flight, so that the force
 // averages to the weight over a step: the clip asks only for what a body can do. The stance
-// foot's toe tip is planted on the floor while the heel rises; a swing ankle moves from its
-// take-off place and velocity to its landing ones along a cubic Hermite curve, lifted in
-// between. Both legs' angles follow from hip and ankle by two-link inverse kinematics.
+// foot's toe tip is planted on the floor while the heel rises; a swing ankle moves about the hip
+// from its take-off reach and angle to its landing ones along cubic Hermite curves, folded
+// towards the hip in between. Both legs' angles follow from hip and ankle by two-link inverse
+// kinematics, in leg planes rolled in so that the feet land near the midline.
 class SyntheticRunGait {
  public:
   static constexpr double kHipSide = 9, kHipDrop = 6, kThigh = 44, kShank = 42, kToeDown = 7,
