@@ -156,7 +156,7 @@ struct SyntheticWalkOptions {
   double period_s = 1.1;                    // one full cycle (two steps)
   double frame_time_s = 1.0 / 60;
   double hip_amplitude_deg = 22;  // a walk's
-  double knee_swing_deg = 55;     // extra knee flexion at mid-swing
+  double knee_swing_deg = 55;     // a walk's extra knee flexion at mid-swing
   double stance_knee_deg = 0;     // a walk's extra knee flexion at mid-stance
   double arm_amplitude_deg = 15;
   double elbow_deg = 15;  // elbow flexion, and as much again at the back of the arm swing

@@ -202,18 +202,26 @@ TEST(MotionSkeleton, CmuMergesZeroLengthHelpers) {
               sk.scale_to_meters * Eigen::Vector3d(1.24777, -1.64261, 0.71711).norm(), 1e-9);
 }
 
-// the lowest point of each foot (its segment and bone ends) in a pose, m above the floor
-void foot_heights(const ReferenceMotion& ref, const ReferencePose& pose, double out[2]) {
+// the lowest point of each foot (its segment and bone ends) in a pose, in the world
+void foot_low_points(const ReferenceMotion& ref, const ReferencePose& pose,
+                     Eigen::Vector3d out[2]) {
   const MotionSkeleton& sk = ref.skeleton();
   std::vector<Eigen::Vector3d> pos;
   std::vector<Eigen::Quaterniond> rot;
   ref.forward_kinematics(pose, pos, rot);
   for (int side = 0; side < 2; ++side) {
     const int k = sk.find_segment(side == 0 ? "LeftFoot" : "RightFoot");
-    out[side] = pos[k].z();
+    out[side] = pos[k];
     for (const auto& e : sk.segments[k].bone_ends)
-      out[side] = std::min(out[side], (pos[k] + rot[k] * e).z());
+      if ((pos[k] + rot[k] * e).z() < out[side].z()) out[side] = pos[k] + rot[k] * e;
   }
+}
+
+// ... and its height, m above the floor
+void foot_heights(const ReferenceMotion& ref, const ReferencePose& pose, double out[2]) {
+  Eigen::Vector3d low[2];
+  foot_low_points(ref, pose, low);
+  for (int side = 0; side < 2; ++side) out[side] = low[side].z();
 }
 
 // the mean change of the joint rotations (rad) and the change of the root position (m) between
@@ -243,27 +251,19 @@ TEST(SyntheticRun, HasAFlightPhaseAndLoopsSeamlessly) {
     if (std::min(h[0], h[1]) < 0.005) ++stance;
   }
   // the stance foot stays planted: its lowest point (the toe tip, while the heel rises) moves
-  // along the floor by less than 2 cm while it is on the floor (the generator plans the legs in
-  // the sagittal plane, without the root's yaw sway)
-  const MotionSkeleton& sk = ref.skeleton();
-  std::vector<Eigen::Vector3d> pos;
-  std::vector<Eigen::Quaterniond> rot;
+  // along the floor by less than 2 cm while it is on the floor (the generator plans the legs
+  // without the root's yaw sway)
   double slide = 0;
   Eigen::Vector3d planted[2];
   bool on[2] = {false, false};
   for (int f = 0; f < ref.frame_count(); ++f) {
     ref.frame_pose(f, pose);
-    double h[2];
-    foot_heights(ref, pose, h);
-    ref.forward_kinematics(pose, pos, rot);
+    Eigen::Vector3d low[2];
+    foot_low_points(ref, pose, low);
     for (int side = 0; side < 2; ++side) {
-      const int k = sk.find_segment(side == 0 ? "LeftFoot" : "RightFoot");
-      Eigen::Vector3d low = pos[k];
-      for (const auto& e : sk.segments[k].bone_ends)
-        if ((pos[k] + rot[k] * e).z() < low.z()) low = pos[k] + rot[k] * e;
-      const bool down = h[side] < 0.005;
-      if (down && !on[side]) planted[side] = low;
-      if (down) slide = std::max(slide, (low - planted[side]).head<2>().norm());
+      const bool down = low[side].z() < 0.005;
+      if (down && !on[side]) planted[side] = low[side];
+      if (down) slide = std::max(slide, (low[side] - planted[side]).head<2>().norm());
       on[side] = down;
     }
   }
@@ -276,6 +276,7 @@ TEST(SyntheticRun, HasAFlightPhaseAndLoopsSeamlessly) {
   // horizontal speed stays within 2% of 2.5 m/s (the old run asked for 3 g forward in stance)
   const double dt_frame = ref.frame_time_s();
   ReferencePose p0 = ref.make_pose(), p1 = ref.make_pose(), p2 = ref.make_pose();
+  int ballistic = 0;
   for (int f = 1; f + 1 < ref.frame_count(); ++f) {
     ref.frame_pose(f - 1, p0), ref.frame_pose(f, p1), ref.frame_pose(f + 1, p2);
     const Eigen::Vector3d v = (p2.root_position - p0.root_position) / (2 * dt_frame);
@@ -286,8 +287,10 @@ TEST(SyntheticRun, HasAFlightPhaseAndLoopsSeamlessly) {
       const double a = (p2.root_position.z() - 2 * p1.root_position.z() + p0.root_position.z()) /
                        (dt_frame * dt_frame);
       EXPECT_NEAR(a, -9.81, 0.3) << "frame " << f;
+      ++ballistic;
     }
   }
+  EXPECT_GE(ballistic, 8) << "frames checked in flight";
   // the loop: across the seam the pose changes no more than between two frames inside the clip
   double inside_rot = 0, inside_pos = 0;
   ReferencePose a = ref.make_pose(), b = ref.make_pose();
@@ -315,6 +318,13 @@ TEST(SyntheticRun, HasAFlightPhaseAndLoopsSeamlessly) {
 }
 
 // a cut of a real clip that is no cycle: looped as it is, the pose jumps at the seam; with the
+// a run needs some stance and some flight in every step
+TEST(SyntheticRun, RejectsAStanceFractionWithoutFlight) {
+  SyntheticWalkOptions o = synthetic_run_options();
+  o.stance_fraction = 0.5;
+  EXPECT_THROW(make_synthetic_walk_clip(o), InputError);
+}
+
 // blend the last 0.2 s fade onto the first frame and the seam is as smooth as the clip
 TEST(ReferenceMotion, LoopBlendJoinsACutThatIsNoCycle) {
   const std::string path = shared_bvh("cmu_131_01.bvh");
