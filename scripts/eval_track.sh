@@ -35,12 +35,14 @@ s = json.load(open(d + "/summary.json"))
 m = s["metrics"].get("mocap", {})
 ok = (not s["fell"]) and m.get("success", False) and m.get("mean_root_error_m", 9) <= 0.2 \
      and m.get("mean_joint_error_deg", 99) <= 6
+# a run cut short (Ctrl-C, a killed job) proves nothing about the rest of its clip
+verdict = "CUT" if s.get("interrupted") else ("PASS" if ok else "FAIL")
 print("| {} | {} | {:.1f} | {} | {} | {:.3f} | {:.3f} | {:.2f} | {:.3f} | {:.1f} | {} |".format(
     clip, setting, s["sim_time"], "yes" if s["fell"] else "no",
     "yes" if m.get("success") else "no", m.get("mean_body_position_error_m", float("nan")),
     m.get("mean_root_error_m", float("nan")), m.get("mean_joint_error_deg", float("nan")),
     m.get("foot_skate_m_per_s", float("nan")), m.get("compute_s_per_sim_s", float("nan")),
-    "PASS" if ok else "FAIL"))
+    verdict))
 PY
 }
 

@@ -81,6 +81,7 @@ struct MocapBalanceParams {
   bool swing_foot_world = false;       // swing foot at its reference world orientation
   bool level_planted_feet = true;   // free mode: the clip's planted feet turned level (retarget.h)
   double gravity_compensation = 0;  // weight fraction carried through the stance leg(s)
+  double reference_support = 0.5;   // share of the clip root's vertical force m (g + a) carried too
   double root_force_kp = 0;         // N/m: virtual force holding the root over the stance foot
   double root_force_kd = 0;         // N s/m
   double root_force_kd_z = 0;       // N s/m, along up
@@ -108,6 +109,10 @@ struct MocapBalanceParams {
       {.help = "free mode: turn the clip's planted feet level"});
     v("gravity_compensation", gravity_compensation,
       {.min = 0, .max = 2, .help = "free mode: weight fraction carried through the stance leg"});
+    v("reference_support", reference_support,
+      {.min = 0,
+       .max = 2,
+       .help = "free mode: share of the clip root's vertical force carried by the stance leg"});
     v("root_force_kp", root_force_kp,
       {.unit = "N/m", .min = 0, .max = 1e6, .help = "free mode: virtual root force, horizontal"});
     v("root_force_kd", root_force_kd, {.unit = "N s/m", .min = 0, .max = 1e6});

@@ -548,6 +548,13 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
   // the virtual force at the COM, reacted by the supporting feet (Coros et al. 2010)
   const double weight = engine.total_mass() * engine.gravity().norm();
   Eigen::Vector3d force = -p.gravity_compensation * engine.total_mass() * engine.gravity();
+  if (p.reference_support > 0) {
+    // the vertical force the clip's root motion needs, m (g + a): a run's stance asks for over
+    // twice the weight, its flight for none
+    const Eigen::Vector3d a_ref = motion_->sample_body_acceleration(t, root_mapped_);
+    const double need = s.up.dot(a_ref) - s.up.dot(engine.gravity());
+    force += p.reference_support * engine.total_mass() * std::max(need, 0.0) * s.up;
+  }
   const Eigen::Vector3d e = yaw_fix * d_ref - d, ev = yaw_fix * vel_ref - vel;
   force += horizontal(p.root_force_kp * e + p.root_force_kd * ev);
   force += p.root_force_kd_z * s.up.dot(ev) * s.up;

@@ -664,6 +664,13 @@ BodyPose RetargetedMotion::sample_body_pose(double t, int i) const {
   return out;
 }
 
+Eigen::Vector3d RetargetedMotion::sample_body_acceleration(double t, int i) const {
+  const double h = 0.03;
+  return (sample_body_pose(t + h, i).pos - 2 * sample_body_pose(t, i).pos +
+          sample_body_pose(t - h, i).pos) /
+         (h * h);
+}
+
 Eigen::Quaterniond RetargetedMotion::sample_body_local(double t, int i) const {
   int f;
   double alpha;

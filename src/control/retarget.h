@@ -94,6 +94,9 @@ class RetargetedMotion {
   // one body without work vectors, for queries on a const run (the planner's cost)
   BodyPose sample_body_pose(double t, int i) const;
   Eigen::Quaterniond sample_body_local(double t, int i) const;
+  // mapped body i's reference world acceleration at time t: a central difference over +-30 ms,
+  // which smooths the kinks of the frame-by-frame interpolation. Allocates nothing.
+  Eigen::Vector3d sample_body_acceleration(double t, int i) const;
   // mapped body i's rest rotation relative to its engine parent body (the joints at zero):
   // its world rotation is parent * rest_local * (joint rotation)
   const Eigen::Quaterniond& rest_local(int i) const { return rest_local_[i]; }

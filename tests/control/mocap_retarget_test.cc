@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <iostream>
 #include <numbers>
 
 #include "control/retarget.h"
@@ -29,8 +30,8 @@ struct OwnCharacter {
   std::unique_ptr<ReferenceMotion> reference;
   JointMap map;
 
-  explicit OwnCharacter(const std::string& height_offset,
-                        BvhClip from = make_synthetic_walk_clip(), bool loop = true)
+  explicit OwnCharacter(const std::string& height_offset, BvhClip from = make_synthetic_walk_clip(),
+                        bool loop = true)
       : clip(std::move(from)) {
     BvhCharacterOptions o;
     BvhCharacter c = make_bvh_character(clip, o);
@@ -73,6 +74,46 @@ TEST(Retarget, IdentityMapOnTheClipsOwnCharacterIsExact) {
       EXPECT_LT(geodesic_angle(b.quat, rot[k]), 1e-9) << sk.segments[k].name << " frame " << f;
       EXPECT_LT((b.pos - pos[k]).norm(), 1e-9) << sk.segments[k].name << " frame " << f;
     }
+  }
+}
+
+// the clip's vertical force on the root (reference_support): on the synthetic run, whose root
+// flies ballistically and is carried by a half-sine force of 2.6 g in stance, m (g + a) averages
+// to the weight over a step, peaks near 2.6 g and is about zero in mid-flight
+TEST(Retarget, BodyAccelerationOfTheRunGivesItsGroundForce) {
+  OwnCharacter own("0", make_synthetic_walk_clip(synthetic_run_options()));
+  auto probe = engine_of("mujoco", own.xml);
+  RetargetedMotion motion(*own.reference, own.map, *probe, 2);
+  auto hips = [](const RetargetedMotion& m) {
+    for (size_t i = 0; i < m.bodies().size(); ++i)
+      if (m.bodies()[i].name.rfind("Hips", 0) == 0) return static_cast<int>(i);
+    return -1;
+  };
+  const int root = hips(motion);
+  ASSERT_GE(root, 0);
+  const double g = 9.81, step = 0.35;  // s: half the 0.7 s cycle
+  const int n = 700;
+  double sum = 0, peak = 0, least = 1e9;
+  for (int k = 0; k < n; ++k) {
+    const double need = motion.sample_body_acceleration(0.5 + step * k / n, root).z() + g;
+    sum += need / n;
+    peak = std::max(peak, need);
+    least = std::min(least, need);
+  }
+  std::cout << "run: m (g + a) / m g mean " << sum / g << ", peak " << peak / g << ", least "
+            << least / g << "\n";
+  EXPECT_NEAR(sum, g, 0.03 * g);  // over a whole step the ground carries the weight
+  EXPECT_NEAR(peak, 2.6 * g, 0.25 * g);
+  EXPECT_NEAR(least, 0, 0.1 * g);  // flight: falling freely
+  // and on the walk the clip's vertical force stays near the weight
+  OwnCharacter walk("0");
+  auto walk_probe = engine_of("mujoco", walk.xml);
+  RetargetedMotion walk_motion(*walk.reference, walk.map, *walk_probe, 2);
+  for (int k = 0; k < n; ++k) {
+    const double need =
+        walk_motion.sample_body_acceleration(0.5 + k * 1e-3, hips(walk_motion)).z() + g;
+    EXPECT_GT(need, 0.5 * g);
+    EXPECT_LT(need, 1.5 * g);
   }
 }
 
@@ -150,10 +191,12 @@ TEST(Retarget, LevelsPlantedFeetAndNothingElse) {
       EXPECT_NEAR(tilt_deg(as_is, f, left), 12, 0.5);
       EXPECT_LT(tilt_deg(level, f, left), 0.01);
     } else if (f > 85) {  // lifted: as the clip
-      EXPECT_GT(level.sample_body_pose(f * dt, left).pos.z() -
-                    level.sample_body_pose(0, left).pos.z(), 0.1);
+      EXPECT_GT(
+          level.sample_body_pose(f * dt, left).pos.z() - level.sample_body_pose(0, left).pos.z(),
+          0.1);
       EXPECT_LT(geodesic_angle(as_is.sample_body_pose(f * dt, left).quat,
-                               level.sample_body_pose(f * dt, left).quat), 1e-9);
+                               level.sample_body_pose(f * dt, left).quat),
+                1e-9);
     }
     // the bodies above the feet, and the root's path, are the clip's
     for (int i = 0; i < static_cast<int>(level.bodies().size()); ++i) {
