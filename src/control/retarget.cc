@@ -665,10 +665,15 @@ BodyPose RetargetedMotion::sample_body_pose(double t, int i) const {
 }
 
 Eigen::Vector3d RetargetedMotion::sample_body_acceleration(double t, int i) const {
+  auto position = [&](double at) {  // sample_body_pose's position without its slerp
+    int f;
+    double alpha;
+    locate(at, f, alpha);
+    const size_t a = static_cast<size_t>(f) * bodies_.size() + i, b = a + bodies_.size();
+    return Eigen::Vector3d((1 - alpha) * position_[a] + alpha * position_[b]);
+  };
   const double h = 0.03;
-  return (sample_body_pose(t + h, i).pos - 2 * sample_body_pose(t, i).pos +
-          sample_body_pose(t - h, i).pos) /
-         (h * h);
+  return (position(t + h) - 2 * position(t) + position(t - h)) / (h * h);
 }
 
 Eigen::Quaterniond RetargetedMotion::sample_body_local(double t, int i) const {
