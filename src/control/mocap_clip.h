@@ -83,7 +83,7 @@ struct MocapBalanceParams {
   double gravity_compensation = 0;  // weight fraction carried through the stance leg(s)
   double reference_support = 0.5;   // share of the clip root's vertical force m (g + a) carried too
   double root_force_kp = 0;         // N/m: virtual force holding the root over the stance foot
-  double root_force_kd = 0;         // N s/m
+  double root_force_kd = 150;       // N s/m: the clip root's speed, held through the stance leg
   double root_force_kd_z = 0;       // N s/m, along up
   std::string left_hip, right_hip;  // thigh joints (clip names); empty: found from the feet
   std::string left_foot, right_foot;  // feet; empty: the first foot/toe/ankle segment per leg

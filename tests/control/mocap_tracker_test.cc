@@ -270,6 +270,81 @@ TEST(MocapTracker, ComSupportTorqueIsInternal) {
   EXPECT_NEAR(tau.dot(v), force.dot((jac_com - jac_foot) * v), 1e-9 * force.norm());
 }
 
+// reference_support on the run: held on the clip's own motion, the torques it adds are exactly
+// the Coros torques of share * m * max(0, g + a_ref,z) at the foot that alone touches the ground,
+// where a_ref is the clip root's acceleration; nothing in flight, over twice the weight at its peak
+TEST(MocapTracker, ReferenceSupportCarriesTheClipsGroundForce) {
+  ClipFiles s = make_files(make_synthetic_walk_clip(synthetic_run_options()), "track_ref_support");
+  MocapRetargetParams p = params_for(s.bvh, "free");
+  p.loop = true;
+  p.kp = p.kd = 0;  // the SPD, which would answer any torque, off: the balance layer's alone
+  p.reference_support = 0;
+  Tracked off = make_tracked(p, s.xml, 2.0);
+  const double share = 0.5;  // its peak, 1.3 m g, stays under the 2 m g clamp
+  p.reference_support = share;
+  Tracked on = make_tracked(p, s.xml, 2.0);
+  Engine& e = *on.engine;
+  const RetargetedMotion& motion = on.tracker->motion();
+  int hips = -1;
+  for (size_t i = 0; i < motion.bodies().size(); ++i)
+    if (motion.bodies()[i].name.rfind("Hips", 0) == 0) hips = static_cast<int>(i);
+  ASSERT_GE(hips, 0);
+  const int feet[2] = {e.body_index("LeftFoot"), e.body_index("RightFoot")};
+  ASSERT_GE(feet[0], 0);
+  ASSERT_GE(feet[1], 0);
+  auto touches = [&](int foot) {  // the foot or a body below it
+    for (int b = 0; b < e.nbody(); ++b)
+      for (int a = b; a >= 0; a = e.body_parent(a))
+        if (a == foot && e.body_touches_ground(b)) return true;
+    return false;
+  };
+  const int nv = e.nv();
+  Eigen::VectorXd q(e.nq()), v(nv), scratch(nv), expected(nv);
+  Eigen::MatrixXd jac_com(3, nv), jac_scratch(3, nv);
+  ControlOutput a, b;
+  a.resize(nv, 0);
+  b.resize(nv, 0);
+  const double m = e.total_mass(), g = e.gravity().norm();
+  const int root_z = e.joint(e.joint_index("root")).qpos_adr + 2;
+  int single = 0, flight = 0;
+  double peak = 0;
+  const long steps = std::lround(0.7 / e.timestep());  // a whole cycle: two steps
+  for (long k = 0; k < steps; ++k) {
+    motion.sample(e, e.time(), q, v, scratch);
+    q[root_z] -= 0.01;  // 1 cm down, so that a foot on the floor is in contact
+    e.set_positions(q);
+    e.set_velocities(v);
+    e.forward();
+    a.clear();
+    b.clear();
+    off.tracker->compute(*off.state, e, a);
+    on.tracker->compute(*on.state, e, b);
+    const bool left = touches(feet[0]), right = touches(feet[1]);
+    // the tracker's targets are for the end of the step
+    const double t_target = e.time() + e.timestep();
+    const double need = std::max(0.0, motion.sample_body_acceleration(t_target, hips).z() + g);
+    if (!left && !right) {
+      ++flight;
+      EXPECT_LT((b.tau - a.tau).norm(), 1e-9) << "t " << e.time();
+    } else if (left != right) {
+      ++single;
+      peak = std::max(peak, need / g);
+      expected.setZero();
+      e.com_jacobian(jac_com);
+      add_com_support_torque(e, feet[left ? 0 : 1], Eigen::Vector3d(0, 0, share * m * need),
+                             jac_com, jac_scratch, expected);
+      EXPECT_LT((b.tau - a.tau - expected).norm(), 1e-9 * (1 + expected.norm()))
+          << "t " << e.time();
+    }
+    e.step();  // only the clock: the next pass sets the state again
+  }
+  std::cout << "reference_support: " << single << " single-stance and " << flight
+            << " flight samples, peak m (g + a) / m g " << peak << "\n";
+  EXPECT_GT(single, 0.3 * steps);
+  EXPECT_GT(flight, 0.15 * steps);
+  EXPECT_GT(peak, 2.0);
+}
+
 // one SPD: the tracker's law with a zero target velocity and no other torques is stable_pd's
 TEST(MocapTracker, TrackerSpdIsStablePd) {
   ClipFiles s = make_files(make_synthetic_walk_clip(), "track_spd");
