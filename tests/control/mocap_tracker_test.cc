@@ -280,7 +280,7 @@ TEST(MocapTracker, ReferenceSupportCarriesTheClipsGroundForce) {
   p.kp = p.kd = 0;  // the SPD, which would answer any torque, off: the balance layer's alone
   p.reference_support = 0;
   Tracked off = make_tracked(p, s.xml, 2.0);
-  const double share = 0.5;  // its peak, 1.3 m g, stays under the 2 m g clamp
+  const double share = 0.5;  // at the peak, about 1.2 m g: under the 2 m g clamp
   p.reference_support = share;
   Tracked on = make_tracked(p, s.xml, 2.0);
   Engine& e = *on.engine;
