@@ -345,6 +345,79 @@ TEST(MocapTracker, ReferenceSupportCarriesTheClipsGroundForce) {
   EXPECT_GT(peak, 2.0);
 }
 
+// root_force_kd: a root that moves faster than the clip's by dv gets, at the COM, the horizontal
+// force -kd dv, reacted by the feet that touch in their stance shares; its vertical part is
+// root_force_kd_z's, off here
+TEST(MocapTracker, RootForceKdHoldsTheClipsSpeedThroughTheStanceFeet) {
+  ClipFiles s = make_files(make_synthetic_walk_clip(), "track_root_kd");
+  MocapRetargetParams p = params_for(s.bvh, "free");
+  p.loop = true;
+  p.kp = p.kd = 0;  // the SPD off: the balance layer's torques alone
+  p.root_force_kd = 0;
+  // each pair (kd off, kd on) sees the clip's state; the second pair sees it with the root faster
+  Tracked off = make_tracked(p, s.xml, 2.0), off_fast = make_tracked(p, s.xml, 2.0);
+  p.root_force_kd = 150;
+  ASSERT_EQ(p.root_force_kd_z, 0);
+  Tracked on = make_tracked(p, s.xml, 2.0), on_fast = make_tracked(p, s.xml, 2.0);
+  Engine& e = *on.engine;
+  const RetargetedMotion& motion = on.tracker->motion();
+  const int feet[2] = {e.body_index("LeftFoot"), e.body_index("RightFoot")};
+  ASSERT_GE(feet[0], 0);
+  ASSERT_GE(feet[1], 0);
+  auto touches = [&](int foot) {  // the foot or a body below it
+    for (int b = 0; b < e.nbody(); ++b)
+      for (int a = b; a >= 0; a = e.body_parent(a))
+        if (a == foot && e.body_touches_ground(b)) return true;
+    return false;
+  };
+  const int nv = e.nv();
+  const int root_v = e.joint(e.joint_index("root")).dof_adr;  // world linear velocity first
+  const int root_z = e.joint(e.joint_index("root")).qpos_adr + 2;
+  const Eigen::Vector3d dv(0.3, -0.2, 0.25);  // m/s; the 0.25 up must change nothing
+  Eigen::VectorXd q(e.nq()), v(nv), scratch(nv), expected(nv);
+  Eigen::MatrixXd jac_com(3, nv), jac_scratch(3, nv);
+  ControlOutput a, b, a_fast, b_fast;
+  for (ControlOutput* o : {&a, &b, &a_fast, &b_fast}) o->resize(nv, 0);
+  int single = 0, both = 0;
+  double largest = 0;
+  const long steps = std::lround(1.2 / e.timestep());  // a whole cycle
+  for (long k = 0; k < steps; ++k) {
+    motion.sample(e, e.time(), q, v, scratch);
+    q[root_z] -= 0.01;  // 1 cm down, so that a foot on the floor is in contact
+    e.set_positions(q);
+    e.set_velocities(v);
+    e.forward();
+    for (ControlOutput* o : {&a, &b, &a_fast, &b_fast}) o->clear();
+    off.tracker->compute(*off.state, e, a);
+    on.tracker->compute(*on.state, e, b);
+    const bool left = touches(feet[0]), right = touches(feet[1]);
+    v.segment<3>(root_v) += dv;
+    e.set_velocities(v);
+    e.forward();
+    off_fast.tracker->compute(*off_fast.state, e, a_fast);
+    on_fast.tracker->compute(*on_fast.state, e, b_fast);
+    const Eigen::VectorXd change = (b_fast.tau - a_fast.tau) - (b.tau - a.tau);
+    expected.setZero();
+    if (left || right) {
+      const Eigen::Vector3d force(-150 * dv.x(), -150 * dv.y(), 0);
+      const double share = left && right ? 0.5 : 1.0;
+      e.com_jacobian(jac_com);
+      for (int side = 0; side < 2; ++side)
+        if (side == 0 ? left : right)
+          add_com_support_torque(e, feet[side], share * force, jac_com, jac_scratch, expected);
+      (left && right ? both : single)++;
+    }
+    EXPECT_LT((change - expected).norm(), 1e-9 * (1 + expected.norm())) << "t " << e.time();
+    largest = std::max(largest, expected.norm());
+    e.step();  // only the clock: the next pass sets the state again
+  }
+  std::cout << "root_force_kd: " << single << " single and " << both
+            << " double-support samples, largest torque change " << largest << " N m\n";
+  EXPECT_GT(single, 0.3 * steps);
+  EXPECT_GT(both, 0.05 * steps);
+  EXPECT_GT(largest, 10.0);
+}
+
 // one SPD: the tracker's law with a zero target velocity and no other torques is stable_pd's
 TEST(MocapTracker, TrackerSpdIsStablePd) {
   ClipFiles s = make_files(make_synthetic_walk_clip(), "track_spd");
