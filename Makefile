@@ -6,7 +6,7 @@
 #   make install     headers, libraries, the stance binary, find_package(stance) and the Python
 #                    module (PREFIX/lib/python3.X/dist-packages) into PREFIX
 #   make test-sanitize   clang ASan+UBSan tree (build-sanitize/): the readers' unit tests and the
-#                        cli tests, then each fuzzer a fixed ~30 s budget (FUZZ_RUN=ci; or seconds)
+#                        cli tests, then each fuzzer a fixed ~15 s budget (FUZZ_RUN=ci; or seconds)
 #   make fuzz SECONDS=N  each fuzzer N seconds (default 60) in the same tree
 # CMAKE_FLAGS go to cmake's configure (e.g. CMAKE_FLAGS=-DSTANCE_WITH_PYTHON=ON)
 .DEFAULT_GOAL := build
@@ -17,7 +17,7 @@ PREFIX ?= /usr/local
 CMAKE_FLAGS ?=
 
 SANITIZE_BUILD ?= build-sanitize
-# ci: a fixed number of executions per target (about 30 s each) with seed 1, the same everywhere;
+# ci: a fixed number of executions per target (about 15 s each) with seed 1, the same everywhere;
 # a number: seconds per target, from a random seed
 FUZZ_RUN ?= ci
 SECONDS ?= 60

@@ -2,7 +2,7 @@
 # run.sh BUILD SECONDS [TARGET...]: runs each libFuzzer target of a STANCE_SANITIZE tree.
 #   SECONDS > 0: mutate for that long from the seeds (a working corpus in BUILD/fuzz/corpus/);
 #   SECONDS = 0: run the seeds once (the ctest fuzz.<target>.seeds tests);
-#   SECONDS = ci: a fixed number of executions per target (about 30 s each on a 2-core machine)
+#   SECONDS = ci: a fixed number of executions per target (about 15 s each on a 2-core machine)
 #                 from the seeds alone with seed 1, so that a CI run mutates the same inputs on
 #                 every machine: what passed here passes there (make test-sanitize).
 # Seeds: the files under tests/fuzz/corpus/<target>/ (the inputs that crashed stance before)
@@ -76,11 +76,11 @@ fuzz_one() {
     work=$build/fuzz/corpus-ci/$target
     rm -rf "$work"
     case $target in
-      bvh) runs=300000 ;;
-      scenario) runs=40000 ;;
-      skel) runs=35000 ;;
-      joint_map) runs=55000 ;;
-      model) runs=10000 ;;  # both engines, as the input's first byte picks
+      bvh) runs=150000 ;;
+      scenario) runs=20000 ;;
+      skel) runs=18000 ;;
+      joint_map) runs=28000 ;;
+      model) runs=5000 ;;  # both engines, as the input's first byte picks
     esac
     budget=(-runs=$runs -seed=1)
     slow=120  # a slow machine must not turn a slow input into a failure
