@@ -270,6 +270,25 @@ TEST(MocapTracker, ComSupportTorqueIsInternal) {
   EXPECT_NEAR(tau.dot(v), force.dot((jac_com - jac_foot) * v), 1e-9 * force.norm());
 }
 
+// whether `foot` or a body below it touches the ground
+bool foot_touches_ground(const Engine& e, int foot) {
+  for (int b = 0; b < e.nbody(); ++b)
+    for (int a = b; a >= 0; a = e.body_parent(a))
+      if (a == foot && e.body_touches_ground(b)) return true;
+  return false;
+}
+
+// the engine set to the clip's state at its time, 1 cm down, so that a foot on the floor is in
+// contact
+void set_clip_state(const RetargetedMotion& motion, Engine& e, Eigen::VectorXd& q,
+                    Eigen::VectorXd& v, Eigen::VectorXd& scratch) {
+  motion.sample(e, e.time(), q, v, scratch);
+  q[e.joint(e.joint_index("root")).qpos_adr + 2] -= 0.01;
+  e.set_positions(q);
+  e.set_velocities(v);
+  e.forward();
+}
+
 // reference_support on the run: held on the clip's own motion, the torques it adds are exactly
 // the Coros torques of share * m * max(0, g + a_ref,z) at the foot that alone touches the ground,
 // where a_ref is the clip root's acceleration; nothing in flight, over twice the weight at its peak
@@ -292,12 +311,6 @@ TEST(MocapTracker, ReferenceSupportCarriesTheClipsGroundForce) {
   const int feet[2] = {e.body_index("LeftFoot"), e.body_index("RightFoot")};
   ASSERT_GE(feet[0], 0);
   ASSERT_GE(feet[1], 0);
-  auto touches = [&](int foot) {  // the foot or a body below it
-    for (int b = 0; b < e.nbody(); ++b)
-      for (int a = b; a >= 0; a = e.body_parent(a))
-        if (a == foot && e.body_touches_ground(b)) return true;
-    return false;
-  };
   const int nv = e.nv();
   Eigen::VectorXd q(e.nq()), v(nv), scratch(nv), expected(nv);
   Eigen::MatrixXd jac_com(3, nv), jac_scratch(3, nv);
@@ -305,21 +318,16 @@ TEST(MocapTracker, ReferenceSupportCarriesTheClipsGroundForce) {
   a.resize(nv, 0);
   b.resize(nv, 0);
   const double m = e.total_mass(), g = e.gravity().norm();
-  const int root_z = e.joint(e.joint_index("root")).qpos_adr + 2;
   int single = 0, flight = 0;
   double peak = 0;
   const long steps = std::lround(0.7 / e.timestep());  // a whole cycle: two steps
   for (long k = 0; k < steps; ++k) {
-    motion.sample(e, e.time(), q, v, scratch);
-    q[root_z] -= 0.01;  // 1 cm down, so that a foot on the floor is in contact
-    e.set_positions(q);
-    e.set_velocities(v);
-    e.forward();
+    set_clip_state(motion, e, q, v, scratch);
     a.clear();
     b.clear();
     off.tracker->compute(*off.state, e, a);
     on.tracker->compute(*on.state, e, b);
-    const bool left = touches(feet[0]), right = touches(feet[1]);
+    const bool left = foot_touches_ground(e, feet[0]), right = foot_touches_ground(e, feet[1]);
     // the tracker's targets are for the end of the step
     const double t_target = e.time() + e.timestep();
     const double need = std::max(0.0, motion.sample_body_acceleration(t_target, hips).z() + g);
@@ -364,15 +372,8 @@ TEST(MocapTracker, RootForceKdHoldsTheClipsSpeedThroughTheStanceFeet) {
   const int feet[2] = {e.body_index("LeftFoot"), e.body_index("RightFoot")};
   ASSERT_GE(feet[0], 0);
   ASSERT_GE(feet[1], 0);
-  auto touches = [&](int foot) {  // the foot or a body below it
-    for (int b = 0; b < e.nbody(); ++b)
-      for (int a = b; a >= 0; a = e.body_parent(a))
-        if (a == foot && e.body_touches_ground(b)) return true;
-    return false;
-  };
   const int nv = e.nv();
   const int root_v = e.joint(e.joint_index("root")).dof_adr;  // world linear velocity first
-  const int root_z = e.joint(e.joint_index("root")).qpos_adr + 2;
   const Eigen::Vector3d dv(0.3, -0.2, 0.25);  // m/s; the 0.25 up must change nothing
   Eigen::VectorXd q(e.nq()), v(nv), scratch(nv), expected(nv);
   Eigen::MatrixXd jac_com(3, nv), jac_scratch(3, nv);
@@ -382,15 +383,11 @@ TEST(MocapTracker, RootForceKdHoldsTheClipsSpeedThroughTheStanceFeet) {
   double largest = 0;
   const long steps = std::lround(1.2 / e.timestep());  // a whole cycle
   for (long k = 0; k < steps; ++k) {
-    motion.sample(e, e.time(), q, v, scratch);
-    q[root_z] -= 0.01;  // 1 cm down, so that a foot on the floor is in contact
-    e.set_positions(q);
-    e.set_velocities(v);
-    e.forward();
+    set_clip_state(motion, e, q, v, scratch);
     for (ControlOutput* o : {&a, &b, &a_fast, &b_fast}) o->clear();
     off.tracker->compute(*off.state, e, a);
     on.tracker->compute(*on.state, e, b);
-    const bool left = touches(feet[0]), right = touches(feet[1]);
+    const bool left = foot_touches_ground(e, feet[0]), right = foot_touches_ground(e, feet[1]);
     v.segment<3>(root_v) += dv;
     e.set_velocities(v);
     e.forward();
