@@ -1,9 +1,12 @@
-// Shared by the tests: small inline models written to temp files, and paths.
+// Shared by the tests: small inline models written to temp files, paths and files.
 #pragma once
 
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
+
+#include <cstdio>
 
 #include <unistd.h>
 
@@ -28,6 +31,47 @@ inline std::string source_dir() {
 }
 inline std::string shared_dir() {
   return std::string(STANCE_SOURCE_DIR) + "/../shared";
+}
+// a shipped scenario by file name
+inline std::string scenario_path(const std::string& name) {
+  return source_dir() + "/scenarios/" + name;
+}
+// one of the real BVH clips in ../shared (tests skip when it is absent)
+inline std::string shared_bvh(const std::string& file) {
+  return shared_dir() + "/data/bvh/" + file;
+}
+
+inline std::string read_file(const std::filesystem::path& path) {
+  std::ifstream f(path);
+  std::stringstream ss;
+  ss << f.rdbuf();
+  return ss.str();
+}
+
+// a program on the PATH, and a command's standard output
+inline std::string run_capture(const std::string& cmd) {
+  std::string out;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return out;
+  char buf[256];
+  while (fgets(buf, sizeof(buf), p)) out += buf;
+  pclose(p);
+  return out;
+}
+inline bool have_tool(const std::string& name) {
+  return !run_capture("command -v " + name + " 2>/dev/null").empty();
+}
+
+inline constexpr const char* kFullbodySkel = "dart://sample/skel/fullbody1.skel";
+inline constexpr const char* kHumanoidXml = "/usr/share/mujoco/model/humanoid/humanoid.xml";
+
+// dart-doc's models (fullbody1, Atlas), which some tests need
+inline bool have_dart_data() {
+  return std::filesystem::exists("/usr/share/doc/dart/data/skel/fullbody1.skel");
+}
+inline bool have_atlas() {
+  return std::filesystem::exists("/usr/share/doc/dart/data/sdf/atlas/atlas_v3_no_head.sdf") &&
+         std::filesystem::exists("/usr/share/doc/dart/data/sdf/atlas/atlas_v3_no_head.urdf");
 }
 
 // a floating body with a ball-jointed and a hinged child: covers nq != nv

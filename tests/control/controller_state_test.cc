@@ -10,6 +10,7 @@
 #include "control/simbicon.h"
 #include "control/skateboard_drive.h"
 #include "control/stable_pd.h"
+#include "run_support.h"
 #include "scenario/live_tuning.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
@@ -19,20 +20,6 @@ namespace stance {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string scenario_path(const std::string& name) {
-  return test::source_dir() + "/scenarios/" + name;
-}
-
-RunOptions quiet() {
-  RunOptions o;
-  o.quiet = true;
-  return o;
-}
-
-void step_to(Simulation& run, double t) {
-  while (run.time() < t - 0.5 * run.engine().timestep()) ASSERT_TRUE(run.step());
-}
 
 // the physics state and the controllers' log values, to compare two runs exactly
 struct Snapshot {
@@ -58,18 +45,18 @@ void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t
        ("stance_state_" +
         std::string(::testing::UnitTest::GetInstance()->current_test_info()->name())))
           .string();
-  Simulation run(loaded, quiet());
-  step_to(run, t1);
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, t1);
   SimulationState saved;
   run.save(saved);
   run.write_state(file);
-  step_to(run, t2);
-  Simulation restored(loaded, quiet()), resumed(loaded, quiet());
+  test::step_to(run, t2);
+  Simulation restored(loaded, test::quiet()), resumed(loaded, test::quiet());
   restored.restore(saved);
   resumed.read_state(file);
   EXPECT_EQ(resumed.time(), restored.time());
-  step_to(restored, t2);
-  step_to(resumed, t2);
+  test::step_to(restored, t2);
+  test::step_to(resumed, t2);
   const Snapshot a = snapshot(restored), b = snapshot(resumed);
   EXPECT_EQ(restored.time(), resumed.time());
   EXPECT_EQ(a.q, b.q);
@@ -86,26 +73,26 @@ void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t
 }
 
 TEST(ControllerStateFile, HoldPosePdAcrossThePush) {
-  expect_state_file_resumes(load_scenario(scenario_path("pd_hold.yaml")), 1.9, 2.5);
+  expect_state_file_resumes(load_scenario(test::scenario_path("pd_hold.yaml")), 1.9, 2.5);
 }
 
 TEST(ControllerStateFile, PlainPd) {
   expect_state_file_resumes(
-      load_scenario(scenario_path("pd_hold.yaml"),
+      load_scenario(test::scenario_path("pd_hold.yaml"),
                     {"controllers=[{type: pd, kp: 60, kd: 3, target: {shoulder: 0.1}}]"}),
       0.5, 1.0);
 }
 
 TEST(ControllerStateFile, StablePdAnkleStrategyAndSkateboardDrive) {
-  expect_state_file_resumes(load_scenario(scenario_path("biped_skateboard.yaml")), 1.0, 1.5);
+  expect_state_file_resumes(load_scenario(test::scenario_path("biped_skateboard.yaml")), 1.0, 1.5);
 }
 
 TEST(ControllerStateFile, SimbiconMidWalk) {
-  expect_state_file_resumes(load_scenario(scenario_path("simbicon_walk.yaml")), 1.0, 2.0);
+  expect_state_file_resumes(load_scenario(test::scenario_path("simbicon_walk.yaml")), 1.0, 2.0);
 }
 
 TEST(ControllerStateFile, SlopeWalkerMidWalk) {
-  expect_state_file_resumes(load_scenario(scenario_path("slope_walk.yaml")), 2.0, 3.0);
+  expect_state_file_resumes(load_scenario(test::scenario_path("slope_walk.yaml")), 2.0, 3.0);
 }
 
 // the noise's random stream (engine and normal distribution) is in its State
@@ -113,15 +100,15 @@ TEST(ControllerStateFile, ControlNoiseStream) {
   const std::string humanoid = "/usr/share/mujoco/model/humanoid/humanoid.xml";
   if (!fs::exists(humanoid)) GTEST_SKIP() << humanoid << " missing (libmujoco-samples)";
   expect_state_file_resumes(
-      load_scenario(scenario_path("lqr_one_leg.yaml"),
+      load_scenario(test::scenario_path("lqr_one_leg.yaml"),
                     {"controllers=[{type: stable_pd}, {type: control_noise, other_std: 0.3}]"}),
       0.3, 0.6);
 }
 
 TEST(ControllerLiveEdit, SimbiconKeepsItsFsmPhaseAndSteps) {
-  LoadedScenario loaded = load_scenario(scenario_path("simbicon_walk.yaml"));
-  Simulation run(loaded, quiet());
-  step_to(run, 2.0);
+  LoadedScenario loaded = load_scenario(test::scenario_path("simbicon_walk.yaml"));
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, 2.0);
   const Simbicon::State* before = &run.state_as<Simbicon::State>(0);
   const Simbicon::State copy = *before;
   ASSERT_GT(copy.steps.size(), 0u);
@@ -130,15 +117,15 @@ TEST(ControllerLiveEdit, SimbiconKeepsItsFsmPhaseAndSteps) {
   EXPECT_EQ(run.state_as<Simbicon::State>(0).fsm, copy.fsm);
   EXPECT_EQ(run.state_as<Simbicon::State>(0).steps.size(), copy.steps.size());
   EXPECT_EQ(run.state_as<Simbicon::State>(0).state_start_s, copy.state_start_s);
-  step_to(run, 3.0);
+  test::step_to(run, 3.0);
   EXPECT_GT(run.state_as<Simbicon::State>(0).steps.size(), copy.steps.size());
 }
 
 // the speed is read from the model: a kept State's command follows an edit
 TEST(ControllerLiveEdit, SkateboardCommandFollowsTheSpeed) {
-  LoadedScenario loaded = load_scenario(scenario_path("biped_skateboard.yaml"));
-  Simulation run(loaded, quiet());
-  step_to(run, 2.6);  // past the ramp
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_skateboard.yaml"));
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, 2.6);  // past the ramp
   const auto* before = &run.state_as<SkateboardDrive::State>(2);
   EXPECT_DOUBLE_EQ(before->command, -2.0);
   const double distance = before->distance;
@@ -152,9 +139,9 @@ TEST(ControllerLiveEdit, SkateboardCommandFollowsTheSpeed) {
 
 // the held target is captured at reset: a gain edit keeps it, a target edit starts afresh
 TEST(ControllerLiveEdit, HoldPosePdKeepsItsTargetUnlessTheTargetChanges) {
-  LoadedScenario loaded = load_scenario(scenario_path("pd_hold.yaml"));
-  Simulation run(loaded, quiet());
-  step_to(run, 0.5);
+  LoadedScenario loaded = load_scenario(test::scenario_path("pd_hold.yaml"));
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, 0.5);
   const auto* before = &run.state_as<HoldPosePd::State>(0);
   retune_controller(run, loaded, 0, "kp", 80);
   EXPECT_EQ(&run.state_as<HoldPosePd::State>(0), before);
@@ -166,9 +153,9 @@ TEST(ControllerLiveEdit, HoldPosePdKeepsItsTargetUnlessTheTargetChanges) {
 }
 
 TEST(ControllerLiveEdit, StablePdKeepsItsStateOverAGainEdit) {
-  LoadedScenario loaded = load_scenario(scenario_path("biped_stand.yaml"));
-  Simulation run(loaded, quiet());
-  step_to(run, 0.2);
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, 0.2);
   const auto* before = &run.state_as<StablePd::State>(0);
   const long samples = before->error_samples;
   retune_controller(run, loaded, 0, "kd", 30);
@@ -181,10 +168,10 @@ TEST(ControllerLiveEdit, ControlNoiseKeepsItsStreamUnlessTheWindowChanges) {
   const std::string humanoid = "/usr/share/mujoco/model/humanoid/humanoid.xml";
   if (!fs::exists(humanoid)) GTEST_SKIP() << humanoid << " missing (libmujoco-samples)";
   LoadedScenario loaded =
-      load_scenario(scenario_path("lqr_one_leg.yaml"),
+      load_scenario(test::scenario_path("lqr_one_leg.yaml"),
                     {"controllers=[{type: stable_pd}, {type: control_noise, smoothing_s: 0.1}]"});
-  Simulation run(loaded, quiet());
-  step_to(run, 0.1);
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, 0.1);
   const auto* before = &run.state_as<ControlNoise::State>(1);
   const long samples = before->samples;
   retune_controller(run, loaded, 1, "other_std", 0.2);

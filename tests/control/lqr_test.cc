@@ -22,16 +22,14 @@
 namespace stance {
 namespace {
 
-const char* kHumanoid = "/usr/share/mujoco/model/humanoid/humanoid.xml";
-
 std::string scenario_path() {
   return test::source_dir() + "/scenarios/lqr_one_leg.yaml";
 }
 
 // the scenario, or a skip when Debian's libmujoco-samples is absent
-#define REQUIRE_HUMANOID()                 \
-  if (!std::filesystem::exists(kHumanoid)) \
-    GTEST_SKIP() << kHumanoid << " missing (Debian package libmujoco-samples)";
+#define REQUIRE_HUMANOID()                          \
+  if (!std::filesystem::exists(test::kHumanoidXml)) \
+    GTEST_SKIP() << test::kHumanoidXml << " missing (Debian package libmujoco-samples)";
 
 LoadedScenario one_leg(const std::vector<std::string>& sets = {}) {
   // no PNG in tests: gnuplot is a demo dependency
@@ -185,7 +183,7 @@ TEST(LqrDesign, KeyframeGivesTheSameDesignAsInitialPose) {
   auto engine = make_scenario_engine(l.scenario, "mujoco");
   Eigen::VectorXd q(engine->nq());
   engine->get_positions(q);
-  std::ifstream in(kHumanoid);
+  std::ifstream in(test::kHumanoidXml);
   std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   std::string key = "<keyframe><key name=\"one_leg\" qpos=\"";
   for (int i = 0; i < q.size(); ++i) key += fmt::format("{}{:.17g}", i ? " " : "", q[i]);

@@ -21,8 +21,6 @@
 namespace stance {
 namespace {
 
-constexpr const char* kHumanoid = "/usr/share/mujoco/model/humanoid/humanoid.xml";
-
 // the synthetic walk, its bvh2mjcf character, and a map of every segment onto its own body
 struct OwnCharacter {
   BvhClip clip = make_synthetic_walk_clip();
@@ -297,7 +295,7 @@ nlohmann::json run_humanoid(const std::string& mode, double seconds) {
 }
 
 TEST(MocapRetarget, HumanoidKinematicFollowsTheTable) {
-  if (!std::filesystem::exists(kHumanoid)) GTEST_SKIP() << "no " << kHumanoid;
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
   nlohmann::json m = run_humanoid("kinematic", 2.5);
   EXPECT_LT(m["mean_joint_error_deg"].get<double>(), 0.5);
   EXPECT_LT(m["mean_root_error_m"].get<double>(), 1e-3);
@@ -313,7 +311,7 @@ TEST(MocapRetarget, HumanoidKinematicFollowsTheTable) {
 }
 
 TEST(MocapRetarget, HumanoidAssistedStaysUpWithAMeasuredHelper) {
-  if (!std::filesystem::exists(kHumanoid)) GTEST_SKIP() << "no " << kHumanoid;
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
   nlohmann::json m = run_humanoid("assisted", 10);
   EXPECT_FALSE(m["fell"].get<bool>());
   EXPECT_TRUE(m["root_fall_time_s"].is_null());
@@ -409,7 +407,7 @@ TEST(MocapRetarget, ExportMapsTheMotionBackOntoTheClip) {
 }
 
 TEST(MocapRetarget, HumanoidExportReadsBackOnTheClipsSkeleton) {
-  if (!std::filesystem::exists(kHumanoid)) GTEST_SKIP() << "no " << kHumanoid;
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
   LoadedScenario loaded =
       load_scenario(test::source_dir() + "/scenarios/mocap_retarget.yaml",
                     {"duration=2", "controllers.0.export_bvh=humanoid_walk.bvh"});
@@ -439,11 +437,11 @@ TEST(MocapRetarget, HumanoidExportReadsBackOnTheClipsSkeleton) {
 TEST(Retarget, MergedClipJointIsNamed) {
   const std::string cmu = test::shared_dir() + "/data/bvh/cmu_131_01.bvh";
   if (!std::filesystem::exists(cmu)) GTEST_SKIP() << "no ../shared data";
-  if (!std::filesystem::exists(kHumanoid)) GTEST_SKIP() << "no " << kHumanoid;
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
   BvhClip clip = read_bvh(cmu);
   ReferenceMotion reference(clip, make_motion_skeleton(clip, MotionSkeletonOptions{}),
                             ReferenceOptions{});
-  auto probe = engine_of("mujoco", kHumanoid);
+  auto probe = engine_of("mujoco", test::kHumanoidXml);
   JointMap map = parse_joint_map(YAML::Load("joints:\n  Hips: pelvis\n  lowerback: lower_waist\n"),
                                  "cmu.yaml");
   try {

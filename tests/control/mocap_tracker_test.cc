@@ -21,10 +21,6 @@
 namespace stance {
 namespace {
 
-std::string shared_bvh(const std::string& file) {
-  return test::shared_dir() + "/data/bvh/" + file;
-}
-
 struct ClipFiles {
   std::string bvh, xml;
 };
@@ -594,7 +590,7 @@ TEST(MocapTracker, AliasLoadsOldScenarios) {
 
 // the acceptance numbers on the MASS walk, looped for 10 s
 TEST(MocapTracker, MassWalkTenSeconds) {
-  const std::string path = shared_bvh("mass_walk.bvh");
+  const std::string path = test::shared_bvh("mass_walk.bvh");
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
   for (const char* mode : {"kinematic", "assisted"}) {
     SCOPED_TRACE(mode);
@@ -617,7 +613,7 @@ TEST(MocapTracker, MassWalkTenSeconds) {
 
 // CMU 131_01 crouches (its root drops to about 0.52 m): followed kinematically, that is no fall
 TEST(MocapTracker, CrouchInTheClipIsNoFall) {
-  const std::string path = shared_bvh("cmu_131_01.bvh");
+  const std::string path = test::shared_bvh("cmu_131_01.bvh");
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
   ClipFiles s = make_files(read_bvh(path), "cmu_crouch", true);
   MocapRetargetParams p = params_for(path, "kinematic");

@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
+#include "run_support.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
@@ -44,12 +45,6 @@ std::map<std::string, Host> hosts() {
     }
   }
   return out;
-}
-
-RunOptions quiet() {
-  RunOptions o;
-  o.quiet = true;
-  return o;
 }
 
 // what a run has done: positions, velocities and the controllers' signals, bit for bit
@@ -102,7 +97,7 @@ TEST_P(Registry, BuildsFromItsDefaults) {
     LoadedScenario l = host.loaded;
     l.controllers[host.index] = trial;
     try {
-      Simulation sim(l, quiet());
+      Simulation sim(l, test::quiet());
       node = trial;
     } catch (const InputError&) {
       // a required key (a body name, a clip)
@@ -110,7 +105,7 @@ TEST_P(Registry, BuildsFromItsDefaults) {
   }
   LoadedScenario l = host.loaded;
   l.controllers[host.index] = node;
-  Simulation sim(l, quiet());
+  Simulation sim(l, test::quiet());
   EXPECT_EQ(sim.controllers()[host.index]->type(), GetParam());
   // one step's outputs are finite (defaults need not suit every model for long: hold_pose_pd's
   // kd = 10 is too stiff for the light arm at 1 ms)
@@ -125,7 +120,7 @@ TEST_P(Registry, RejectsABadValueNamingTheParameter) {
   Host host = h[GetParam()];
   std::vector<ParamEntry> entries;
   {
-    Simulation sim(host.loaded, quiet());
+    Simulation sim(host.loaded, test::quiet());
     entries = sim.controllers()[host.index]->tunable_params();
   }
   ASSERT_FALSE(entries.empty()) << "no tunable parameters";
@@ -143,7 +138,7 @@ TEST_P(Registry, RejectsABadValueNamingTheParameter) {
   LoadedScenario l = host.loaded;
   l.controllers[host.index] = node;
   try {
-    Simulation sim(l, quiet());
+    Simulation sim(l, test::quiet());
     ADD_FAILURE() << pick->path << " = " << bad << " was accepted";
   } catch (const InputError& e) {
     const std::string last = pick->path.substr(pick->path.rfind('.') + 1);
@@ -155,7 +150,7 @@ TEST_P(Registry, OneModelSharedByTwoThreadsRunsAsInSequence) {
   auto h = hosts();
   ASSERT_TRUE(h.count(GetParam()));
   const Host& host = h[GetParam()];
-  auto model = make_simulation_model(host.loaded, quiet());
+  auto model = make_simulation_model(host.loaded, test::quiet());
   Trace seq[2], par[2];
   for (auto& t : seq) {
     Simulation sim(model);
@@ -178,7 +173,7 @@ TEST_P(Registry, SavedStateReproducesTheRestOfTheRun) {
   auto h = hosts();
   ASSERT_TRUE(h.count(GetParam()));
   const Host& host = h[GetParam()];
-  Simulation sim(host.loaded, quiet());
+  Simulation sim(host.loaded, test::quiet());
   Trace before;
   step_and_trace(sim, kSteps, before);
   SimulationState saved;
@@ -209,7 +204,7 @@ TEST_P(Registry, StateFileReproducesTheRestOfTheRun) {
   auto h = hosts();
   ASSERT_TRUE(h.count(GetParam()));
   const Host& host = h[GetParam()];
-  Simulation sim(host.loaded, quiet());
+  Simulation sim(host.loaded, test::quiet());
   Trace before;
   step_and_trace(sim, kSteps, before);
   const std::string file = test::write_temp_file("registry_" + GetParam() + ".state", "");

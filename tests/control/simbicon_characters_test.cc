@@ -12,6 +12,7 @@
 #include <string>
 
 #include "control/simbicon.h"
+#include "run_support.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "scenario/tune.h"
@@ -34,10 +35,6 @@ struct Character {
   double max_drift = 2;    // m sideways per 10 m forward
 };
 
-std::string scenario_path(const char* name) {
-  return test::source_dir() + "/scenarios/" + name;
-}
-
 int simbicon_index(const LoadedScenario& l) {
   for (size_t i = 0; i < l.controllers.size(); ++i)
     if (l.controllers[i]["type"].as<std::string>() == "simbicon") return static_cast<int>(i);
@@ -50,7 +47,7 @@ struct Walk {
 };
 
 Walk walk(const Character& c, const std::vector<std::string>& sets, RunOptions opt = {}) {
-  LoadedScenario loaded = load_scenario(scenario_path(c.file), sets);
+  LoadedScenario loaded = load_scenario(test::scenario_path(c.file), sets);
   opt.engine = c.engine;
   Simulation run(loaded, opt);
   Walk w;
@@ -61,7 +58,7 @@ Walk walk(const Character& c, const std::vector<std::string>& sets, RunOptions o
 
 // every kp and kd of the SIMBICON gains times factor, as --set lines
 std::vector<std::string> scaled_gains(const Character& c, double factor) {
-  LoadedScenario l = load_scenario(scenario_path(c.file), {});
+  LoadedScenario l = load_scenario(test::scenario_path(c.file), {});
   const std::string base = "controllers." + std::to_string(simbicon_index(l)) + ".gait.gains.";
   std::vector<std::string> sets;
   for (const char* servo :
@@ -74,25 +71,21 @@ std::vector<std::string> scaled_gains(const Character& c, double factor) {
   return sets;
 }
 
-double metric(const RunResult& r, const char* name) {
-  return r.metrics.at(name).get<double>();
-}
-
 void expect_walks(const Walk& w, const Character& c) {
   const double duration = c.walk_s;
   const RunResult& r = w.result;
   ASSERT_FALSE(r.diverged) << r.divergence;
   EXPECT_FALSE(r.fell) << "fell at " << r.fall_time.value_or(-1) << ": " << r.fall_reason;
   EXPECT_NEAR(r.sim_time, duration, 1e-6);
-  EXPECT_GT(metric(r, "mean_speed_mps"), c.min_speed);
-  EXPECT_LT(metric(r, "drift_per_10m"), c.max_drift);
+  EXPECT_GT(test::metric(r, "mean_speed_mps"), c.min_speed);
+  EXPECT_LT(test::metric(r, "drift_per_10m"), c.max_drift);
   // at least one strike a second, both feet
   EXPECT_GT(r.metrics.at("step_count").get<int>(), duration);
 }
 
 // 20 s at the shipped gait and nearby; then the pushes, from the nominal walk's strike times
 void check_character(const Character& c) {
-  LoadedScenario l = load_scenario(scenario_path(c.file), {});
+  LoadedScenario l = load_scenario(test::scenario_path(c.file), {});
   const double dt = l.scenario.timestep;
   ASSERT_GT(dt, 0) << "the scenario sets its timestep";
   const std::string duration = "duration=" + std::to_string(c.walk_s);
@@ -214,7 +207,7 @@ TEST(SimbiconSpine, LeansTheUpperBodyOverTheStanceLeg) {
       std::vector<std::string> sets = c.sets;
       sets.push_back(prefix + "states.0.spine_roll=" + std::to_string(lean));
       sets.push_back(prefix + "states.1.spine_roll=" + std::to_string(lean));
-      LoadedScenario loaded = load_scenario(scenario_path(c.file), sets);
+      LoadedScenario loaded = load_scenario(test::scenario_path(c.file), sets);
       RunOptions opt;
       opt.engine = c.engine;
       Simulation run(loaded, opt);
@@ -254,7 +247,7 @@ TEST(SimbiconSpine, LeansTheUpperBodyOverTheStanceLeg) {
 // a spine hinge that is not a roll, or on a planar biped, is refused at load with its name
 TEST(SimbiconSpine, RefusesAHingeThatIsNotARollAndAPlanarBiped) {
   auto load = [](const char* file, const std::vector<std::string>& sets) {
-    LoadedScenario loaded = load_scenario(scenario_path(file), sets);
+    LoadedScenario loaded = load_scenario(test::scenario_path(file), sets);
     Simulation run(loaded, {});
   };
   try {
@@ -279,7 +272,7 @@ TEST(SimbiconSteps, WidthIsTheSidewaysDistanceBetweenStanceAnkles) {
   RunOptions opt;
   opt.duration = 6.0;
   opt.out_dir = dir;
-  LoadedScenario loaded = load_scenario(scenario_path("simbicon_humanoid.yaml"), {});
+  LoadedScenario loaded = load_scenario(test::scenario_path("simbicon_humanoid.yaml"), {});
   Simulation run(loaded, opt);
   const RunResult r = run.run();
   ASSERT_FALSE(r.fell);
@@ -299,7 +292,7 @@ TEST(SimbiconSteps, WidthIsTheSidewaysDistanceBetweenStanceAnkles) {
   std::getline(csv, row);
   EXPECT_NEAR(std::stod(row.substr(row.rfind(',') + 1)), steps[0].width_m, 1e-6);
 
-  LoadedScenario planar = load_scenario(scenario_path("simbicon_walk.yaml"), {});
+  LoadedScenario planar = load_scenario(test::scenario_path("simbicon_walk.yaml"), {});
   RunOptions two;
   two.duration = 2.0;
   Simulation walk(planar, two);

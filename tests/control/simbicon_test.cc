@@ -10,16 +10,13 @@
 
 #include "core/error.h"
 #include "engine/world_spec.h"
+#include "run_support.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
 namespace {
-
-std::string scenario_path(const std::string& name) {
-  return test::source_dir() + "/scenarios/" + name;
-}
 
 struct WalkOutcome {
   RunResult result;
@@ -28,16 +25,12 @@ struct WalkOutcome {
 
 WalkOutcome run_scenario(const std::string& file, const std::vector<std::string>& sets = {},
                          const RunOptions& options = {}) {
-  LoadedScenario loaded = load_scenario(scenario_path(file), sets);
+  LoadedScenario loaded = load_scenario(test::scenario_path(file), sets);
   Simulation run(loaded, options);
   WalkOutcome out;
   out.result = run.run();
   out.steps = run.state_as<Simbicon::State>(0).steps;
   return out;
-}
-
-double metric(const RunResult& r, const char* name) {
-  return r.metrics.at(name).get<double>();
 }
 
 TEST(SimbiconPitch, MatchesHingeAngleAboutMinusY) {
@@ -66,7 +59,7 @@ TEST(SimbiconGaitStats, MeansStdAndAsymmetry) {
 
 TEST(SimbiconParams, RejectsBadGaits) {
   auto build = [](const std::string& set) {
-    LoadedScenario l = load_scenario(scenario_path("simbicon_walk.yaml"), {set});
+    LoadedScenario l = load_scenario(test::scenario_path("simbicon_walk.yaml"), {set});
     Simulation run(l, {});
   };
   // a half cycle has exactly two states
@@ -83,13 +76,13 @@ TEST(SimbiconWalk, WalksSixtySecondsAtHalfAMetrePerSecond) {
   ASSERT_FALSE(r.diverged) << r.divergence;
   EXPECT_FALSE(r.fell) << "fell at " << r.fall_time.value_or(-1) << ": " << r.fall_reason;
   EXPECT_NEAR(r.sim_time, 60.0, 1e-6);
-  EXPECT_GE(metric(r, "mean_speed_mps"), 0.5);
-  EXPECT_GE(metric(r, "distance_m"), 30.0);
+  EXPECT_GE(test::metric(r, "mean_speed_mps"), 0.5);
+  EXPECT_GE(test::metric(r, "distance_m"), 30.0);
   // a steady gait: many strikes of both feet, regular lengths
   EXPECT_GT(r.metrics.at("step_count").get<int>(), 60);
-  EXPECT_GT(metric(r, "step_length_mean_m"), 0.2);
-  EXPECT_LT(metric(r, "step_length_std_m"), 0.5 * metric(r, "step_length_mean_m"));
-  EXPECT_LT(metric(r, "step_length_asymmetry"), 0.3);
+  EXPECT_GT(test::metric(r, "step_length_mean_m"), 0.2);
+  EXPECT_LT(test::metric(r, "step_length_std_m"), 0.5 * test::metric(r, "step_length_mean_m"));
+  EXPECT_LT(test::metric(r, "step_length_asymmetry"), 0.3);
   for (const auto& st : r.metrics.at("simbicon_states")) EXPECT_GT(st.at("count").get<int>(), 30);
 }
 
@@ -100,7 +93,7 @@ TEST(SimbiconWalk, WithoutBalanceFeedbackFallsWithinFifteenSeconds) {
       {"duration=15", "controllers.0.gait.states.0.cd=0", "controllers.0.gait.states.0.cv=0",
        "controllers.0.gait.states.1.cd=0", "controllers.0.gait.states.1.cv=0"});
   ASSERT_FALSE(w.result.diverged) << w.result.divergence;
-  EXPECT_TRUE(w.result.fell) << "speed " << metric(w.result, "mean_speed_mps");
+  EXPECT_TRUE(w.result.fell) << "speed " << test::metric(w.result, "mean_speed_mps");
   if (w.result.fell) EXPECT_LT(*w.result.fall_time, 15.0);
 }
 
@@ -111,7 +104,7 @@ TEST(SimbiconGaits, RunAndCrouchWalkThirtySeconds) {
     ASSERT_FALSE(w.result.diverged) << w.result.divergence;
     EXPECT_FALSE(w.result.fell) << "fell at " << w.result.fall_time.value_or(-1);
     EXPECT_NEAR(w.result.sim_time, 30.0, 1e-6);
-    EXPECT_GT(metric(w.result, "mean_speed_mps"), 0.3);
+    EXPECT_GT(test::metric(w.result, "mean_speed_mps"), 0.3);
     EXPECT_GT(w.result.metrics.at("step_count").get<int>(), 30);
   }
 }
@@ -153,8 +146,8 @@ TEST(Simbicon3d, WalksTwentySecondsStraight) {
   ASSERT_FALSE(r.diverged) << r.divergence;
   EXPECT_FALSE(r.fell) << "fell at " << r.fall_time.value_or(-1) << ": " << r.fall_reason;
   EXPECT_NEAR(r.sim_time, 20.0, 1e-6);
-  EXPECT_GT(metric(r, "distance_m"), 10.0);
-  EXPECT_LT(metric(r, "drift_per_10m"), 1.0);
+  EXPECT_GT(test::metric(r, "distance_m"), 10.0);
+  EXPECT_LT(test::metric(r, "drift_per_10m"), 1.0);
   EXPECT_GT(r.metrics.at("step_count").get<int>(), 40);
 }
 
@@ -174,7 +167,7 @@ TEST(Simbicon3d, SurvivesFiftyNewtonLateralPushes) {
       ASSERT_FALSE(w.result.diverged);
       EXPECT_FALSE(w.result.fell) << "fell at " << w.result.fall_time.value_or(-1);
       EXPECT_EQ(w.result.metrics.at("pushes_survived").get<int>(), 1);
-      EXPECT_LT(metric(w.result, "drift_per_10m"), 1.0);
+      EXPECT_LT(test::metric(w.result, "drift_per_10m"), 1.0);
     }
   }
 }
@@ -201,7 +194,7 @@ std::string read_text(const std::string& path) {
 std::string scenario_with_model(const std::string& scenario, const std::string& model_xml,
                                 const std::string& tag) {
   const std::string model = test::write_temp_file(tag + ".xml", model_xml);
-  std::string text = read_text(scenario_path(scenario));
+  std::string text = read_text(test::scenario_path(scenario));
   text = std::regex_replace(text, std::regex("model: \\.\\./models/simbicon_[23]d\\.xml"),
                             "model: " + model);
   return test::write_temp_file(tag + ".yaml", text);
@@ -294,7 +287,7 @@ TEST(SimbiconCharacter, YUpModelWalksTheSameAlongX) {
   EXPECT_LT((c.model().up - Eigen::Vector3d::UnitY()).norm(), 1e-12);
   EXPECT_EQ(c.model().hip_sign[Simbicon::kLeft], 1.0);
   expect_same_walk(run_scenario("simbicon_walk.yaml", {"duration=10"}), b);
-  EXPECT_GT(metric(b.result, "distance_m"), 4.0);
+  EXPECT_GT(test::metric(b.result, "distance_m"), 4.0);
 }
 
 TEST(SimbiconCharacter, RejectsAForwardAxisAlongUpAndARollHingeAsPitch) {
@@ -338,7 +331,7 @@ TEST(SimbiconDart, WalksTwentySeconds) {
   WalkOutcome w = run_scenario("simbicon_walk.yaml", {"duration=20"}, opt);
   ASSERT_FALSE(w.result.diverged) << w.result.divergence;
   EXPECT_FALSE(w.result.fell) << "fell at " << w.result.fall_time.value_or(-1);
-  EXPECT_GE(metric(w.result, "mean_speed_mps"), 0.5);
+  EXPECT_GE(test::metric(w.result, "mean_speed_mps"), 0.5);
   EXPECT_GT(w.result.metrics.at("step_count").get<int>(), 20);
 }
 #endif

@@ -8,6 +8,7 @@
 
 #include "control/lqr.h"
 #include "control/mocap_retarget_tracker.h"
+#include "run_support.h"
 #include "scenario/live_tuning.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
@@ -17,22 +18,6 @@ namespace stance {
 namespace {
 
 namespace fs = std::filesystem;
-
-const std::string kHumanoid = "/usr/share/mujoco/model/humanoid/humanoid.xml";
-
-std::string scenario_path(const std::string& name) {
-  return test::source_dir() + "/scenarios/" + name;
-}
-
-RunOptions quiet() {
-  RunOptions o;
-  o.quiet = true;
-  return o;
-}
-
-void step_to(Simulation& run, double t) {
-  while (run.time() < t - 0.5 * run.engine().timestep()) ASSERT_TRUE(run.step());
-}
 
 // the metrics without the wall-clock ones (each run designs its own LQR)
 std::string deterministic_metrics(const Simulation& run) {
@@ -50,17 +35,17 @@ void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t
       (fs::temp_directory_path() /
        ("stance_tracker_state_" + loaded.scenario.name + "_" + std::to_string(::getpid())))
           .string();
-  Simulation run(loaded, quiet());
-  step_to(run, t1);
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, t1);
   SimulationState saved;
   run.save(saved);
   run.write_state(file);
-  step_to(run, t2);
-  Simulation restored(loaded, quiet()), resumed(loaded, quiet());
+  test::step_to(run, t2);
+  Simulation restored(loaded, test::quiet()), resumed(loaded, test::quiet());
   restored.restore(saved);
   resumed.read_state(file);
-  step_to(restored, t2);
-  step_to(resumed, t2);
+  test::step_to(restored, t2);
+  test::step_to(resumed, t2);
   Eigen::VectorXd qa(restored.engine().nq()), qb(resumed.engine().nq()), qc(run.engine().nq());
   restored.engine().get_positions(qa);
   resumed.engine().get_positions(qb);
@@ -85,10 +70,11 @@ void expect_state_file_resumes(const LoadedScenario& loaded, double t1, double t
 }
 
 TEST(TrackerStateFile, LqrBalancing) {
-  if (!fs::exists(kHumanoid)) GTEST_SKIP() << kHumanoid << " missing (libmujoco-samples)";
+  if (!fs::exists(test::kHumanoidXml))
+    GTEST_SKIP() << test::kHumanoidXml << " missing (libmujoco-samples)";
   expect_state_file_resumes<LqrState>(
-      load_scenario(scenario_path("lqr_one_leg.yaml"), {"controllers.0.force_plot=false"}), 0.3,
-      0.6);
+      load_scenario(test::scenario_path("lqr_one_leg.yaml"), {"controllers.0.force_plot=false"}),
+      0.3, 0.6);
 }
 
 // the bvh2mjcf character (the identity map) and the humanoid through its map, assisted and in
@@ -98,19 +84,20 @@ TEST(TrackerStateFile, MocapTrackerAssistedAndFree) {
     for (const char* mode : {"assisted", "free"}) {
       SCOPED_TRACE(std::string(name) + " " + mode);
       expect_state_file_resumes<MocapRetargetState>(
-          load_scenario(scenario_path(name), {"controllers.0.export_bvh=out.bvh",
-                                              std::string("controllers.0.mode=") + mode}),
+          load_scenario(test::scenario_path(name), {"controllers.0.export_bvh=out.bvh",
+                                                    std::string("controllers.0.mode=") + mode}),
           0.5, 1.0);
     }
 }
 
 // the design is redone for a cost edit; the State (metrics so far) goes on
 TEST(TrackerLiveEdit, LqrKeepsItsStateOverACostEdit) {
-  if (!fs::exists(kHumanoid)) GTEST_SKIP() << kHumanoid << " missing (libmujoco-samples)";
+  if (!fs::exists(test::kHumanoidXml))
+    GTEST_SKIP() << test::kHumanoidXml << " missing (libmujoco-samples)";
   LoadedScenario loaded =
-      load_scenario(scenario_path("lqr_one_leg.yaml"), {"controllers.0.force_plot=false"});
-  Simulation run(loaded, quiet());
-  step_to(run, 0.2);
+      load_scenario(test::scenario_path("lqr_one_leg.yaml"), {"controllers.0.force_plot=false"});
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, 0.2);
   const auto* before = &run.state_as<LqrState>(0);
   const long computes = before->computes;
   const long designs = lqr_designs_made();
@@ -124,9 +111,9 @@ TEST(TrackerLiveEdit, LqrKeepsItsStateOverACostEdit) {
 // a gain edit keeps the errors and the recorded frames; another clip range starts afresh
 TEST(TrackerLiveEdit, MocapTrackerKeepsItsStateUnlessTheClipChanges) {
   LoadedScenario loaded =
-      load_scenario(scenario_path("mocap_track.yaml"), {"controllers.0.export_bvh=out.bvh"});
-  Simulation run(loaded, quiet());
-  step_to(run, 0.3);
+      load_scenario(test::scenario_path("mocap_track.yaml"), {"controllers.0.export_bvh=out.bvh"});
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, 0.3);
   const auto* before = &run.state_as<MocapRetargetState>(0);
   const long steps = before->steps;
   const size_t frames = before->recorded_roots.size();
@@ -142,9 +129,9 @@ TEST(TrackerLiveEdit, MocapTrackerKeepsItsStateUnlessTheClipChanges) {
 }
 
 TEST(TrackerLiveEdit, MocapRetargetKeepsItsStateOverAGainEdit) {
-  LoadedScenario loaded = load_scenario(scenario_path("mocap_retarget.yaml"));
-  Simulation run(loaded, quiet());
-  step_to(run, 0.3);
+  LoadedScenario loaded = load_scenario(test::scenario_path("mocap_retarget.yaml"));
+  Simulation run(loaded, test::quiet());
+  test::step_to(run, 0.3);
   const auto* before = &run.state_as<MocapRetargetState>(0);
   const long steps = before->steps;
   retune_controller(run, loaded, 0, "kd", 40);

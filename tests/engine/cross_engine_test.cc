@@ -6,26 +6,21 @@
 
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "test_support.h"
 
 namespace stance {
 namespace {
 
-constexpr const char* kFullbody = "dart://sample/skel/fullbody1.skel";
-
-bool have_dart_data() {
-  return std::filesystem::exists("/usr/share/doc/dart/data/skel/fullbody1.skel");
-}
-
-std::unique_ptr<Engine> load(const std::string& engine) {
+std::unique_ptr<Engine> load_fullbody(const std::string& engine) {
   WorldSpec spec;
-  spec.models.push_back({kFullbody});
+  spec.models.push_back({test::kFullbodySkel});
   return make_engine(engine, spec);
 }
 
 TEST(CrossEngine, Fullbody1SizesAndMassAgree) {
-  if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco");
-  auto dart = load("dart");
+  if (!test::have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_fullbody("mujoco");
+  auto dart = load_fullbody("dart");
   EXPECT_EQ(mj->nv(), 37);
   EXPECT_EQ(dart->nv(), 37);
   EXPECT_EQ(mj->nq(), 38);  // the free joint's quaternion
@@ -40,9 +35,9 @@ TEST(CrossEngine, Fullbody1SizesAndMassAgree) {
 
 // set each dof by name on both engines and compare every body's world pose
 TEST(CrossEngine, ForwardKinematicsAgreeAtRandomConfigurations) {
-  if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco");
-  auto dart = load("dart");
+  if (!test::have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_fullbody("mujoco");
+  auto dart = load_fullbody("dart");
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> angle(-0.8, 0.8);
   double worst_pos = 0, worst_rot = 0;
@@ -77,9 +72,9 @@ TEST(CrossEngine, ForwardKinematicsAgreeAtRandomConfigurations) {
 
 // the same mass matrix up to the free joint's velocity convention: compare the actuated block
 TEST(CrossEngine, JointSpaceMassMatrixAgrees) {
-  if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco");
-  auto dart = load("dart");
+  if (!test::have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_fullbody("mujoco");
+  auto dart = load_fullbody("dart");
   mj->forward();
   dart->forward();
   Eigen::MatrixXd mm(mj->nv(), mj->nv()), md(dart->nv(), dart->nv());
@@ -101,9 +96,9 @@ TEST(CrossEngine, JointSpaceMassMatrixAgrees) {
 // against dense solves: with the shift on every dof, and with SPD's (none on the root), at rest
 // and in motion under a push
 TEST(CrossEngine, ShiftedMassSolvesMatchDenseSolves) {
-  if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
+  if (!test::have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
   for (const char* name : {"mujoco", "dart"}) {
-    auto e = load(name);
+    auto e = load_fullbody(name);
     Eigen::VectorXd spd_shift = Eigen::VectorXd::Constant(e->nv(), 0.04);
     for (int i = 0; i < e->nv(); ++i)
       if (e->dof_is_root(i)) spd_shift[i] = 0;
@@ -130,9 +125,9 @@ TEST(CrossEngine, ShiftedMassSolvesMatchDenseSolves) {
 
 // DART's shifted solve borrows the joints' damping and forces; the simulation must not notice
 TEST(CrossEngine, ShiftedMassSolveLeavesTheSimulationAlone) {
-  if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
+  if (!test::have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
   for (const char* name : {"mujoco", "dart"}) {
-    auto plain = load(name), solving = load(name);
+    auto plain = load_fullbody(name), solving = load_fullbody(name);
     const int nv = plain->nv();
     Eigen::VectorXd tau = Eigen::VectorXd::LinSpaced(nv, -3, 3), shift(nv), x(nv);
     shift.setConstant(0.04);

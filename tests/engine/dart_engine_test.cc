@@ -19,11 +19,9 @@
 namespace stance {
 namespace {
 
-constexpr const char* kFullbody = "dart://sample/skel/fullbody1.skel";
-
 std::unique_ptr<Engine> load_fullbody() {
   WorldSpec spec;
-  spec.models.push_back({kFullbody, Eigen::Vector3d::Zero()});
+  spec.models.push_back({test::kFullbodySkel, Eigen::Vector3d::Zero()});
   return make_dart_engine(spec);
 }
 
@@ -136,7 +134,7 @@ TEST(DartEngine, JointLimitsComeFromDofPositionLimits) {
 
 TEST(DartEngine, SpecOverridesAndOffset) {
   WorldSpec spec;
-  spec.models.push_back({kFullbody, Eigen::Vector3d(1.0, 0.5, -2.0)});
+  spec.models.push_back({test::kFullbodySkel, Eigen::Vector3d(1.0, 0.5, -2.0)});
   spec.timestep = 0.002;
   spec.gravity = Eigen::Vector3d(0, 0, -9.81);
   auto shifted = make_dart_engine(spec);
@@ -151,8 +149,8 @@ TEST(DartEngine, SpecOverridesAndOffset) {
 
 TEST(DartEngine, TwoCopiesGetPrefixedNames) {
   WorldSpec spec;
-  spec.models.push_back({kFullbody, Eigen::Vector3d::Zero()});
-  spec.models.push_back({kFullbody, Eigen::Vector3d(2, 0, 0)});
+  spec.models.push_back({test::kFullbodySkel, Eigen::Vector3d::Zero()});
+  spec.models.push_back({test::kFullbodySkel, Eigen::Vector3d(2, 0, 0)});
   auto e = make_dart_engine(spec);
   EXPECT_EQ(e->nv(), 74);
   EXPECT_EQ(e->nbody(), 40);

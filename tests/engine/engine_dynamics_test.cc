@@ -16,12 +16,6 @@
 namespace stance {
 namespace {
 
-constexpr const char* kFullbody = "dart://sample/skel/fullbody1.skel";
-
-bool have_dart_data() {
-  return std::filesystem::exists("/usr/share/doc/dart/data/skel/fullbody1.skel");
-}
-
 // a chain with a free, a ball, a hinge and a slide joint, without contacts; motors with gears on
 // the hinge and the ball, and a general actuator with a gain on the slide
 constexpr const char* kActuatedChainMjcf = R"(
@@ -59,7 +53,7 @@ constexpr const char* kActuatedChainMjcf = R"(
 </mujoco>
 )";
 
-std::unique_ptr<Engine> load(const std::string& engine, const std::string& model) {
+std::unique_ptr<Engine> load_on(const std::string& engine, const std::string& model) {
   WorldSpec spec;
   spec.models.push_back({model});
   return make_engine(engine, spec);
@@ -94,9 +88,9 @@ class EngineDynamicsTest : public ::testing::TestWithParam<std::string> {
   // the chain on MuJoCo; fullbody1 (lifted off its ground) on DART, whose MJCF parser has no
   // ball joints
   std::unique_ptr<Engine> load_model() {
-    if (GetParam() == "mujoco") return load("mujoco", chain_file());
-    if (!have_dart_data()) return nullptr;
-    auto e = load("dart", kFullbody);
+    if (GetParam() == "mujoco") return load_on("mujoco", chain_file());
+    if (!test::have_dart_data()) return nullptr;
+    auto e = load_on("dart", test::kFullbodySkel);
     lift(*e);
     return e;
   }
@@ -227,9 +221,9 @@ INSTANTIATE_TEST_SUITE_P(BothEngines, EngineDynamicsTest, ::testing::Values("muj
 // MuJoCo (SKEL translated) and DART (native) on fullbody1, in the air with the root at rest:
 // the same forces on every joint dof, and subtree-COM Jacobians on the joint columns
 TEST(EngineDynamicsCross, Fullbody1InverseDynamicsAndSubtreeJacobianAgree) {
-  if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco", kFullbody);
-  auto dart = load("dart", kFullbody);
+  if (!test::have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_on("mujoco", test::kFullbodySkel);
+  auto dart = load_on("dart", test::kFullbodySkel);
   std::mt19937 rng(17);
   std::uniform_real_distribution<double> u(-1, 1);
   Eigen::VectorXd tau_mj(mj->nv()), tau_dart(dart->nv());
@@ -282,8 +276,8 @@ TEST(EngineDynamicsCross, Fullbody1InverseDynamicsAndSubtreeJacobianAgree) {
 // the generalised force of the controls is moment^T ctrl: a step under the controls and a
 // step under that force agree
 TEST(EngineActuators, MomentTimesControlsIsTheActuatorForce) {
-  auto with_ctrl = load("mujoco", chain_file());
-  auto with_tau = load("mujoco", chain_file());
+  auto with_ctrl = load_on("mujoco", chain_file());
+  auto with_tau = load_on("mujoco", chain_file());
   ASSERT_EQ(with_ctrl->nu(), 3);
   const int nv = with_ctrl->nv(), nu = with_ctrl->nu();
   std::mt19937 rng_a(21), rng_b(21);
@@ -310,15 +304,15 @@ TEST(EngineActuators, MomentTimesControlsIsTheActuatorForce) {
 }
 
 TEST(EngineActuators, DartHasNoneAndSaysSo) {
-  if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
-  auto e = load("dart", kFullbody);
+  if (!test::have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
+  auto e = load_on("dart", test::kFullbodySkel);
   EXPECT_EQ(e->nu(), 0);
   Eigen::MatrixXd moment(0, e->nv());
   EXPECT_THROW(e->actuator_moment(moment), InputError);
 }
 
 TEST(EngineKeyframes, ListedAndAppliedByName) {
-  auto e = load("mujoco", chain_file());
+  auto e = load_on("mujoco", chain_file());
   EXPECT_EQ(e->keyframe_names(), (std::vector<std::string>{"bent", "straight"}));
   e->step();
   e->apply_keyframe("bent");
@@ -349,8 +343,8 @@ TEST(EngineKeyframes, ListedAndAppliedByName) {
 }
 
 TEST(EngineKeyframes, DartHasNoneAndSaysSo) {
-  if (!have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
-  auto e = load("dart", kFullbody);
+  if (!test::have_dart_data()) GTEST_SKIP() << "dart-doc not installed";
+  auto e = load_on("dart", test::kFullbodySkel);
   EXPECT_TRUE(e->keyframe_names().empty());
   try {
     e->apply_keyframe("init");

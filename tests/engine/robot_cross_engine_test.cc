@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "test_support.h"
 
 namespace stance {
 namespace {
@@ -15,12 +16,8 @@ namespace {
 constexpr const char* kAtlasUrdf = "dart://sample/sdf/atlas/atlas_v3_no_head.urdf";
 constexpr const char* kAtlasSdf = "dart://sample/sdf/atlas/atlas_v3_no_head.sdf";
 
-bool have_atlas() {
-  return std::filesystem::exists("/usr/share/doc/dart/data/sdf/atlas/atlas_v3_no_head.sdf");
-}
-
-std::unique_ptr<Engine> load(const std::string& engine, const std::string& model,
-                             const RobotOptions& options = {}) {
+std::unique_ptr<Engine> load_robot(const std::string& engine, const std::string& model,
+                                   const RobotOptions& options = {}) {
   WorldSpec spec;
   spec.models.push_back({model, Eigen::Vector3d::Zero(), options});
   return make_engine(engine, spec);
@@ -93,9 +90,9 @@ void expect_same_structure(Engine& mj, Engine& dart) {
 }
 
 TEST(RobotCrossEngine, AtlasUrdfSameBodiesMassesAndLimits) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco", kAtlasUrdf);
-  auto dart = load("dart", kAtlasUrdf);
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_robot("mujoco", kAtlasUrdf);
+  auto dart = load_robot("dart", kAtlasUrdf);
   // 34 links (3 optical frames without <inertial>: 1 kg each, as DART gives them), a free root
   EXPECT_EQ(dart->nbody(), 34);
   EXPECT_EQ(dart->nv(), 33);
@@ -112,9 +109,9 @@ TEST(RobotCrossEngine, AtlasUrdfSameBodiesMassesAndLimits) {
 }
 
 TEST(RobotCrossEngine, AtlasUrdfForwardKinematicsAndMassMatrixAgree) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco", kAtlasUrdf);
-  auto dart = load("dart", kAtlasUrdf);
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_robot("mujoco", kAtlasUrdf);
+  auto dart = load_robot("dart", kAtlasUrdf);
   double worst_rot = 0;
   EXPECT_LT(worst_fk_error(*mj, *dart, worst_rot), 1e-9);
   EXPECT_LT(worst_rot, 1e-9);
@@ -122,9 +119,9 @@ TEST(RobotCrossEngine, AtlasUrdfForwardKinematicsAndMassMatrixAgree) {
 }
 
 TEST(RobotCrossEngine, AtlasSdfOnBothEngines) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco", kAtlasSdf);
-  auto dart = load("dart", kAtlasSdf);
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_robot("mujoco", kAtlasSdf);
+  auto dart = load_robot("dart", kAtlasSdf);
   EXPECT_EQ(dart->nbody(), 28);
   EXPECT_EQ(dart->nv(), 33);
   EXPECT_NEAR(dart->total_mass(), 146.554, 1e-9);
@@ -140,9 +137,9 @@ TEST(RobotCrossEngine, AtlasSdfOnBothEngines) {
 }
 
 TEST(RobotCrossEngine, FixedBaseWeldsTheRoot) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco", kAtlasUrdf, {.fixed_base = true});
-  auto dart = load("dart", kAtlasUrdf, {.fixed_base = true});
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_robot("mujoco", kAtlasUrdf, {.fixed_base = true});
+  auto dart = load_robot("dart", kAtlasUrdf, {.fixed_base = true});
   EXPECT_EQ(mj->nv(), 27);
   EXPECT_EQ(dart->nv(), 27);
   EXPECT_EQ(mj->dof_index("rootJoint_rot_x"), -1);
@@ -152,8 +149,8 @@ TEST(RobotCrossEngine, FixedBaseWeldsTheRoot) {
 // mesh feet as boxes: the boxes bound the STL's vertices, the same on both engines; the feet
 // rest on the same height
 TEST(RobotCrossEngine, MeshCollisionLoadsTheStlOnMujoco) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
-  auto mj = load("mujoco", kAtlasUrdf, {.mesh_collision = "mesh"});
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  auto mj = load_robot("mujoco", kAtlasUrdf, {.mesh_collision = "mesh"});
   EXPECT_EQ(mj->nbody(), 34);
 }
 

@@ -1,4 +1,5 @@
 #include "math/dare.h"
+#include "math/random_matrix.h"
 
 #include <gtest/gtest.h>
 
@@ -13,23 +14,14 @@ namespace {
 
 using Eigen::MatrixXd;
 
-// seeded gaussian matrix
-MatrixXd random_matrix(std::mt19937& rng, int rows, int cols) {
-  std::normal_distribution<double> normal(0.0, 1.0);
-  MatrixXd M(rows, cols);
-  for (int j = 0; j < cols; ++j)
-    for (int i = 0; i < rows; ++i) M(i, j) = normal(rng);
-  return M;
-}
-
 MatrixXd random_orthogonal(std::mt19937& rng, int n) {
-  Eigen::HouseholderQR<MatrixXd> qr(random_matrix(rng, n, n));
+  Eigen::HouseholderQR<MatrixXd> qr(test::random_matrix(rng, n, n));
   return qr.householderQ() * MatrixXd::Identity(n, n);
 }
 
 // random A scaled to a given spectral radius (mildly unstable for radius > 1)
 MatrixXd random_dynamics(std::mt19937& rng, int n, double radius) {
-  MatrixXd A = random_matrix(rng, n, n);
+  MatrixXd A = test::random_matrix(rng, n, n);
   return A * (radius / spectral_radius(A));
 }
 
@@ -94,8 +86,8 @@ TEST_P(DareRandomTest, MildlyUnstableSystemSolvedToResidual) {
   const RandomCase c = GetParam();
   std::mt19937 rng(c.seed);
   MatrixXd A = random_dynamics(rng, c.n, 1.05);
-  MatrixXd B = random_matrix(rng, c.n, c.m);
-  MatrixXd C = random_matrix(rng, c.n, c.n);
+  MatrixXd B = test::random_matrix(rng, c.n, c.m);
+  MatrixXd C = test::random_matrix(rng, c.n, c.n);
   MatrixXd Q = C.transpose() * C / c.n + 0.1 * MatrixXd::Identity(c.n, c.n);
   MatrixXd R = MatrixXd::Identity(c.m, c.m);
   ASSERT_GT(spectral_radius(A), 1.04);
@@ -114,16 +106,16 @@ TEST(DareTest, HumanoidLikeScalingNearIdentityDynamics) {
   std::mt19937 rng(7);
   const int nv = 27, n = 2 * nv, m = 21;
   const double dt = 0.002;
-  MatrixXd stiffness = random_matrix(rng, nv, nv);
+  MatrixXd stiffness = test::random_matrix(rng, nv, nv);
   stiffness = 20.0 * (stiffness + stiffness.transpose()) / std::sqrt(nv);  // unstable directions
-  MatrixXd actuation = random_matrix(rng, nv, m);
+  MatrixXd actuation = test::random_matrix(rng, nv, m);
   MatrixXd A = MatrixXd::Identity(n, n), B = MatrixXd::Zero(n, m);
   A.topRightCorner(nv, nv) = dt * MatrixXd::Identity(nv, nv);
   A.bottomLeftCorner(nv, nv) = dt * stiffness;
   A.topLeftCorner(nv, nv) += dt * dt * stiffness;
   B.bottomRows(nv) = dt * actuation;
   B.topRows(nv) = dt * dt * actuation;
-  MatrixXd J = random_matrix(rng, 3, nv);
+  MatrixXd J = test::random_matrix(rng, 3, nv);
   MatrixXd Q = MatrixXd::Zero(n, n);
   Q.topLeftCorner(nv, nv) = 1000.0 * J.transpose() * J + 3.0 * MatrixXd::Identity(nv, nv);
   Q += 1e-6 * MatrixXd::Identity(n, n);
@@ -154,8 +146,8 @@ TEST(DareTest, SingularQAndUncontrollableStableMode) {
   A(n1 + 1, n1 + 1) = -0.8;
   A(n1, n1 + 1) = 0.3;
   MatrixXd B = MatrixXd::Zero(n, m);
-  B.topRows(n1) = random_matrix(rng, n1, m);
-  MatrixXd c = random_matrix(rng, 1, n);
+  B.topRows(n1) = test::random_matrix(rng, n1, m);
+  MatrixXd c = test::random_matrix(rng, 1, n);
   MatrixXd Q = c.transpose() * c;  // rank 1
   MatrixXd R = MatrixXd::Identity(m, m);
   MatrixXd T = random_orthogonal(rng, n);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "math/dare.h"
+#include "math/random_matrix.h"
 
 // SLICOT 5.0 SB02OD (Fortran 77). gfortran passes every CHARACTER argument's length as a
 // trailing size_t; LOGICAL is a 4-byte int.
@@ -58,14 +59,6 @@ SlicotSolution slicot_dare(const MatrixXd& A, const MatrixXd& B, const MatrixXd&
   return out;
 }
 
-MatrixXd random_matrix(std::mt19937& rng, int rows, int cols) {
-  std::normal_distribution<double> normal(0.0, 1.0);
-  MatrixXd M(rows, cols);
-  for (int j = 0; j < cols; ++j)
-    for (int i = 0; i < rows; ++i) M(i, j) = normal(rng);
-  return M;
-}
-
 void expect_agreement(const MatrixXd& A, const MatrixXd& B, const MatrixXd& Q, const MatrixXd& R) {
   DareResult ours = solve_dare(A, B, Q, R);
   ASSERT_TRUE(ours.success) << ours.message;
@@ -102,10 +95,10 @@ TEST(SlicotDareTest, RandomMildlyUnstableSystems) {
   for (Case c : {Case{10, 3, 21}, Case{30, 8, 22}, Case{54, 21, 23}}) {
     SCOPED_TRACE(::testing::Message() << "n = " << c.n << ", m = " << c.m);
     std::mt19937 rng(c.seed);
-    MatrixXd A = random_matrix(rng, c.n, c.n);
+    MatrixXd A = test::random_matrix(rng, c.n, c.n);
     A *= 1.05 / spectral_radius(A);
-    MatrixXd B = random_matrix(rng, c.n, c.m);
-    MatrixXd C = random_matrix(rng, c.n / 2, c.n);
+    MatrixXd B = test::random_matrix(rng, c.n, c.m);
+    MatrixXd C = test::random_matrix(rng, c.n / 2, c.n);
     MatrixXd Q = C.transpose() * C;  // rank n/2: semidefinite
     MatrixXd R = MatrixXd::Identity(c.m, c.m) + 0.1 * MatrixXd::Ones(c.m, c.m);
     expect_agreement(A, B, Q, R);
@@ -116,16 +109,16 @@ TEST(SlicotDareTest, HumanoidLikeSecondOrderSystem) {
   std::mt19937 rng(31);
   const int nv = 27, n = 2 * nv, m = 21;
   const double dt = 0.005;
-  MatrixXd stiffness = random_matrix(rng, nv, nv);
+  MatrixXd stiffness = test::random_matrix(rng, nv, nv);
   stiffness = 10.0 * (stiffness + stiffness.transpose()) / std::sqrt(nv);
-  MatrixXd actuation = random_matrix(rng, nv, m);
+  MatrixXd actuation = test::random_matrix(rng, nv, m);
   MatrixXd A = MatrixXd::Identity(n, n), B = MatrixXd::Zero(n, m);
   A.topRightCorner(nv, nv) = dt * MatrixXd::Identity(nv, nv);
   A.bottomLeftCorner(nv, nv) = dt * stiffness;
   A.topLeftCorner(nv, nv) += dt * dt * stiffness;
   B.bottomRows(nv) = dt * actuation;
   B.topRows(nv) = dt * dt * actuation;
-  MatrixXd J = random_matrix(rng, 3, nv);
+  MatrixXd J = test::random_matrix(rng, 3, nv);
   MatrixXd Q = MatrixXd::Zero(n, n);
   Q.topLeftCorner(nv, nv) = 1000.0 * J.transpose() * J + 3.0 * MatrixXd::Identity(nv, nv);
   Q += 1e-6 * MatrixXd::Identity(n, n);

@@ -15,10 +15,6 @@
 namespace stance {
 namespace {
 
-std::string shared_bvh(const std::string& file) {
-  return std::string(STANCE_SOURCE_DIR) + "/../shared/data/bvh/" + file;
-}
-
 // loads the character, applies its start keyframe and checks it against the reference
 void check_character(const BvhClip& clip, const BvhCharacterOptions& o, const std::string& tag) {
   BvhCharacter ch = make_bvh_character(clip, o);
@@ -79,7 +75,7 @@ TEST(BvhToMjcf, FootSegmentNames) {
 
 TEST(BvhToMjcf, SharedFilesBuildLoadableCharacters) {
   for (const char* file : {"mass_walk.bvh", "cmu_131_01.bvh"}) {
-    const std::string path = shared_bvh(file);
+    const std::string path = test::shared_bvh(file);
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
     SCOPED_TRACE(file);
     BvhClip clip = read_bvh(path);
@@ -135,14 +131,17 @@ TEST(BvhToMjcf, StandsOnItsFeetNotOnItsShins) {
       "    End Site\n    {\n     OFFSET 0 -2 14\n    }\n   }\n  }\n }\n"
       " JOINT RightUpLeg\n {\n  OFFSET -9 -6 0\n  CHANNELS 3 Zrotation Xrotation Yrotation\n"
       "  JOINT RightLeg\n  {\n   OFFSET 0 -44 0\n   CHANNELS 3 Zrotation Xrotation Yrotation\n"
-      "   JOINT RightAnkle\n   {\n    OFFSET 0 -42 0\n    CHANNELS 3 Zrotation Xrotation Yrotation\n"
+      "   JOINT RightAnkle\n   {\n    OFFSET 0 -42 0\n    CHANNELS 3 Zrotation Xrotation "
+      "Yrotation\n"
       "    End Site\n    {\n     OFFSET 0 -2 14\n    }\n   }\n  }\n }\n}\n"
-      "MOTION\nFrames: 1\nFrame Time: 0.01\n0 95 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0\n";
+      "MOTION\nFrames: 1\nFrame Time: 0.01\n0 95 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 0 "
+      "0\n";
   std::vector<std::pair<std::string, BvhClip>> clips = {
       {"synthetic_walk", make_synthetic_walk_clip()},
       {"flat_foot", read_bvh(test::write_temp_file("flat_foot.bvh", flat_foot))}};
   for (const char* file : {"mass_walk.bvh", "cmu_131_01.bvh"})
-    if (std::filesystem::exists(shared_bvh(file))) clips.emplace_back(file, read_bvh(shared_bvh(file)));
+    if (std::filesystem::exists(test::shared_bvh(file)))
+      clips.emplace_back(file, read_bvh(test::shared_bvh(file)));
   for (const auto& [tag, clip] : clips) {
     SCOPED_TRACE(tag);
     const std::vector<std::string> touching = first_touching_bodies(clip, tag + "_rest");

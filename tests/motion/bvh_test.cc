@@ -11,6 +11,7 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "test_support.h"
 
 namespace stance {
 namespace {
@@ -18,10 +19,6 @@ namespace {
 constexpr double kDeg = std::numbers::pi / 180.0;
 
 const std::array<std::string_view, 6> kOrderNames = {"XYZ", "XZY", "YXZ", "YZX", "ZXY", "ZYX"};
-
-std::string shared_bvh(const std::string& file) {
-  return std::string(STANCE_SOURCE_DIR) + "/../shared/data/bvh/" + file;
-}
 
 std::string slurp(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
@@ -142,7 +139,7 @@ int count_order(const BvhClip& clip, RotationOrder order) {
 // ---------------------------------------------------------------- shared real files
 
 TEST(BvhSharedFiles, MassWalk) {
-  const std::string path = shared_bvh("mass_walk.bvh");
+  const std::string path = test::shared_bvh("mass_walk.bvh");
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
   BvhClip clip = read_bvh(path);
   // expected values from the file itself:
@@ -173,7 +170,7 @@ TEST(BvhSharedFiles, MassWalk) {
 }
 
 TEST(BvhSharedFiles, CmuMixedOrdersAndLineEndings) {
-  const std::string path = shared_bvh("cmu_131_01.bvh");
+  const std::string path = test::shared_bvh("cmu_131_01.bvh");
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
   BvhClip clip = read_bvh(path);
   // from the file: 31 ROOT/JOINT lines, 7 End Sites, 96 channels, "Frames: 994",
@@ -218,7 +215,7 @@ TEST(BvhSharedFiles, CmuMixedOrdersAndLineEndings) {
 
 TEST(BvhSharedFiles, RoundTripWithin1e9) {
   for (const char* file : {"mass_walk.bvh", "cmu_131_01.bvh"}) {
-    const std::string path = shared_bvh(file);
+    const std::string path = test::shared_bvh(file);
     if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
     SCOPED_TRACE(file);
     BvhClip clip = read_bvh(path);
@@ -238,7 +235,7 @@ TEST(BvhSharedFiles, RoundTripWithin1e9) {
 }
 
 TEST(BvhSharedFiles, RealFileErrorsNameTheRightLine) {
-  const std::string path = shared_bvh("cmu_131_01.bvh");
+  const std::string path = test::shared_bvh("cmu_131_01.bvh");
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
   const std::string text = slurp(path);
   // corrupt the first value of line 500 (a motion row after the mixed CRLF/LF header)

@@ -10,13 +10,10 @@
 
 #include "core/error.h"
 #include "math/rotations.h"
+#include "test_support.h"
 
 namespace stance {
 namespace {
-
-std::string shared_bvh(const std::string& file) {
-  return std::string(STANCE_SOURCE_DIR) + "/../shared/data/bvh/" + file;
-}
 
 ReferenceMotion synthetic_reference(ReferenceOptions ro = {}) {
   BvhClip clip = make_synthetic_walk_clip();
@@ -171,7 +168,7 @@ TEST(ReferenceMotion, ClipRangeInFramesOrSeconds) {
 }
 
 TEST(MotionSkeleton, MassWalkSkipsRigMeshHelpers) {
-  const std::string path = shared_bvh("mass_walk.bvh");
+  const std::string path = test::shared_bvh("mass_walk.bvh");
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
   BvhClip clip = read_bvh(path);
   MotionSkeleton sk = make_motion_skeleton(clip, {});
@@ -186,7 +183,7 @@ TEST(MotionSkeleton, MassWalkSkipsRigMeshHelpers) {
 }
 
 TEST(MotionSkeleton, CmuMergesZeroLengthHelpers) {
-  const std::string path = shared_bvh("cmu_131_01.bvh");
+  const std::string path = test::shared_bvh("cmu_131_01.bvh");
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
   BvhClip clip = read_bvh(path);
   MotionSkeleton sk = make_motion_skeleton(clip, {});
@@ -327,7 +324,7 @@ TEST(SyntheticRun, RejectsAStanceFractionWithoutFlight) {
 
 // blend the last 0.2 s fade onto the first frame and the seam is as smooth as the clip
 TEST(ReferenceMotion, LoopBlendJoinsACutThatIsNoCycle) {
-  const std::string path = shared_bvh("cmu_131_01.bvh");
+  const std::string path = test::shared_bvh("cmu_131_01.bvh");
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared data";
   BvhClip clip = read_bvh(path);
   ReferenceOptions ro;

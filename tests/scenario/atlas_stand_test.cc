@@ -11,10 +11,6 @@
 namespace stance {
 namespace {
 
-bool have_atlas() {
-  return std::filesystem::exists("/usr/share/doc/dart/data/sdf/atlas/atlas_v3_no_head.urdf");
-}
-
 struct Stood {
   RunResult result;
   Eigen::Vector3d com;
@@ -34,7 +30,7 @@ Stood stand(const std::string& engine, const std::vector<std::string>& overrides
 }
 
 TEST(AtlasStand, StandsOnBothEnginesAtTheGainsAndNearby) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
   for (const char* engine : {"mujoco", "dart"}) {
     for (const std::vector<std::string>& set :
          {std::vector<std::string>{},
@@ -52,7 +48,7 @@ TEST(AtlasStand, StandsOnBothEnginesAtTheGainsAndNearby) {
 }
 
 TEST(AtlasStand, EnginesAgreeAndOtherTimestepsHold) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
   const Stood mj = stand("mujoco", {});
   const Stood dart = stand("dart", {});
   EXPECT_LT((mj.com - dart.com).norm(), 0.02);

@@ -14,10 +14,6 @@
 namespace stance {
 namespace {
 
-std::string scenario_path(const char* name) {
-  return test::source_dir() + "/scenarios/" + name;
-}
-
 RunResult run_with_push(const std::string& engine, double fx, double duration,
                         const std::vector<std::string>& sets = {}) {
   RunOptions opt;
@@ -29,14 +25,14 @@ RunResult run_with_push(const std::string& engine, double fx, double duration,
   p.start = 2.0;
   p.duration = 0.1;
   opt.extra_pushes.push_back(p);
-  return Simulation(load_scenario(scenario_path("biped_stand.yaml"), sets), opt).run();
+  return Simulation(load_scenario(test::scenario_path("biped_stand.yaml"), sets), opt).run();
 }
 
 // stands 10 s; returns the COM height after 5 s
 double stand_ten_seconds(const std::string& engine) {
   RunOptions opt;
   opt.engine = engine;
-  Simulation run(load_scenario(scenario_path("biped_stand.yaml")), opt);
+  Simulation run(load_scenario(test::scenario_path("biped_stand.yaml")), opt);
   double com_height_5s = 0;
   const int steps = static_cast<int>(std::lround(10.0 / run.engine().timestep()));
   for (int k = 0; k < steps; ++k) {
@@ -101,7 +97,8 @@ TEST(BipedStand, PlainPdDivergenceIsReportedOnDart) {
   opt.duration = 0.5;
   opt.out_dir =
       (std::filesystem::temp_directory_path() / "stance_tests" / "biped_pd_dart").string();
-  Simulation run(load_scenario(scenario_path("biped_stand.yaml"), {"controllers.0.type=pd"}), opt);
+  Simulation run(load_scenario(test::scenario_path("biped_stand.yaml"), {"controllers.0.type=pd"}),
+                 opt);
   RunResult r = run.run();
   EXPECT_TRUE(r.diverged);
   EXPECT_LT(r.sim_time, 0.1);
@@ -132,7 +129,7 @@ TEST(BipedStand, PushScheduleIsLoggedAndCounted) {
   opt.engine = "mujoco";
   opt.duration = 5.0;
   opt.out_dir = (std::filesystem::temp_directory_path() / "stance_tests" / "biped_push").string();
-  RunResult r = Simulation(load_scenario(scenario_path("biped_push.yaml")), opt).run();
+  RunResult r = Simulation(load_scenario(test::scenario_path("biped_push.yaml")), opt).run();
   EXPECT_FALSE(r.fell) << r.fall_reason;
   EXPECT_EQ(r.metrics["pushes_applied"], 3);
   // the pushes at 2 s and 4 s are over by t = 5 s without a fall; the third is not applied yet
@@ -149,7 +146,8 @@ RunResult run_skateboard(const std::string& engine,
   RunOptions opt;
   opt.engine = engine;
   opt.duration = 5.0;
-  return Simulation(load_scenario(scenario_path("biped_skateboard.yaml"), overrides), opt).run();
+  return Simulation(load_scenario(test::scenario_path("biped_skateboard.yaml"), overrides), opt)
+      .run();
 }
 
 TEST(BipedSkateboard, BoardMovesForwardWithTheBipedUprightOnDart) {

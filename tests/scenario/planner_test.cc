@@ -9,22 +9,13 @@
 #include <iostream>
 
 #include "core/error.h"
+#include "run_support.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
 namespace {
-
-std::string scenario(const std::string& name) {
-  return test::source_dir() + "/scenarios/" + name;
-}
-
-RunOptions quiet() {
-  RunOptions o;
-  o.quiet = true;
-  return o;
-}
 
 TEST(CorrectionPlan, EvaluatesAPiecewiseLinearSplineAndHoldsItsEnds) {
   CorrectionPlan plan;
@@ -81,7 +72,7 @@ std::vector<double> planned_trace(int threads, const std::vector<std::string>& e
                                    "planner.horizon_s=0.2", "planner.interval_s=0.05",
                                    "planner.threads=" + std::to_string(threads)};
   sets.insert(sets.end(), extra.begin(), extra.end());
-  Simulation sim(load_scenario(scenario("biped_stand.yaml"), sets), quiet());
+  Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml"), sets), test::quiet());
   std::vector<double> out;
   Eigen::VectorXd q(sim.engine().nq());
   for (int k = 0; k < 300; ++k) {
@@ -106,10 +97,10 @@ TEST(Planner, SamePlanForAnyThreadCount) {
 }
 
 TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
-  Simulation sim(load_scenario(scenario("biped_stand.yaml"),
+  Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml"),
                                {"planner.enabled=true", "planner.samples=2",
                                 "planner.residual_dofs=[j_shin_left, j_shin_right]"}),
-                 quiet());
+                 test::quiet());
   ASSERT_TRUE(sim.model().planner);
   const auto& dims = sim.model().planner->dimensions;
   ASSERT_EQ(dims.size(), 2u);
@@ -117,9 +108,9 @@ TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
   EXPECT_EQ(dims[0].dof, sim.engine().dof_index("j_shin_left"));
   EXPECT_EQ(dims[0].controller, -1);
   try {
-    Simulation bad(load_scenario(scenario("biped_stand.yaml"),
+    Simulation bad(load_scenario(test::scenario_path("biped_stand.yaml"),
                                  {"planner.enabled=true", "planner.residual_dofs=[j_shin_lft]"}),
-                   quiet());
+                   test::quiet());
     FAIL() << "an unknown dof was accepted";
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find("planner.residual_dofs: unknown dof 'j_shin_lft'"),
@@ -127,9 +118,9 @@ TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
         << e.what();
     EXPECT_NE(std::string(e.what()).find("j_shin_left"), std::string::npos) << e.what();
   }
-  EXPECT_THROW(Simulation(load_scenario(scenario("biped_stand.yaml"),
+  EXPECT_THROW(Simulation(load_scenario(test::scenario_path("biped_stand.yaml"),
                                         {"planner.enabled=true", "planner.method=cmaes"}),
-                          quiet()),
+                          test::quiet()),
                InputError);
 }
 
@@ -143,9 +134,9 @@ TEST(Planner, NewParametersTakeEffectMidRun) {
       "planner.interval_s=0.05",
       "planner.threads=1",
       "perturbations=[{body: h_spine, force: [80, 0, 0], start: 0.0, duration: 0.1}]"};
-  const LoadedScenario loaded = load_scenario(scenario("biped_stand.yaml"), sets);
+  const LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"), sets);
   auto trace = [&](const std::function<void(Simulation&)>& at_switch) {
-    Simulation sim(loaded, quiet());
+    Simulation sim(loaded, test::quiet());
     std::vector<double> out;
     Eigen::VectorXd q(sim.engine().nq());
     for (int k = 0; k < 200; ++k) {
@@ -157,7 +148,7 @@ TEST(Planner, NewParametersTakeEffectMidRun) {
     return out;
   };
   const std::vector<double> base = trace([](Simulation&) {});
-  const PlannerParams params = Simulation(loaded, quiet()).model().planner->params;
+  const PlannerParams params = Simulation(loaded, test::quiet()).model().planner->params;
   EXPECT_EQ(trace([&](Simulation& sim) { sim.set_planner_params(params); }), base);
   PlannerParams more = params;
   more.samples = 8;
@@ -180,14 +171,14 @@ TEST(Planner, NewParametersTakeEffectMidRun) {
     EXPECT_EQ(sim.correction().squaredNorm(), 0.0);
   });
   // what needs a new run is refused, and so are parameters that do not fit together
-  Simulation sim(loaded, quiet());
+  Simulation sim(loaded, test::quiet());
   PlannerParams bad = params;
   bad.timestep = 0.004;
   EXPECT_THROW(sim.set_planner_params(bad), InputError);
   bad = params;
   bad.interval_s = 1;
   EXPECT_THROW(sim.set_planner_params(bad), InputError);
-  Simulation plain(load_scenario(scenario("biped_stand.yaml")), quiet());
+  Simulation plain(load_scenario(test::scenario_path("biped_stand.yaml")), test::quiet());
   EXPECT_THROW(plain.set_planner_params(params), InputError);
 }
 
@@ -195,12 +186,12 @@ TEST(Planner, ARestoredRunPlansAsTheRunThatWentOn) {
   const std::vector<std::string> sets = {"planner.enabled=true", "planner.samples=4",
                                          "planner.horizon_s=0.15", "planner.interval_s=0.03",
                                          "planner.threads=2"};
-  Simulation a(load_scenario(scenario("biped_stand.yaml"), sets), quiet());
+  Simulation a(load_scenario(test::scenario_path("biped_stand.yaml"), sets), test::quiet());
   for (int k = 0; k < 100; ++k) ASSERT_TRUE(a.step());
   SimulationState mid;
   a.save(mid);
   for (int k = 0; k < 150; ++k) ASSERT_TRUE(a.step());
-  Simulation b(load_scenario(scenario("biped_stand.yaml"), sets), quiet());
+  Simulation b(load_scenario(test::scenario_path("biped_stand.yaml"), sets), test::quiet());
   b.restore(mid);
   for (int k = 0; k < 150; ++k) ASSERT_TRUE(b.step());
   Eigen::VectorXd qa(a.engine().nq()), qb(b.engine().nq());
@@ -217,7 +208,7 @@ TEST(Planner, StandingBalanceTargetFollowsTheFeet) {
                                          "planner.horizon_s=0.15", "planner.threads=1",
                                          "planner.cost.capture=20"};
   auto first_plan_cost = [&](double shift) {
-    Simulation sim(load_scenario(scenario("biped_stand.yaml"), sets), quiet());
+    Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml"), sets), test::quiet());
     Eigen::VectorXd q(sim.engine().nq());
     sim.engine().get_positions(q);
     q[0] += shift;  // the free root's x, along the floor (the model is y-up)
@@ -240,8 +231,9 @@ double stays_up_s(bool plan, double force, double duration,
                                    fmt::format("duration={}", duration), "planner.threads=2",
                                    std::string("planner.enabled=") + (plan ? "true" : "false")};
   sets.insert(sets.end(), setting.begin(), setting.end());
-  RunResult r =
-      Simulation(load_scenario(scenario("biped_stand_planner.yaml"), sets), quiet()).run();
+  RunResult r = Simulation(load_scenario(test::scenario_path("biped_stand_planner.yaml"), sets),
+                           test::quiet())
+                    .run();
   return r.fell ? *r.fall_time : r.sim_time;
 }
 

@@ -14,10 +14,6 @@
 namespace stance {
 namespace {
 
-bool have_atlas() {
-  return std::filesystem::exists("/usr/share/doc/dart/data/sdf/atlas/atlas_v3_no_head.sdf");
-}
-
 RunResult walk(const std::string& engine, const std::vector<std::string>& overrides,
                const std::vector<Perturbation>& pushes = {}) {
   LoadedScenario s =
@@ -71,23 +67,23 @@ void survives_pushes(const std::string& engine) {
 }
 
 TEST(SimbiconAtlas, MujocoWalksTwentySecondsAtTheGaitAndNearby) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
   walks_at_the_gait_and_nearby("mujoco");
 }
 
 TEST(SimbiconAtlas, MujocoSurvivesHundredNewtonPushes) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
   survives_pushes("mujoco");
 }
 
 #ifdef STANCE_HAVE_DART
 TEST(SimbiconAtlas, DartWalksTwentySecondsAtTheGaitAndNearby) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
   walks_at_the_gait_and_nearby("dart");
 }
 
 TEST(SimbiconAtlas, DartSurvivesHundredNewtonPushes) {
-  if (!have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
   survives_pushes("dart");
 }
 #endif

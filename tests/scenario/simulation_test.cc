@@ -12,23 +12,13 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "run_support.h"
 #include "scenario/observers.h"
 #include "scenario/scenario.h"
 #include "test_support.h"
 
 namespace stance {
 namespace {
-
-RunOptions quiet(const std::string& engine = "") {
-  RunOptions o;
-  o.quiet = true;
-  o.engine = engine;
-  return o;
-}
-
-std::string scenario(const std::string& name) {
-  return test::source_dir() + "/scenarios/" + name;
-}
 
 // positions and velocities after each step, bit for bit
 std::vector<double> trace(Simulation& sim, int steps) {
@@ -48,7 +38,7 @@ std::vector<double> trace(Simulation& sim, int steps) {
 void expect_branches_deterministic(const std::string& file, const std::string& body,
                                    const std::string& engine = "") {
   SCOPED_TRACE(file + " " + engine);
-  Simulation root(load_scenario(scenario(file)), quiet(engine));
+  Simulation root(load_scenario(test::scenario_path(file)), test::quiet(engine));
   for (int k = 0; k < 300; ++k) ASSERT_TRUE(root.step());
   constexpr int kBranches = 4, kSteps = 300;
   const int b = root.engine().require_body(body);
@@ -100,7 +90,7 @@ class RestoreContinues : public ::testing::TestWithParam<std::string> {};
 
 // restoring a saved state continues exactly as the run that was never interrupted
 void expect_restore_continues(const std::string& file, const std::string& engine) {
-  Simulation sim(load_scenario(scenario(file)), quiet(engine));
+  Simulation sim(load_scenario(test::scenario_path(file)), test::quiet(engine));
   trace(sim, 150);  // early: the feet still settle, contacts change
   SimulationState s;
   sim.save(s);
@@ -133,7 +123,7 @@ INSTANTIATE_TEST_SUITE_P(Scenarios, RestoreContinuesDart, ::testing::Values("sim
 // biped_stand on DART: the restored run continues close to, not bit for bit as, the unbroken
 // one (stable PD reads the last step's constraint forces, which restore_state does not keep)
 TEST(RestoreContinuesDartBipedStand, CloseToTheUnbrokenRun) {
-  Simulation sim(load_scenario(scenario("biped_stand.yaml")), quiet("dart"));
+  Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml")), test::quiet("dart"));
   trace(sim, 150);
   SimulationState s;
   sim.save(s);
@@ -157,8 +147,8 @@ INSTANTIATE_TEST_SUITE_P(Scenarios, RestoreContinues,
                          });
 
 TEST(SimulationStateFile, RoundTripAndBadFiles) {
-  LoadedScenario loaded = load_scenario(scenario("biped_stand.yaml"));
-  Simulation sim(loaded, quiet());
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
+  Simulation sim(loaded, test::quiet());
   trace(sim, 200);
   const std::string file = test::write_temp_file("sim_state.bin", "");
   sim.write_state(file);
@@ -187,7 +177,7 @@ TEST(SimulationStateFile, RoundTripAndBadFiles) {
   EXPECT_EQ(other.time(), t);
   EXPECT_THROW(other.read_state(test::write_temp_file("sim_state_junk.bin", "hello")), InputError);
   EXPECT_THROW(other.read_state("/no/such/state.bin"), InputError);
-  Simulation walker(load_scenario(scenario("simbicon_walk.yaml")), quiet());
+  Simulation walker(load_scenario(test::scenario_path("simbicon_walk.yaml")), test::quiet());
   try {
     walker.read_state(file);
     ADD_FAILURE() << "a state of another model was read";
@@ -198,12 +188,12 @@ TEST(SimulationStateFile, RoundTripAndBadFiles) {
 
 TEST(SimulationLoop, StopsOneSecondAfterAFallUnlessAskedOtherwise) {
   // the biped without its ankle strategy falls well before 10 s
-  LoadedScenario loaded = load_scenario(scenario("biped_stand.yaml"));
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   loaded.controllers.resize(1);
-  RunResult r = Simulation(loaded, quiet()).run();
+  RunResult r = Simulation(loaded, test::quiet()).run();
   ASSERT_TRUE(r.fell);
   EXPECT_NEAR(r.sim_time, *r.fall_time + 1.0, 2e-3);
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   o.stop_after_fall_s = -1;
   RunResult full = Simulation(loaded, o).run();
   EXPECT_TRUE(full.fell);
@@ -218,9 +208,9 @@ TEST(SimulationLoop, ObserversSeeEveryStep) {
     void on_step(const Simulation&) override { ++steps; }
     void on_finish(const Simulation&, const RunResult&) override { ++finishes; }
   } counter;
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   o.duration = 0.25;
-  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  Simulation sim(load_scenario(test::scenario_path("pd_hold.yaml")), o);
   sim.add_observer(&counter);
   RunResult r = sim.run();
   EXPECT_EQ(counter.starts, 1);
@@ -233,10 +223,10 @@ TEST(SimulationLoop, RunWritesItsFilesWithoutTemporaries) {
   const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
                            ("simloop_" + std::to_string(::getpid())))
                               .string();
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   o.duration = 0.3;
   o.out_dir = dir;
-  Simulation(load_scenario(scenario("pd_hold.yaml")), o).run();
+  Simulation(load_scenario(test::scenario_path("pd_hold.yaml")), o).run();
   EXPECT_TRUE(std::filesystem::exists(dir + "/summary.json"));
   EXPECT_TRUE(std::filesystem::exists(dir + "/log.csv"));
   for (const auto& f : std::filesystem::directory_iterator(dir))
@@ -274,9 +264,9 @@ TEST_P(NanController, StopsTheRunWithTimeCauseAndOutputs) {
                            ("nan_" + GetParam() + std::to_string(::getpid())))
                               .string();
   std::filesystem::remove_all(dir);
-  RunOptions o = quiet(GetParam());
+  RunOptions o = test::quiet(GetParam());
   o.out_dir = dir;
-  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  Simulation sim(load_scenario(test::scenario_path("pd_hold.yaml")), o);
   sim.replace_controller(0, std::make_shared<NanAfter>(0.25));
   RunResult r = sim.run();
   ASSERT_TRUE(r.diverged);
@@ -311,9 +301,9 @@ TEST_P(NanController, AnEngineBlowUpLeavesFiniteMetrics) {
                            ("blowup_" + GetParam() + std::to_string(::getpid())))
                               .string();
   std::filesystem::remove_all(dir);
-  RunOptions o = quiet(GetParam());
+  RunOptions o = test::quiet(GetParam());
   o.out_dir = dir;
-  Simulation sim(load_scenario(scenario("pd_hold.yaml"), {"controllers.0.kp=1e12"}), o);
+  Simulation sim(load_scenario(test::scenario_path("pd_hold.yaml"), {"controllers.0.kp=1e12"}), o);
   RunResult r = sim.run();
   ASSERT_TRUE(r.diverged);
   std::ifstream in(dir + "/summary.json");
@@ -327,16 +317,16 @@ TEST_P(NanController, AnEngineBlowUpLeavesFiniteMetrics) {
 // a body lying on the floor may blow up after its fall: the run fell (it is no error of the
 // run), the fall's reason tells of the divergence after it, and the summary's numbers are finite
 TEST_P(NanController, ADivergenceAfterAFallIsReportedAsTheFall) {
-  RunOptions o = quiet(GetParam());
+  RunOptions o = test::quiet(GetParam());
   o.duration = 4;
   // unpowered, the biped collapses; a NaN 0.3 s later (within the second run on past a fall)
   const std::vector<std::string> unpowered = {"controllers=[{type: stable_pd, kp: 0, kd: 0}]"};
-  Simulation collapse(load_scenario(scenario("biped_stand.yaml"), unpowered), o);
+  Simulation collapse(load_scenario(test::scenario_path("biped_stand.yaml"), unpowered), o);
   collapse.replace_controller(0, std::make_shared<NanAfter>(1e9));
   const RunResult fall = collapse.run();
   ASSERT_TRUE(fall.fell);
   ASSERT_FALSE(fall.diverged);
-  Simulation sim(load_scenario(scenario("biped_stand.yaml"), unpowered), o);
+  Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml"), unpowered), o);
   sim.replace_controller(0, std::make_shared<NanAfter>(*fall.fall_time + 0.3));
   const RunResult r = sim.run();
   EXPECT_TRUE(r.fell);
@@ -353,14 +343,14 @@ TEST_P(NanController, ADivergenceAfterAFallIsReportedAsTheFall) {
 TEST(SimulationLoop, AWalkerThatBlowsUpAfterItsFallKeepsTheMetricsOfItsFall) {
   const std::vector<std::string> shove = {
       "perturbations=[{body: torso, force: [900, 0, 0], start: 2.0, duration: 0.2}]"};
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   o.duration = 6;
-  Simulation until_fall(load_scenario(scenario("simbicon_walk.yaml"), shove), o);
+  Simulation until_fall(load_scenario(test::scenario_path("simbicon_walk.yaml"), shove), o);
   while (!until_fall.progress().fell && until_fall.step()) {
   }
   ASSERT_TRUE(until_fall.progress().fell);
   const RunResult at_fall = until_fall.result();
-  Simulation whole(load_scenario(scenario("simbicon_walk.yaml"), shove), o);
+  Simulation whole(load_scenario(test::scenario_path("simbicon_walk.yaml"), shove), o);
   whole.add_controller(std::make_shared<NanAfter>(*at_fall.fall_time + 0.5));
   const RunResult r = whole.run();
   ASSERT_TRUE(r.fell);
@@ -369,7 +359,7 @@ TEST(SimulationLoop, AWalkerThatBlowsUpAfterItsFallKeepsTheMetricsOfItsFall) {
   for (const char* key : {"distance_m", "mean_speed_mps", "step_count", "flight_fraction"})
     EXPECT_EQ(r.metrics[key], at_fall.metrics[key]) << key;
   // the walk went on moving in that half second: the metrics would differ without the rule
-  Simulation on_the_floor(load_scenario(scenario("simbicon_walk.yaml"), shove), o);
+  Simulation on_the_floor(load_scenario(test::scenario_path("simbicon_walk.yaml"), shove), o);
   const RunResult no_blow_up = on_the_floor.run();
   EXPECT_NE(no_blow_up.metrics["distance_m"], at_fall.metrics["distance_m"]);
 }
@@ -389,10 +379,10 @@ TEST(SimulationLoop, InterruptStopsTheRunAndWritesItsFiles) {
   } stopper;
   stopper.stop = &stop;
   stopper.at = 0.5;
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   o.out_dir = dir;
   o.interrupt = &stop;
-  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  Simulation sim(load_scenario(test::scenario_path("pd_hold.yaml")), o);
   sim.add_observer(&stopper);
   RunResult r = sim.run();
   EXPECT_TRUE(r.interrupted);
@@ -409,10 +399,10 @@ TEST(SimulationLoop, MemoryLogHoldsTheRowsOfLogCsv) {
   const std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" /
                            ("memlog_" + std::to_string(::getpid())))
                               .string();
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   o.duration = 2.5;  // through the push at 2 s
   o.out_dir = dir;
-  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  Simulation sim(load_scenario(test::scenario_path("pd_hold.yaml")), o);
   MemoryLog log;
   sim.add_observer(&log);
   sim.run();
@@ -443,9 +433,9 @@ TEST(SimulationLoop, MemoryLogHoldsTheRowsOfLogCsv) {
 }
 
 TEST(SimulationLoop, RunForAStepCountThenToTheEnd) {
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   o.duration = 0.5;
-  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
+  Simulation sim(load_scenario(test::scenario_path("pd_hold.yaml")), o);
   EXPECT_EQ(sim.run(120).steps, 120);
   EXPECT_EQ(sim.run().steps, 500);
   EXPECT_TRUE(sim.done());
@@ -465,7 +455,7 @@ controllers:
 )",
                                                                       test::source_dir()));
   try {
-    Simulation sim(load_scenario(path), quiet());
+    Simulation sim(load_scenario(path), test::quiet());
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_EQ(std::string(e.what()),
@@ -473,7 +463,7 @@ controllers:
                   ":5: controllers[0]: type 'python' is resolved only when the scenario is "
                   "loaded from Python (stance.load)");
   }
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   std::string module;
   o.external_controllers = [&](const YAML::Node& node, const ControllerContext& ctx,
                                const Engine& engine) {
@@ -489,10 +479,10 @@ controllers:
 
 // a controller added to a loaded simulation composes with the scenario's, and clones take it
 TEST(SimulationLoop, AddedControllersComposeAndClone) {
-  RunOptions o = quiet();
+  RunOptions o = test::quiet();
   o.duration = 1;
-  Simulation sim(load_scenario(scenario("pd_hold.yaml")), o);
-  Simulation plain(load_scenario(scenario("pd_hold.yaml")), o);
+  Simulation sim(load_scenario(test::scenario_path("pd_hold.yaml")), o);
+  Simulation plain(load_scenario(test::scenario_path("pd_hold.yaml")), o);
   ControllerContext ctx = controller_context(sim.model(), 1);
   YAML::Node pd;
   pd["type"] = "hold_pose_pd";

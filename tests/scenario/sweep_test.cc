@@ -16,13 +16,6 @@
 namespace stance {
 namespace {
 
-std::string read_all(const std::filesystem::path& p) {
-  std::ifstream f(p);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
 TEST(Sweep, ValuesAndTheirText) {
   std::vector<double> v = linspace(2, 12, 41);
   ASSERT_EQ(v.size(), 41u);
@@ -57,7 +50,7 @@ TEST(Sweep, SameCsvsWhateverTheThreadCount) {
               points[1].result.metrics["mean_step_length_m"]);
     auto dir = base / ("sweep_threads_" + std::to_string(threads));
     write_sweep_outputs(dir.string(), o.param, points);
-    out[threads - 1] = read_all(dir / "sweep.csv") + read_all(dir / "points.csv");
+    out[threads - 1] = test::read_file(dir / "sweep.csv") + test::read_file(dir / "points.csv");
   }
   EXPECT_GT(out[0].size(), 200u);
   EXPECT_EQ(out[0], out[1]);

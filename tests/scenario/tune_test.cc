@@ -18,13 +18,6 @@
 namespace stance {
 namespace {
 
-std::string read_all(const std::filesystem::path& p) {
-  std::ifstream f(p);
-  std::stringstream ss;
-  ss << f.rdbuf();
-  return ss.str();
-}
-
 // the message of the InputError thrown by f, or "" when none is thrown
 template <class F>
 std::string error_of(F&& f) {
@@ -204,8 +197,8 @@ TEST(Tune, FindsGainsThatStandFromOnesThatFall) {
     auto dir = std::filesystem::temp_directory_path() / "stance_tests" /
                ("tune_threads_" + std::to_string(threads));
     write_tune_outputs(dir.string(), o, r);
-    csv[threads - 1] = read_all(dir / "tune.csv");
-    best[threads - 1] = read_all(dir / "best.yaml");
+    csv[threads - 1] = test::read_file(dir / "tune.csv");
+    best[threads - 1] = test::read_file(dir / "best.yaml");
     // best.yaml is a map of key path -> value that reads back to the best point
     YAML::Node y = YAML::LoadFile((dir / "best.yaml").string());
     EXPECT_DOUBLE_EQ(y["controllers.0.kp"].as<double>(), b.values[0]);
@@ -245,7 +238,7 @@ TEST(Tune, FindsGainsThatStandWithCmaes) {
     auto dir = std::filesystem::temp_directory_path() / "stance_tests" /
                ("tune_cmaes_threads_" + std::to_string(threads));
     write_tune_outputs(dir.string(), o, r);
-    csv[threads - 1] = read_all(dir / "tune.csv");
+    csv[threads - 1] = test::read_file(dir / "tune.csv");
   }
   EXPECT_EQ(csv[0], csv[1]);
 }
@@ -287,8 +280,8 @@ TEST(Tune, AnEngineNeighbourRunsOnItsEngineWhateverTheEngineOption) {
 std::string outputs_of(const TuneOptions& o, const TuneResult& r, const std::string& name) {
   auto dir = std::filesystem::temp_directory_path() / "stance_tests" / name;
   write_tune_outputs(dir.string(), o, r);
-  return read_all(dir / "tune.csv") + read_all(dir / "best.yaml") +
-         read_all(dir / "best_scenario.yaml");
+  return test::read_file(dir / "tune.csv") + test::read_file(dir / "best.yaml") +
+         test::read_file(dir / "best_scenario.yaml");
 }
 
 // stopped after each generation in turn and resumed from its checkpoint (as read back from

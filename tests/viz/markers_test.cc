@@ -6,18 +6,13 @@
 #include "control/mocap_retarget_tracker.h"
 #include "control/simbicon.h"
 #include "motion/reference_motion.h"
+#include "run_support.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
 namespace {
-
-RunOptions quiet() {
-  RunOptions o;
-  o.quiet = true;
-  return o;
-}
 
 const Marker* find_label(const std::vector<Marker>& markers, const std::string& prefix) {
   for (const auto& m : markers)
@@ -26,7 +21,8 @@ const Marker* find_label(const std::vector<Marker>& markers, const std::string& 
 }
 
 TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
-  Simulation run(load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml"), quiet());
+  Simulation run(load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml"),
+                 test::quiet());
   Engine& e = run.engine();
   const auto& simbicon = dynamic_cast<const Simbicon&>(*run.controllers()[0]);
   const Simbicon::State& state = run.state_as<Simbicon::State>(0);
@@ -69,7 +65,7 @@ TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
 }
 
 TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
-  Simulation run(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), quiet());
+  Simulation run(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), test::quiet());
   Engine& e = run.engine();
   const auto* tracker = dynamic_cast<const MocapRetargetTracker*>(run.controllers().at(0).get());
   ASSERT_NE(tracker, nullptr);
@@ -94,7 +90,8 @@ TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
   tracker->reference_qpos(run.controller_state(0), e, later);
   EXPECT_GT((later - q).norm(), 1e-3);
   // controllers that track no pose give none
-  Simulation stand(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), quiet());
+  Simulation stand(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"),
+                   test::quiet());
   EXPECT_FALSE(
       stand.controllers().at(0)->reference_qpos(stand.controller_state(0), stand.engine(), q));
 }

@@ -20,20 +20,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::string run_capture(const std::string& cmd) {
-  std::string out;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return out;
-  std::array<char, 256> buf;
-  while (fgets(buf.data(), buf.size(), p)) out += buf.data();
-  pclose(p);
-  return out;
-}
-
-bool have_tool(const std::string& name) {
-  return !run_capture("command -v " + name + " 2>/dev/null").empty();
-}
-
 bool have_gl() {
   try {
     OffscreenGlContext gl;
@@ -49,7 +35,7 @@ fs::path out_dir() {
   return d;
 }
 
-LoadedScenario scenario(const std::string& name) {
+LoadedScenario shipped_scenario(const std::string& name) {
   return load_scenario(test::source_dir() + "/scenarios/" + name + ".yaml");
 }
 
@@ -94,7 +80,8 @@ class RecorderTest : public ::testing::Test {
 };
 
 TEST_F(RecorderTest, Mp4HasTheExpectedLength) {
-  if (!have_tool("ffmpeg") || !have_tool("ffprobe")) GTEST_SKIP() << "no ffmpeg/ffprobe";
+  if (!test::have_tool("ffmpeg") || !test::have_tool("ffprobe"))
+    GTEST_SKIP() << "no ffmpeg/ffprobe";
   RunOptions ro;
   ro.quiet = true;
   ro.duration = 1.0;
@@ -103,10 +90,10 @@ TEST_F(RecorderTest, Mp4HasTheExpectedLength) {
   o.fps = 30;
   o.width = 320;
   o.height = 240;
-  RecordResult r = record_scenario(scenario("simbicon_walk"), ro, o);
+  RecordResult r = record_scenario(shipped_scenario("simbicon_walk"), ro, o);
   EXPECT_EQ(r.frames, 30);
   EXPECT_FALSE(r.diverged);
-  std::string probe = run_capture(
+  std::string probe = test::run_capture(
       "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
       "stream=nb_read_frames,width,height,codec_name -show_entries format=duration -of "
       "default=noprint_wrappers=1 '" +
@@ -125,7 +112,8 @@ TEST_F(RecorderTest, Mp4HasTheExpectedLength) {
 
 // the README's moving pictures: a GIF from a later start, played back at its own rate
 TEST_F(RecorderTest, GifFromAStartTimeHasTheFramesOfItsWindow) {
-  if (!have_tool("ffmpeg") || !have_tool("ffprobe")) GTEST_SKIP() << "no ffmpeg/ffprobe";
+  if (!test::have_tool("ffmpeg") || !test::have_tool("ffprobe"))
+    GTEST_SKIP() << "no ffmpeg/ffprobe";
   RunOptions ro;
   ro.quiet = true;
   ro.duration = 1.0;
@@ -136,9 +124,9 @@ TEST_F(RecorderTest, GifFromAStartTimeHasTheFramesOfItsWindow) {
   o.playback_fps = 10;  // half speed
   o.width = 160;
   o.height = 100;
-  RecordResult r = record_scenario(scenario("simbicon_walk"), ro, o);
+  RecordResult r = record_scenario(shipped_scenario("simbicon_walk"), ro, o);
   EXPECT_EQ(r.frames, 8);
-  std::string probe = run_capture(
+  std::string probe = test::run_capture(
       "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
       "stream=nb_read_frames,width,codec_name -show_entries format=duration -of "
       "default=noprint_wrappers=1 '" +
@@ -152,7 +140,7 @@ TEST_F(RecorderTest, GifFromAStartTimeHasTheFramesOfItsWindow) {
 }
 
 TEST_F(RecorderTest, SameRunGivesTheSameFrames) {
-  if (!have_tool("ffmpeg")) GTEST_SKIP() << "no ffmpeg";
+  if (!test::have_tool("ffmpeg")) GTEST_SKIP() << "no ffmpeg";
   RunOptions ro;
   ro.quiet = true;
   ro.duration = 0.5;
@@ -163,9 +151,9 @@ TEST_F(RecorderTest, SameRunGivesTheSameFrames) {
   std::string md5[2];
   for (int i = 0; i < 2; ++i) {
     o.video = (out_dir() / fmt::format("same_{}.mp4", i)).string();
-    record_scenario(scenario("biped_stand"), ro, o);
+    record_scenario(shipped_scenario("biped_stand"), ro, o);
     // decoded frames, not container bytes
-    md5[i] = run_capture("ffmpeg -v error -i '" + o.video + "' -f md5 -");
+    md5[i] = test::run_capture("ffmpeg -v error -i '" + o.video + "' -f md5 -");
   }
   EXPECT_FALSE(md5[0].empty());
   EXPECT_EQ(md5[0], md5[1]);
@@ -184,7 +172,7 @@ TEST_F(RecorderTest, ScreenshotsAreNotBlankAndChangeOverTime) {
       o.height = 200;
       o.screenshot = (out_dir() / fmt::format("walk_{}_{}.png", engine, i)).string();
       o.screenshot_time = i * 1.0;
-      record_scenario(scenario("simbicon_walk"), ro, o);
+      record_scenario(shipped_scenario("simbicon_walk"), ro, o);
       shots[i] = read_png(o.screenshot);
       ASSERT_EQ(shots[i].w, 320);
       // floor, character and markers: far from one flat colour
@@ -197,8 +185,8 @@ TEST_F(RecorderTest, ScreenshotsAreNotBlankAndChangeOverTime) {
 
 // as `stance run` does, a recording ends a second after a fall (--past-fall records on)
 TEST_F(RecorderTest, EndsOneSecondAfterAFall) {
-  if (!have_tool("ffmpeg")) GTEST_SKIP() << "no ffmpeg";
-  LoadedScenario falls = scenario("biped_stand");
+  if (!test::have_tool("ffmpeg")) GTEST_SKIP() << "no ffmpeg";
+  LoadedScenario falls = shipped_scenario("biped_stand");
   falls.controllers.resize(1);  // without the ankle strategy it falls
   RunOptions ro;
   ro.quiet = true;

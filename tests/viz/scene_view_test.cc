@@ -19,7 +19,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-LoadedScenario scenario(const std::string& name) {
+LoadedScenario named_scenario(const std::string& name) {
   LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/" + name + ".yaml");
   loaded.scenario.name = name;
   return loaded;
@@ -86,7 +86,7 @@ TEST_F(SceneViewTest, FloorIsNotOneFlatColourAndTheSkyIsNotBlack) {
     SCOPED_TRACE(name);
     RunOptions ro;
     ro.quiet = true;
-    Simulation run(scenario(name), ro);
+    Simulation run(named_scenario(name), ro);
     SceneView view(run, kWidth, kHeight);
     view.options.contacts = view.options.com = view.options.markers = false;
     view.options.ghost = false;
@@ -109,7 +109,7 @@ TEST_F(SceneViewTest, FloorIsNotOneFlatColourAndTheSkyIsNotBlack) {
 TEST_F(SceneViewTest, FloorLinesAreOneMetreApart) {
   RunOptions ro;
   ro.quiet = true;
-  Simulation run(scenario("simbicon_walk"), ro);
+  Simulation run(named_scenario("simbicon_walk"), ro);
   SceneView view(run, kWidth, kHeight);
   view.options.contacts = view.options.com = view.options.markers = false;
   Frame f = draw(view, run);
@@ -153,7 +153,7 @@ void expect_in_frame(const SceneView& view, int geom, double margin) {
 TEST_F(SceneViewTest, FollowCameraKeepsTheFeetOfTheWalkIn3dInFrame) {
   RunOptions ro;
   ro.quiet = true;
-  Simulation run(scenario("simbicon_walk_3d"), ro);
+  Simulation run(named_scenario("simbicon_walk_3d"), ro);
   SceneView view(run, kWidth, kHeight);
   ASSERT_EQ(view.options.camera, CameraMode::kFollow);
   const mjModel* m = view.draw_model();
@@ -186,7 +186,7 @@ TEST_F(SceneViewTest, FollowCameraKeepsTheFeetOfTheWalkIn3dInFrame) {
 }
 
 TEST_F(SceneViewTest, ScenarioCameraSetsDistanceAnglesAndAFixedMode) {
-  LoadedScenario loaded = scenario("simbicon_walk");
+  LoadedScenario loaded = named_scenario("simbicon_walk");
   loaded.scenario.camera.distance = 7;
   loaded.scenario.camera.azimuth = 60;
   loaded.scenario.camera.elevation = -30;

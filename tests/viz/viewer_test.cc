@@ -54,20 +54,6 @@ double mean_abs_difference(const std::vector<unsigned char>& a,
   return sum / a.size();
 }
 
-bool have_tool(const std::string& name) {
-  return std::system(("command -v " + name + " > /dev/null 2>&1").c_str()) == 0;
-}
-
-std::string run_capture(const std::string& cmd) {
-  std::string out;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return out;
-  char buf[256];
-  while (fgets(buf, sizeof(buf), p)) out += buf;
-  pclose(p);
-  return out;
-}
-
 ViewerOptions test_options() {
   ViewerOptions o;
   o.width = 640;
@@ -453,7 +439,8 @@ TEST_F(ViewerTest, LqrCostChangeSwapsTheGainInLater) {
 }
 
 TEST_F(ViewerTest, RecordKeyWritesAnMp4AsLongAsTheSimulatedTimeRecorded) {
-  if (!have_tool("ffmpeg") || !have_tool("ffprobe")) GTEST_SKIP() << "no ffmpeg/ffprobe";
+  if (!test::have_tool("ffmpeg") || !test::have_tool("ffprobe"))
+    GTEST_SKIP() << "no ffmpeg/ffprobe";
   ViewerOptions o = test_options();
   o.capture_dir = (shot_dir() / "captures").string();
   fs::remove_all(o.capture_dir);
@@ -477,7 +464,7 @@ TEST_F(ViewerTest, RecordKeyWritesAnMp4AsLongAsTheSimulatedTimeRecorded) {
   EXPECT_NE(v.status().find("wrote " + mp4 + ": 45 frames, 1.500 s"), std::string::npos)
       << v.status();
   EXPECT_NEAR(recorded, 1.5, 1e-3);
-  std::string probe = run_capture(
+  std::string probe = test::run_capture(
       "ffprobe -v error -count_frames -select_streams v:0 -show_entries "
       "stream=nb_read_frames,width,height,codec_name -show_entries format=duration -of "
       "default=noprint_wrappers=1 '" +
