@@ -12,9 +12,7 @@
 
 namespace stance {
 
-namespace {
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
-}
+namespace {}
 
 namespace {
 // the offsets the planner may make (correction_dims), in this order

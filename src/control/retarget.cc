@@ -17,8 +17,7 @@ namespace stance {
 namespace {
 
 constexpr double kProbeAngle = 0.5;  // rad; rotations about one axis are probed exactly
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
-constexpr int kMaxHinges = 6;  // per body
+constexpr int kMaxHinges = 6;        // per body
 
 // one joint of a model body, with what probing found out about it
 using JointSlot = RetargetJoint;

@@ -7,6 +7,7 @@
 #pragma once
 
 #include <array>
+#include <numbers>
 #include <optional>
 #include <string_view>
 
@@ -14,6 +15,9 @@
 #include <Eigen/Geometry>
 
 namespace stance {
+
+inline constexpr double kDegToRad = std::numbers::pi / 180.0;
+inline constexpr double kRadToDeg = 180.0 / std::numbers::pi;
 
 // the six Tait-Bryan orders, named by their listed axes
 enum class RotationOrder { kXYZ, kXZY, kYXZ, kYZX, kZXY, kZYX };

@@ -30,10 +30,10 @@ struct Geom {
   }
 };
 
-std::string vec(const Eigen::Vector3d& v) {
+std::string mjcf_vec(const Eigen::Vector3d& v) {
   return fmt::format("{:.9g} {:.9g} {:.9g}", v.x(), v.y(), v.z());
 }
-std::string quat(const Eigen::Quaterniond& q) {
+std::string mjcf_quat(const Eigen::Quaterniond& q) {
   return fmt::format("{:.9g} {:.9g} {:.9g} {:.9g}", q.w(), q.x(), q.y(), q.z());
 }
 
@@ -147,7 +147,7 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
     const MotionSegment& seg = sk.segments[k];
     std::string pad(2 * depth, ' ');
     Eigen::Vector3d pos = k == 0 ? Eigen::Vector3d(0, 0, 1) : seg.offset;
-    out += fmt::format("{}<body name=\"{}\" pos=\"{}\">\n", pad, seg.name, vec(pos));
+    out += fmt::format("{}<body name=\"{}\" pos=\"{}\">\n", pad, seg.name, mjcf_vec(pos));
     if (k == 0)
       out += fmt::format("{}  <freejoint name=\"root\"/>\n", pad);
     else
@@ -158,11 +158,11 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
       if (geom.box)
         out +=
             fmt::format("{}  <geom name=\"{}\" type=\"box\" pos=\"{}\" quat=\"{}\" size=\"{}\"/>\n",
-                        pad, gname, vec(geom.pos), quat(geom.quat), vec(geom.half));
+                        pad, gname, mjcf_vec(geom.pos), mjcf_quat(geom.quat), mjcf_vec(geom.half));
       else if ((geom.to - geom.from).norm() > 0)
         out += fmt::format(
             "{}  <geom name=\"{}\" type=\"capsule\" fromto=\"{} {}\" size=\"{:.6g}\"/>\n", pad,
-            gname, vec(geom.from), vec(geom.to), geom.radius);
+            gname, mjcf_vec(geom.from), mjcf_vec(geom.to), geom.radius);
       else
         out += fmt::format("{}  <geom name=\"{}\" type=\"sphere\" size=\"{:.6g}\"/>\n", pad, gname,
                            geom.radius);
@@ -173,13 +173,13 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
   emit(0, 2);
   out += "  </worldbody>\n";
   // keyframe: free joint (pos, quat) then ball quaternions in body order; qvel likewise
-  std::string qpos = vec(pose.root_position) + " " + quat(pose.rotations[0]);
+  std::string qpos = mjcf_vec(pose.root_position) + " " + mjcf_quat(pose.rotations[0]);
   Eigen::Vector3d w0 = pose.angular_velocities[0];
-  std::string qvel = vec(pose.root_velocity) + " " + vec(w0);
+  std::string qvel = mjcf_vec(pose.root_velocity) + " " + mjcf_vec(w0);
   std::function<void(int)> key = [&](int k) {
     for (int c : sk.segments[k].children) {
-      qpos += " " + quat(pose.rotations[c]);
-      qvel += " " + vec(pose.angular_velocities[c]);
+      qpos.append(" ").append(mjcf_quat(pose.rotations[c]));
+      qvel.append(" ").append(mjcf_vec(pose.angular_velocities[c]));
       key(c);
     }
   };

@@ -21,9 +21,6 @@ namespace stance {
 
 namespace {
 
-constexpr double kDegToRad = std::numbers::pi / 180.0;
-constexpr double kRadToDeg = 180.0 / std::numbers::pi;
-
 // at most this many poses (frames x joints) are held: 1 GB of quaternions
 constexpr size_t kMaxBvhPoses = size_t{1} << 25;
 

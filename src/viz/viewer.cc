@@ -33,6 +33,18 @@
 
 namespace stance {
 
+// a fixed-size ring of samples for ImGui::PlotLines (outside the unnamed namespace: a member
+// of Viewer::Impl)
+struct RollingSeries {
+  std::string name;
+  std::vector<float> values;
+  int head = 0;  // oldest sample
+  void push(float v) {
+    values[head] = v;
+    head = (head + 1) % static_cast<int>(values.size());
+  }
+};
+
 namespace {
 using Clock = std::chrono::steady_clock;
 
@@ -45,17 +57,6 @@ constexpr int kHistoryLength = 3600;     // states kept: the last minute
 // damped by its square root
 constexpr double kDragStiffness = 100.0;
 constexpr double kDoubleClickS = 0.3;
-
-// a fixed-size ring of samples for ImGui::PlotLines
-struct RollingSeries {
-  std::string name;
-  std::vector<float> values;
-  int head = 0;  // oldest sample
-  void push(float v) {
-    values[head] = v;
-    head = (head + 1) % static_cast<int>(values.size());
-  }
-};
 
 const char* kHelpText =
     "space   pause / run\n"
