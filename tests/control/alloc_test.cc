@@ -229,7 +229,7 @@ TEST(ControllerAllocations, NoneAfterTheFirstCompute) {
 // refreshed after a step) allocate inside DART 6.12 and are counted for the record
 // (docs/biped.md)
 TEST(DartQueryAllocations, StanceSideOfEveryPerStepQueryIsAllocationFree) {
-  LoadedScenario l = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  LoadedScenario l = load_scenario(test::scenario_path("biped_stand.yaml"));
   auto engine = make_scenario_engine(l.scenario, "dart");
   Engine& e = *engine;
   const int nq = e.nq(), nv = e.nv(), heel = e.require_body("h_heel_left");

@@ -13,7 +13,7 @@ namespace stance {
 namespace {
 
 std::unique_ptr<Engine> standing_biped() {
-  LoadedScenario s = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  LoadedScenario s = load_scenario(test::scenario_path("biped_stand.yaml"));
   auto e = make_scenario_engine(s.scenario, "mujoco");
   // some velocity so the derivative term is not zero
   Eigen::VectorXd v = Eigen::VectorXd::Zero(e->nv());

@@ -23,7 +23,7 @@ namespace stance {
 namespace {
 
 std::string scenario_path() {
-  return test::source_dir() + "/scenarios/lqr_one_leg.yaml";
+  return test::scenario_path("lqr_one_leg.yaml");
 }
 
 // the scenario, or a skip when Debian's libmujoco-samples is absent

@@ -285,7 +285,7 @@ joints:
 
 nlohmann::json run_humanoid(const std::string& mode, double seconds) {
   LoadedScenario loaded =
-      load_scenario(test::source_dir() + "/scenarios/mocap_retarget.yaml",
+      load_scenario(test::scenario_path("mocap_retarget.yaml"),
                     {"controllers.0.mode=" + mode, fmt::format("duration={}", seconds)});
   Simulation run(loaded, RunOptions{});
   RunResult r = run.run();
@@ -330,9 +330,8 @@ TEST(MocapRetarget, Fullbody1AssistedAgreesOnMujocoAndDart) {
   nlohmann::json m[2];
   const char* engines[2] = {"mujoco", "dart"};
   for (int e = 0; e < 2; ++e) {
-    LoadedScenario loaded =
-        load_scenario(test::source_dir() + "/scenarios/mocap_retarget_fullbody1.yaml",
-                      {"duration=3", std::string("engine=") + engines[e]});
+    LoadedScenario loaded = load_scenario(test::scenario_path("mocap_retarget_fullbody1.yaml"),
+                                          {"duration=3", std::string("engine=") + engines[e]});
     Simulation run(loaded, RunOptions{});
     RunResult r = run.run();
     EXPECT_FALSE(r.fell) << engines[e];
@@ -409,7 +408,7 @@ TEST(MocapRetarget, ExportMapsTheMotionBackOntoTheClip) {
 TEST(MocapRetarget, HumanoidExportReadsBackOnTheClipsSkeleton) {
   if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
   LoadedScenario loaded =
-      load_scenario(test::source_dir() + "/scenarios/mocap_retarget.yaml",
+      load_scenario(test::scenario_path("mocap_retarget.yaml"),
                     {"duration=2", "controllers.0.export_bvh=humanoid_walk.bvh"});
   RunOptions o;
   o.out_dir = (std::filesystem::temp_directory_path() / "stance_tests" / "retarget_run").string();
@@ -435,7 +434,7 @@ TEST(MocapRetarget, HumanoidExportReadsBackOnTheClipsSkeleton) {
 // a clip joint merged into its parent (CMU's zero-length lowerback) is named as such, with the
 // segments a map can use
 TEST(Retarget, MergedClipJointIsNamed) {
-  const std::string cmu = test::shared_dir() + "/data/bvh/cmu_131_01.bvh";
+  const std::string cmu = test::shared_bvh("cmu_131_01.bvh");
   if (!std::filesystem::exists(cmu)) GTEST_SKIP() << "no ../shared data";
   if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
   BvhClip clip = read_bvh(cmu);

@@ -570,7 +570,7 @@ TEST(MocapTracker, CorrectionMovesTheBalanceTargets) {
 // old scenarios: mocap_tracker loads as the one tracker, and its removed free-mode keys are
 // ignored with one warning
 TEST(MocapTracker, AliasLoadsOldScenarios) {
-  const std::string file = test::source_dir() + "/scenarios/mocap_track.yaml";
+  const std::string file = test::scenario_path("mocap_track.yaml");
   testing::internal::CaptureStderr();
   Simulation run(load_scenario(file, {"controllers.0.mode=free", "controllers.0.path_gain=0.1",
                                       "controllers.0.contact_stance=true"}),

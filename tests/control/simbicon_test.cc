@@ -183,18 +183,11 @@ TEST(Simbicon3d, WithoutCoronalFeedbackFalls) {
 
 // any biped: a model whose pitch hinges turn the other way, or that stands along y, walks the
 // same gait. The variants are made from the shipped models by rewriting their text.
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
 // the scenario's model replaced by `model_xml`, written beside a copy of the scenario
 std::string scenario_with_model(const std::string& scenario, const std::string& model_xml,
                                 const std::string& tag) {
   const std::string model = test::write_temp_file(tag + ".xml", model_xml);
-  std::string text = read_text(test::scenario_path(scenario));
+  std::string text = test::read_file(test::scenario_path(scenario));
   text = std::regex_replace(text, std::regex("model: \\.\\./models/simbicon_[23]d\\.xml"),
                             "model: " + model);
   return test::write_temp_file(tag + ".yaml", text);
@@ -202,7 +195,7 @@ std::string scenario_with_model(const std::string& scenario, const std::string& 
 
 // every leg pitch hinge of a shipped biped about +y instead of -y (ranges mirrored)
 std::string flipped_model(const std::string& file) {
-  std::string xml = read_text(test::source_dir() + "/models/" + file);
+  std::string xml = test::read_file(test::source_dir() + "/models/" + file);
   for (const char* side : {"right", "left"})
     for (const char* joint : {"hip", "knee", "ankle"}) {
       const std::string name =
@@ -218,7 +211,7 @@ std::string flipped_model(const std::string& file) {
 // hinges turn about +z, the character's right. Vectors (x, y, z) become (x, z, -y); box sizes
 // and diagonal inertias swap their y and z.
 std::string y_up_2d_model() {
-  std::string xml = read_text(test::source_dir() + "/models/simbicon_2d.xml");
+  std::string xml = test::read_file(test::source_dir() + "/models/simbicon_2d.xml");
   const std::string num = "(-?[0-9.e-]+)";
   const std::regex vec("(pos|axis)=\"" + num + " " + num + " " + num + "\"");
   const std::regex diag("(size|diaginertia)=\"" + num + " " + num + " " + num + "\"");

@@ -17,7 +17,7 @@ namespace stance {
 namespace {
 
 std::string scenario_path() {
-  return test::source_dir() + "/scenarios/slope_walk.yaml";
+  return test::scenario_path("slope_walk.yaml");
 }
 
 RunResult run_walker(const std::vector<std::string>& sets, double duration,

@@ -68,7 +68,7 @@ TEST(StablePd, MatchesTheFormulaAndLeavesRootDofsAlone) {
 TEST(StablePd, PerDofErrorMatchesTheManifoldDifferenceOnHinges) {
   RunOptions opt;
   opt.quiet = true;
-  Simulation run(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), opt);
+  Simulation run(load_scenario(test::scenario_path("biped_stand.yaml")), opt);
   Engine& e = run.engine();
   JointPdParams params;
   JointPdModel fast = make_joint_pd_model(params, e);
@@ -113,7 +113,7 @@ TEST(StablePd, RejectsUnknownDofsAndNegativeGains) {
 // the seed's point: at Kp 400, Kd 40 and dt 1 ms, plain PD on fullbody1's light feet is unstable
 // (Kd dt exceeds the feet's inertia), SPD stands
 TEST(StablePd, StandsWherePlainPdDiverges) {
-  const std::string path = test::source_dir() + "/scenarios/biped_stand.yaml";
+  const std::string path = test::scenario_path("biped_stand.yaml");
   RunOptions opt;
   opt.engine = "mujoco";
   opt.duration = 3.0;

@@ -19,7 +19,7 @@ struct Stood {
 Stood stand(const std::string& engine, const std::vector<std::string>& overrides) {
   std::vector<std::string> all = {"duration=3"};
   all.insert(all.end(), overrides.begin(), overrides.end());
-  LoadedScenario s = load_scenario(test::source_dir() + "/scenarios/atlas_stand.yaml", all);
+  LoadedScenario s = load_scenario(test::scenario_path("atlas_stand.yaml"), all);
   RunOptions opt;
   opt.engine = engine;
   Simulation run(s, opt);

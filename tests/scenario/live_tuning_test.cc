@@ -18,7 +18,7 @@ namespace stance {
 namespace {
 
 LoadedScenario biped_stand() {
-  return load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  return load_scenario(test::scenario_path("biped_stand.yaml"));
 }
 
 // the lowest COM height over `seconds`
@@ -109,7 +109,7 @@ TEST(LiveTuning, PlannerParametersRetuneMidRunAndSave) {
   RunOptions opt;
   opt.quiet = true;
   LoadedScenario loaded = load_scenario(
-      test::source_dir() + "/scenarios/biped_stand.yaml",
+      test::scenario_path("biped_stand.yaml"),
       {"planner.enabled=true", "planner.samples=4", "planner.horizon_s=0.1", "planner.threads=1"});
   Simulation run(loaded, opt);
   for (int k = 0; k < 20; ++k) ASSERT_TRUE(run.step());
@@ -142,7 +142,7 @@ TEST(LiveTuning, PlannerParametersRetuneMidRunAndSave) {
 // an LQR cost change built on a worker: the old controller keeps stepping, then the new gain
 // is swapped in, and it is the gain that loading the scenario with that cost gives
 TEST(BackgroundRetune, LqrCostIsSwappedInBetweenSteps) {
-  const std::string file = test::source_dir() + "/scenarios/lqr_one_leg.yaml";
+  const std::string file = test::scenario_path("lqr_one_leg.yaml");
   LoadedScenario loaded = load_scenario(file);
   RunOptions opt;
   opt.quiet = true;
@@ -167,7 +167,7 @@ TEST(BackgroundRetune, LqrCostIsSwappedInBetweenSteps) {
 }
 
 TEST(BackgroundRetune, BadRequestsFailAtOnceAndKeepTheController) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/lqr_one_leg.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("lqr_one_leg.yaml"));
   RunOptions opt;
   opt.quiet = true;
   Simulation run(loaded, opt);

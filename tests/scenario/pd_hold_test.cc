@@ -12,7 +12,7 @@ namespace stance {
 namespace {
 
 RunResult run_pd_hold(const std::string& engine, const std::string& out_dir = "") {
-  LoadedScenario s = load_scenario(test::source_dir() + "/scenarios/pd_hold.yaml");
+  LoadedScenario s = load_scenario(test::scenario_path("pd_hold.yaml"));
   RunOptions opt;
   opt.engine = engine;
   opt.out_dir = out_dir;

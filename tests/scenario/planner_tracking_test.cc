@@ -66,7 +66,7 @@ TEST(PlannerTracking, SyntheticWalkAtTheDefaultsAndSofterGains) {
 }
 
 TEST(PlannerTracking, MassWalkAtTheDefaultsAndAOneMillisecondStep) {
-  const std::string bvh = test::shared_dir() + "/data/bvh/mass_walk.bvh";
+  const std::string bvh = test::shared_bvh("mass_walk.bvh");
   if (!std::filesystem::exists(bvh)) GTEST_SKIP() << bvh << " is absent";
   const std::string s = track_scenario(bvh, "track_mass");
   for (const char* set : {"seed=1", "timestep=0.001"}) {
@@ -76,7 +76,7 @@ TEST(PlannerTracking, MassWalkAtTheDefaultsAndAOneMillisecondStep) {
 }
 
 TEST(PlannerTracking, CmuClipAtTheDefaultsAndAnotherSeed) {
-  const std::string bvh = test::shared_dir() + "/data/bvh/cmu_131_01.bvh";
+  const std::string bvh = test::shared_bvh("cmu_131_01.bvh");
   if (!std::filesystem::exists(bvh)) GTEST_SKIP() << bvh << " is absent";
   const std::string s = track_scenario(bvh, "track_cmu", false);
   for (const char* set : {"seed=1", "seed=2"}) {

@@ -6,6 +6,7 @@
 
 #include "core/error.h"
 #include "scenario/scenario.h"
+#include "test_support.h"
 
 namespace stance {
 namespace {
@@ -44,8 +45,7 @@ TEST(BisectPush, ReportsMaxSurvivedAndFallingUnpushed) {
 // -131.2 / -132.8 N backward; survival is not monotone backward, so there the bracket is
 // checked by re-running its ends
 TEST(PushThreshold, BipedStandOnMujocoBracketsTheKnownEdges) {
-  LoadedScenario loaded =
-      load_scenario(std::string(STANCE_SOURCE_DIR) + "/scenarios/biped_stand.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   PushThresholdOptions o;
   o.body = "h_spine";
   o.axis = 0;
@@ -75,8 +75,7 @@ TEST(PushThreshold, BipedStandOnMujocoBracketsTheKnownEdges) {
 }
 
 TEST(PushThreshold, RejectsAnUnknownBodyBeforeAnyTrial) {
-  LoadedScenario loaded =
-      load_scenario(std::string(STANCE_SOURCE_DIR) + "/scenarios/biped_stand.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   PushThresholdOptions o;
   o.body = "h_spline";
   o.engine = "mujoco";

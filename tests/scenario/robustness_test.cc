@@ -12,11 +12,10 @@
 #include "scenario/push_threshold.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
+#include "test_support.h"
 
 namespace stance {
 namespace {
-
-const std::string kScenarios = std::string(STANCE_SOURCE_DIR) + "/scenarios/";
 
 std::string write_temp(const std::string& name, const std::string& text) {
   const auto dir = std::filesystem::temp_directory_path() / "stance_robustness_test";
@@ -24,13 +23,6 @@ std::string write_temp(const std::string& name, const std::string& text) {
   const auto path = dir / name;
   std::ofstream(path) << text;
   return path.string();
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream s;
-  s << in.rdbuf();
-  return s.str();
 }
 
 TEST(PushOutcome, CodesFollowTheFallTimeAndTheSteps) {
@@ -116,7 +108,7 @@ RobustnessOptions small_map(double at) {
 // the map's +-x thresholds are push-threshold's when both run with the same max, push,
 // tolerance, start and criterion: on both engines, at two push times
 TEST(RobustnessMap, PlusMinusXEqualPushThreshold) {
-  const LoadedScenario loaded = load_scenario(kScenarios + "biped_stand.yaml");
+  const LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   for (const char* engine : {"mujoco", "dart"})
     for (double at : {std::string(engine) == "mujoco" ? 2.0 : 1.5}) {
       RobustnessOptions o = small_map(at);
@@ -156,8 +148,8 @@ TEST(RobustnessMap, PlusMinusXEqualPushThreshold) {
 
 // with the joints unpowered the biped is down before a push at 2 s: every trial is outcome 1
 TEST(RobustnessMap, APushAfterAFallIsOutcomeOne) {
-  const LoadedScenario loaded =
-      load_scenario(kScenarios + "biped_stand.yaml", {"controllers.0.kp=0", "controllers.0.kd=0"});
+  const LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"),
+                                              {"controllers.0.kp=0", "controllers.0.kd=0"});
   RobustnessOptions o = small_map(2.0);
   o.engine = "mujoco";
   const RobustnessResult map = run_robustness(loaded, o);
@@ -176,7 +168,8 @@ TEST(RobustnessMap, APushAfterAFallIsOutcomeOne) {
 // only; at the seed's 1700 Hz and at 1500 Hz
 TEST(RobustnessMap, PlanarWalkerPhasesFollowTheGait) {
   for (const char* timestep : {"timestep=0.000588235294117647", "timestep=0.000666666666666667"}) {
-    const LoadedScenario loaded = load_scenario(kScenarios + "simbicon_walk.yaml", {timestep});
+    const LoadedScenario loaded =
+        load_scenario(test::scenario_path("simbicon_walk.yaml"), {timestep});
     RobustnessOptions o;
     o.body = "torso";
     o.directions = 8;
@@ -211,7 +204,7 @@ TEST(RobustnessMap, PlanarWalkerPhasesFollowTheGait) {
 }
 
 TEST(RobustnessMap, SameFilesWhateverTheThreadCount) {
-  const LoadedScenario loaded = load_scenario(kScenarios + "simbicon_walk.yaml");
+  const LoadedScenario loaded = load_scenario(test::scenario_path("simbicon_walk.yaml"));
   RobustnessOptions o;
   o.body = "torso";
   o.phases = 3;
@@ -226,16 +219,16 @@ TEST(RobustnessMap, SameFilesWhateverTheThreadCount) {
                      ("stance_robustness_threads" + std::to_string(threads));
     const RobustnessResult map = run_robustness(loaded, o);
     write_robustness_outputs(dir.string(), o, map);
-    files[threads == 3] = read_text((dir / "robustness.csv").string()) +
-                          read_text((dir / "thresholds.csv").string()) +
-                          read_text((dir / "summary.json").string());
+    files[threads == 3] = test::read_file((dir / "robustness.csv").string()) +
+                          test::read_file((dir / "thresholds.csv").string()) +
+                          test::read_file((dir / "summary.json").string());
   }
   EXPECT_FALSE(files[0].empty());
   EXPECT_EQ(files[0], files[1]);
 }
 
 TEST(RobustnessMap, BadInputBeforeAnyTrial) {
-  const LoadedScenario loaded = load_scenario(kScenarios + "biped_stand.yaml");
+  const LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   RobustnessOptions o = small_map(2.0);
   int cells = 0;
   auto count = [&](const RobustnessCell&, int, int) { ++cells; };

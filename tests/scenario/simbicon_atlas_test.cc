@@ -16,8 +16,7 @@ namespace {
 
 RunResult walk(const std::string& engine, const std::vector<std::string>& overrides,
                const std::vector<Perturbation>& pushes = {}) {
-  LoadedScenario s =
-      load_scenario(test::source_dir() + "/scenarios/simbicon_atlas.yaml", overrides);
+  LoadedScenario s = load_scenario(test::scenario_path("simbicon_atlas.yaml"), overrides);
   RunOptions opt;
   opt.engine = engine;
   opt.extra_pushes = pushes;

@@ -31,7 +31,7 @@ TEST(Sweep, ValuesAndTheirText) {
 
 TEST(Sweep, SameCsvsWhateverTheThreadCount) {
   SweepOptions o;
-  o.scenario = test::source_dir() + "/scenarios/slope_walk.yaml";
+  o.scenario = test::scenario_path("slope_walk.yaml");
   o.param = "controllers.0.hip_kp";
   o.values = {11, 9, 10};
   o.duration = 20;
@@ -58,7 +58,7 @@ TEST(Sweep, SameCsvsWhateverTheThreadCount) {
 
 TEST(Sweep, BadKeyPathFailsBeforeRunning) {
   SweepOptions o;
-  o.scenario = test::source_dir() + "/scenarios/slope_walk.yaml";
+  o.scenario = test::scenario_path("slope_walk.yaml");
   o.param = "controllers.0.hip_kpp";
   o.values = {1, 2};
   try {
@@ -75,7 +75,7 @@ TEST(Sweep, DesignsTheLqrOncePerWorld) {
   if (!std::filesystem::exists("/usr/share/mujoco/model/humanoid/humanoid.xml"))
     GTEST_SKIP() << "humanoid.xml missing (Debian package libmujoco-samples)";
   SweepOptions o;
-  o.scenario = test::source_dir() + "/scenarios/lqr_one_leg.yaml";
+  o.scenario = test::scenario_path("lqr_one_leg.yaml");
   o.sets = {"controllers.0.force_plot=false",
             "perturbations=[{body: torso, force: [0, 0, 0], start: 0.1, duration: 0.1}]"};
   o.param = "perturbations.0.force.0";

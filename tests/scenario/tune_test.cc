@@ -138,7 +138,7 @@ TEST(Tune, ParsingErrorsNameTheArgument) {
 
 TuneOptions stand_options() {
   TuneOptions o;
-  o.scenario = test::source_dir() + "/scenarios/biped_stand.yaml";
+  o.scenario = test::scenario_path("biped_stand.yaml");
   // far too soft to stand: falls within a second
   o.sets = {"controllers.0.kp=40", "controllers.0.kd=4"};
   o.params = {parse_tune_param("controllers.0.kp=20:1000:log"),
@@ -246,7 +246,7 @@ TEST(Tune, FindsGainsThatStandWithCmaes) {
 // the arm of pd_hold, scored on its tracking error: cheap runs for the resume tests
 TuneOptions arm_options(const std::string& method) {
   TuneOptions o;
-  o.scenario = test::source_dir() + "/scenarios/pd_hold.yaml";
+  o.scenario = test::scenario_path("pd_hold.yaml");
   o.params = {parse_tune_param("controllers.0.kp=5:200:log"),
               parse_tune_param("controllers.0.kd=0.1:20:log")};
   o.neighbours = {parse_neighbour("controllers.0.kp*=0.8")};

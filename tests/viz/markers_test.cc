@@ -21,8 +21,7 @@ const Marker* find_label(const std::vector<Marker>& markers, const std::string& 
 }
 
 TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
-  Simulation run(load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml"),
-                 test::quiet());
+  Simulation run(load_scenario(test::scenario_path("simbicon_walk.yaml")), test::quiet());
   Engine& e = run.engine();
   const auto& simbicon = dynamic_cast<const Simbicon&>(*run.controllers()[0]);
   const Simbicon::State& state = run.state_as<Simbicon::State>(0);
@@ -65,7 +64,7 @@ TEST(SimbiconMarkers, CirclesOnTheStanceAnkleAndTheHip) {
 }
 
 TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
-  Simulation run(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), test::quiet());
+  Simulation run(load_scenario(test::scenario_path("mocap_track.yaml")), test::quiet());
   Engine& e = run.engine();
   const auto* tracker = dynamic_cast<const MocapRetargetTracker*>(run.controllers().at(0).get());
   ASSERT_NE(tracker, nullptr);
@@ -90,8 +89,7 @@ TEST(MocapMarkers, ReferenceQposIsTheReferenceSample) {
   tracker->reference_qpos(run.controller_state(0), e, later);
   EXPECT_GT((later - q).norm(), 1e-3);
   // controllers that track no pose give none
-  Simulation stand(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"),
-                   test::quiet());
+  Simulation stand(load_scenario(test::scenario_path("biped_stand.yaml")), test::quiet());
   EXPECT_FALSE(
       stand.controllers().at(0)->reference_qpos(stand.controller_state(0), stand.engine(), q));
 }

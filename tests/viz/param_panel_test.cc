@@ -14,7 +14,7 @@ namespace stance {
 namespace {
 
 std::vector<ParamEntry> simbicon_entries() {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("simbicon_walk.yaml"));
   RunOptions ro;
   ro.quiet = true;
   Simulation run(loaded, ro);

@@ -121,7 +121,7 @@ TEST_F(ViewerTest, EveryScenarioDrawsPausesStepsPushesAndReplays) {
 }
 
 TEST_F(ViewerTest, SkateboardSpeedKeys) {
-  fs::path file = test::source_dir() + "/scenarios/biped_skateboard.yaml";
+  fs::path file = test::scenario_path("biped_skateboard.yaml");
   if (!fs::exists(file)) GTEST_SKIP() << "no skateboard scenario";
   Viewer v(load_scenario(file.string()), test_options());
   int drive = -1;
@@ -143,7 +143,7 @@ TEST_F(ViewerTest, SkateboardSpeedKeys) {
 }
 
 TEST_F(ViewerTest, PushKeyChangesTheMotion) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   Viewer pushed(loaded, test_options()), calm(loaded, test_options());
   pushed.key(GLFW_KEY_PERIOD);  // forth: +x
   for (int i = 0; i < 6; ++i) {
@@ -154,7 +154,7 @@ TEST_F(ViewerTest, PushKeyChangesTheMotion) {
 }
 
 TEST_F(ViewerTest, PanelGainChangesBehaviourAndSaves) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   Viewer stiff(loaded, test_options()), soft(loaded, test_options());
   // the panel lists stable_pd's kp with the visit's range; set it the way a slider does
   const auto& panel = soft.param_panel();
@@ -185,7 +185,7 @@ TEST_F(ViewerTest, PanelGainChangesBehaviourAndSaves) {
 // planner (what the next plan uses) and the saved scenario
 TEST_F(ViewerTest, PlannerSlidersReachThePlannerAndTheSavedScenario) {
   LoadedScenario loaded =
-      load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml",
+      load_scenario(test::scenario_path("biped_stand.yaml"),
                     {"planner.enabled=true", "planner.samples=3", "planner.horizon_s=0.05",
                      "planner.interval_s=0.05", "planner.threads=1"});
   Viewer viewer(loaded, test_options());
@@ -201,12 +201,12 @@ TEST_F(ViewerTest, PlannerSlidersReachThePlannerAndTheSavedScenario) {
   for (int i = 0; i < 3; ++i) viewer.frame();
   LoadedScenario again = load_scenario(viewer.save_scenario());
   EXPECT_EQ(again.scenario.planner.samples, 5);
-  Viewer plain(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), test_options());
+  Viewer plain(load_scenario(test::scenario_path("biped_stand.yaml")), test_options());
   EXPECT_TRUE(plain.planner_panel().empty());
 }
 
 TEST_F(ViewerTest, DartRunsAreDrawn) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   ViewerOptions o = test_options();
   o.engine = "dart";
   Viewer dart(loaded, o);
@@ -224,7 +224,7 @@ TEST_F(ViewerTest, DartRunsAreDrawn) {
 }
 
 TEST_F(ViewerTest, PhysicsThreadAdvancesAndPauses) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/pd_hold.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("pd_hold.yaml"));
   ViewerOptions o = test_options();
   o.threaded = true;
   Viewer v(loaded, o);
@@ -242,7 +242,7 @@ TEST_F(ViewerTest, PhysicsThreadAdvancesAndPauses) {
 
 // the mouse spring pulls the selected body towards the target, on either engine
 TEST_F(ViewerTest, DraggingABodyMovesItTowardsTheTarget) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   for (const char* engine : {"mujoco", "dart"}) {
     SCOPED_TRACE(engine);
     ViewerOptions o = test_options();
@@ -273,7 +273,7 @@ TEST_F(ViewerTest, DraggingABodyMovesItTowardsTheTarget) {
 
 // a double-click in the middle of the window picks the followed character
 TEST_F(ViewerTest, SelectAtPicksTheCharacterAndEmptySpaceReleases) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
   ViewerOptions o = test_options();
   Viewer v(loaded, o);
   v.frame();
@@ -287,7 +287,7 @@ TEST_F(ViewerTest, SelectAtPicksTheCharacterAndEmptySpaceReleases) {
 
 // run, pause, scrub back: the state is the one shown at that time
 TEST_F(ViewerTest, HistoryScrubRestoresARecordedTimeAndRunsOnFromIt) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("simbicon_walk.yaml"));
   ViewerOptions o = test_options();
   o.width = 1280;  // room for the panels: the screenshot shows the slider and the plots
   o.height = 800;
@@ -357,7 +357,7 @@ TEST_F(ViewerTest, GhostAndMarkerKeysChangeThePictureOnlyWhereThereIsSomethingTo
 
 // the live plots: joint torques (MuJoCo), the FSM state and the controller's signals
 TEST_F(ViewerTest, LivePlotsShowTorquesAndTheFsmState) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("simbicon_walk.yaml"));
   Viewer v(loaded, test_options());
   EXPECT_TRUE(std::isnan(v.plot_value("no such plot")));
   int states_seen = 0, last_state = -1;
@@ -377,13 +377,13 @@ TEST_F(ViewerTest, LivePlotsShowTorquesAndTheFsmState) {
   EXPECT_GT(largest_rms, 5.0);
   EXPECT_GE(states_seen, 3);
   // the tracking error is plotted for the tracker
-  Viewer mocap(load_scenario(test::source_dir() + "/scenarios/mocap_track.yaml"), test_options());
+  Viewer mocap(load_scenario(test::scenario_path("mocap_track.yaml")), test_options());
   for (int i = 0; i < 5; ++i) mocap.frame();
   EXPECT_TRUE(std::isfinite(mocap.plot_value("mocap_joint_error_deg")));
   // on DART the torque plot shows the controllers' output
   ViewerOptions on_dart = test_options();
   on_dart.engine = "dart";
-  Viewer dart(load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml"), on_dart);
+  Viewer dart(load_scenario(test::scenario_path("biped_stand.yaml")), on_dart);
   double dart_rms = 0;
   for (int i = 0; i < 10; ++i) {
     dart.frame();
@@ -394,7 +394,7 @@ TEST_F(ViewerTest, LivePlotsShowTorquesAndTheFsmState) {
 
 // the viewer reports a fall in its status line and keeps running
 TEST_F(ViewerTest, ReportsAFallAndRunsOn) {
-  LoadedScenario falls = load_scenario(test::source_dir() + "/scenarios/biped_stand.yaml");
+  LoadedScenario falls = load_scenario(test::scenario_path("biped_stand.yaml"));
   falls.controllers.resize(1);  // without the ankle strategy it falls
   Viewer v(falls, test_options());
   for (int i = 0; i < 60 * 6 && v.status().find("fell") == std::string::npos; ++i) v.frame();
@@ -407,7 +407,7 @@ TEST_F(ViewerTest, ReportsAFallAndRunsOn) {
 
 // an LQR cost re-solves the DARE on a worker; the running controller is swapped later
 TEST_F(ViewerTest, LqrCostChangeSwapsTheGainInLater) {
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/lqr_one_leg.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("lqr_one_leg.yaml"));
   Viewer v(loaded, test_options());
   v.frame();
   const auto* lqr = dynamic_cast<const Lqr*>(&v.controller(0));
@@ -445,7 +445,7 @@ TEST_F(ViewerTest, RecordKeyWritesAnMp4AsLongAsTheSimulatedTimeRecorded) {
   o.capture_dir = (shot_dir() / "captures").string();
   fs::remove_all(o.capture_dir);
   o.record_fps = 30;
-  LoadedScenario loaded = load_scenario(test::source_dir() + "/scenarios/simbicon_walk.yaml");
+  LoadedScenario loaded = load_scenario(test::scenario_path("simbicon_walk.yaml"));
   loaded.scenario.name = "simbicon_walk";
   Viewer v(loaded, o);
   v.frame();
