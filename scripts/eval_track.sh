@@ -4,11 +4,17 @@
 # Writes out/eval_track/<clip>/<setting>/ (each a bvh track output folder), out/eval_track/table.md,
 # and puts the table between the EVAL-TRACK markers of docs/mocap.md and README.md.
 # Usage: scripts/eval_track.sh [BUILD] [SECONDS]   (SECONDS: override every clip's length)
+# A candidate change to the shared defaults is evaluated with EVAL_SET, e.g.
+#   EVAL_SET="--set controllers.0.root_force_kd=100" scripts/eval_track.sh
+# which adds those --set arguments to every run, writes to out/eval_track_candidate and leaves
+# the docs alone (a candidate's table is not the shipped defaults' table).
 set -euo pipefail
 BUILD=${1:-build}
 ONLY_SECONDS=${2:-}
 STANCE=$BUILD/stance
+EVAL_SET=${EVAL_SET:-}
 OUT=out/eval_track
+[ -n "$EVAL_SET" ] && OUT=out/eval_track_candidate
 SHARED=${STANCE_SHARED:-../shared}
 THREADS=${THREADS:-$(nproc)}
 mkdir -p "$OUT/clips"
@@ -72,11 +78,16 @@ for entry in "${clips[@]}"; do
     echo "eval-track: $name $sname" >&2
     # shellcheck disable=SC2086
     "$STANCE" bvh track "$bvh" --out "$dir" "${dur[@]}" --threads "$THREADS" --quiet $extra $sargs \
+      $EVAL_SET \
       || echo "eval-track: $name $sname exited $?" >&2
     if [ -f "$dir/summary.json" ]; then row "$name" "$sname" "$dir" >> "$table"; fi
   done
 done
 cat "$table"
+if [ -n "$EVAL_SET" ]; then
+  echo "eval-track: candidate ($EVAL_SET): table in $table; the docs keep the shipped defaults' table" >&2
+  exit 0
+fi
 
 # the table into the docs, between the markers
 python3 - "$table" docs/mocap.md README.md <<'PY'
