@@ -324,8 +324,12 @@ double Planner::rollout(Simulation& sim, Candidate& c) const {
     if (model_->root_body >= 0 && c.path.size() < c.path.capacity())
       c.path.push_back(e.body_pose(model_->root_body).pos);
   }
-  const double effort = c.knots.size() ? c.knots.squaredNorm() / c.knots.size() : 0.0;
-  return (samples ? stage / samples : 0.0) + penalty + w.effort * effort;
+  const double size = static_cast<double>(std::max<Eigen::Index>(1, c.knots.size()));
+  const double effort = c.knots.squaredNorm() / size;
+  // what holding a correction costs (effort) apart from what changing it costs (change): a
+  // stance the planner stepped into needs its offsets kept, not pulled back to none
+  const double change = w.change > 0 ? (c.knots - nominal_).squaredNorm() / size : 0.0;
+  return (samples ? stage / samples : 0.0) + penalty + w.effort * effort + w.change * change;
 }
 
 void Planner::plan(Simulation& sim) {

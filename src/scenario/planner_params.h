@@ -20,6 +20,7 @@ struct PlannerCostWeights {
   double height = 50;       // per m^2 of COM height below its start
   // always
   double effort = 0.01;  // per squared unit of noise, mean over dimensions
+  double change = 0;     // per squared unit of departure from the warm-started plan, mean
   double fall = 100;     // a fall in the horizon: this, times 1 + the share of the horizon left
 
   template <class V>
@@ -35,6 +36,8 @@ struct PlannerCostWeights {
     v("upright", upright, {.unit = "1/rad^2", .min = 0, .help = "no tracking: root tilt"});
     v("height", height, {.unit = "1/m^2", .min = 0, .help = "no tracking: COM height lost"});
     v("effort", effort, {.min = 0, .help = "squared correction, in noise units"});
+    v("change", change,
+      {.min = 0, .help = "squared departure from the previous plan, in noise units"});
     v("fall", fall, {.min = 0, .help = "a fall within the horizon"});
   }
 };

@@ -240,8 +240,8 @@ double stays_up_s(bool plan, double force, double duration,
 // 1.5x the ankle strategy's threshold, not at one tuned point: at the defaults, another seed, kp
 // 0.8x and 1.2x and a 2 ms step, the push floors the unplanned biped within 1.5 s, and the
 // planned one stays up at least 0.8 s longer (each planned run stops 1 s after the unplanned one
-// fell; measured: up at 5 s at these and at a 0.5 ms step, but at the defaults it falls at 7.6 s
-// after stepping on; docs/planner.md)
+// fell; measured: up at 12 s at these and at a 0.5 ms step; docs/planner.md). At the defaults it
+// runs to 8 s: with an effort cost alone it stepped on after this push until it fell at 7.6 s.
 TEST(PlannerStanding, OutlastsTheAnkleStrategyAfterOneAndAHalfTimesItsPush) {
   const double push = 1.5 * 92;
   for (const std::vector<std::string>& setting :
@@ -253,10 +253,11 @@ TEST(PlannerStanding, OutlastsTheAnkleStrategyAfterOneAndAHalfTimesItsPush) {
     SCOPED_TRACE(setting.empty() ? "defaults" : setting[0]);
     const double base = stays_up_s(false, push, 4.5, setting);
     EXPECT_LT(base, 3.5) << "the push should floor the unplanned biped";
-    const double planned = stays_up_s(true, push, base + 1.0, setting);
+    const double until = setting.empty() ? 8.0 : base + 1.0;
+    const double planned = stays_up_s(true, push, until, setting);
     std::cout << (setting.empty() ? "defaults" : setting[0]) << ": unplanned falls at " << base
               << " s, planned " << planned << " s\n";
-    EXPECT_GT(planned, base + 0.8);
+    EXPECT_GT(planned, setting.empty() ? until - 1e-6 : base + 0.8);
   }
 }
 
