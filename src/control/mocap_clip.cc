@@ -60,8 +60,12 @@ MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base
   auto clip = std::make_shared<BvhClip>(read_bvh(path.string()));
   MotionSkeletonOptions so;
   so.scale_to_meters = params.scale_to_meters;
-  if (params.up_axis.size() != 1) throw InputError("up_axis: expected y or z");
-  so.up_axis = params.up_axis[0];
+  if (params.up_axis == "auto")
+    so.up_axis = 0;
+  else if (params.up_axis == "y" || params.up_axis == "z")
+    so.up_axis = params.up_axis[0];
+  else
+    throw InputError("up_axis: expected y, z or auto, found '" + params.up_axis + "'");
   ReferenceOptions ro;
   ro.first_frame = params.first_frame;
   ro.last_frame = params.last_frame;
@@ -151,6 +155,7 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
   out.rotations.resize(nj * frames);
   out.positions.resize(static_cast<size_t>(src.position_joint_count) * frames);
   const Eigen::Quaterniond c = sk.to_z_up, ct = c.conjugate();
+  const Eigen::Quaterniond wt = sk.world_to_z_up.conjugate();
   const int range = mocap.reference->frame_count();
   for (int f = 0; f < frames; ++f) {
     // joints that are no segment keep the clip's own values at the matching frame
@@ -161,7 +166,8 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
           src.positions[static_cast<size_t>(sf) * src.position_joint_count + s];
     for (int k = 0; k < n; ++k) {
       const MotionSegment& seg = sk.segments[k];
-      Eigen::Quaterniond r = ct * locals[static_cast<size_t>(f) * n + k].normalized() * c;
+      Eigen::Quaterniond r =
+          (k == 0 ? wt : ct) * locals[static_cast<size_t>(f) * n + k].normalized() * c;
       // merged helpers keep their clip rotation; the segment's own joint takes the rest
       Eigen::Quaterniond helpers = Eigen::Quaterniond::Identity();
       for (size_t i = 0; i + 1 < seg.rotation_chain.size(); ++i)
@@ -171,7 +177,7 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
     const BvhJoint& root = src.joints[sk.segments[0].bvh_joint];
     if (root.position_slot >= 0)
       out.positions[static_cast<size_t>(f) * src.position_joint_count + root.position_slot] =
-          (ct * roots[f]) / sk.scale_to_meters;
+          (wt * roots[f]) / sk.scale_to_meters;
   }
   return out;
 }

@@ -20,9 +20,9 @@ namespace stance {
 
 // the clip and how it is read: shared by the trackers
 struct MocapClipParams {
-  std::string bvh;             // clip; relative paths start at the scenario's folder
-  double scale_to_meters = 0;  // 0: detect from the leg length
-  std::string up_axis = "y";   // the file's up axis
+  std::string bvh;               // clip; relative paths start at the scenario's folder
+  double scale_to_meters = 0;    // 0: detect from the leg length
+  std::string up_axis = "auto";  // the file's up axis: y, z, or auto (detect_bvh_up_axis)
   int first_frame = 0;
   int last_frame = -1;  // -1: the last
   double start_s = -1;  // >= 0: overrides first_frame
@@ -37,7 +37,7 @@ struct MocapClipParams {
   void visit(V& v) {
     v("bvh", bvh, {.help = "BVH clip to track"});
     v("scale_to_meters", scale_to_meters, {.unit = "m", .min = 0, .help = "0: detect"});
-    v("up_axis", up_axis, {.help = "the file's up axis, y or z"});
+    v("up_axis", up_axis, {.help = "the file's up axis: y, z, or auto (from the legs)"});
     v("first_frame", first_frame, {.min = 0});
     v("last_frame", last_frame, {.min = -1, .help = "-1: the last frame"});
     v("start_s", start_s, {.unit = "s", .min = -1, .help = ">= 0: overrides first_frame"});

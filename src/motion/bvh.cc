@@ -649,7 +649,50 @@ UnitGuess guess_units(const BvhClip& clip) {
   return {kTypicalLegM / leg, "unknown"};
 }
 
+// the lowest drop of a leaf (end site or childless joint) below the root along -y and -z, in
+// the first frame's pose or at rest
+Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
+  const size_t n = clip.joints.size();
+  std::vector<Eigen::Vector3d> pos(n, Eigen::Vector3d::Zero());
+  std::vector<Eigen::Quaterniond> rot(n, Eigen::Quaterniond::Identity());
+  std::vector<bool> has_child(n, false), in_first_tree(n, false);
+  Eigen::Vector2d drop = Eigen::Vector2d::Zero();
+  for (size_t j = 0; j < n; ++j) {
+    const BvhJoint& joint = clip.joints[j];
+    const int p = joint.parent;
+    const Eigen::Quaterniond local = posed && clip.frame_count > 0
+                                         ? clip.rotation(0, static_cast<int>(j))
+                                         : Eigen::Quaterniond::Identity();
+    if (p < 0) {
+      in_first_tree[j] = j == 0;
+      rot[j] = local;
+    } else {
+      in_first_tree[j] = in_first_tree[p];
+      has_child[p] = true;
+      pos[j] = pos[p] + rot[p] * joint.offset;
+      rot[j] = rot[p] * local;
+    }
+  }
+  for (size_t j = 0; j < n; ++j) {
+    if (!in_first_tree[j]) continue;
+    const BvhJoint& joint = clip.joints[j];
+    auto lower = [&](const Eigen::Vector3d& q) {
+      drop.x() = std::max(drop.x(), -q.y());
+      drop.y() = std::max(drop.y(), -q.z());
+    };
+    if (joint.has_end_site) lower(pos[j] + rot[j] * joint.end_site_offset);
+    if (!has_child[j]) lower(pos[j]);
+  }
+  return drop;
+}
+
 }  // namespace
+
+char detect_bvh_up_axis(const BvhClip& clip, bool posed) {
+  if (clip.joints.empty()) return 'y';
+  const Eigen::Vector2d drop = leaf_drop(clip, posed);
+  return drop.y() > drop.x() ? 'z' : 'y';
+}
 
 std::string_view bvh_channel_name(BvhChannel channel) {
   return kChannelNames[static_cast<int>(channel)];
@@ -807,6 +850,7 @@ nlohmann::json bvh_info_json(const BvhClip& clip) {
       {"rotation_orders", orders},
       {"units", units.units},
       {"scale_to_meters", units.scale_to_meters},
+      {"up_axis", std::string(1, detect_bvh_up_axis(clip))},
   };
 }
 
@@ -828,6 +872,7 @@ std::string bvh_info_text(const BvhClip& clip) {
   out += fmt::format("channels:    {} per frame\n", clip.channel_count);
   out +=
       fmt::format("units:       {} ({:.6g} m per file unit)\n", units.units, units.scale_to_meters);
+  out += fmt::format("up axis:     {}\n", detect_bvh_up_axis(clip));
   std::string orders;
   for (const auto& [name, count] : order_counts) {
     orders += fmt::format("{}{} x{}", orders.empty() ? "" : ", ", name, count);

@@ -106,13 +106,19 @@ void write_bvh(const BvhClip& clip, const std::string& path);
 // human leg of 0.45..1.5 m, else scales that leg to 0.9 m. 1.0 when there is no leg to measure.
 double detect_bvh_scale_to_meters(const BvhClip& clip);
 
+// the file's up axis, 'y' or 'z': the one along which the feet hang lowest below the root. With
+// `posed`, in the first frame's pose (the world's up axis: a Y-up skeleton that every frame
+// turns onto Z-up is Z-up), else in the rest pose (the skeleton's own). 'y', the BVH norm, when
+// there is no leg to measure.
+char detect_bvh_up_axis(const BvhClip& clip, bool posed = true);
+
 // the unit name behind detect_bvh_scale_to_meters: "meters", "centimeters", "millimeters",
 // "inches", "feet", "cmu", or "unknown"
 std::string detect_bvh_units(const BvhClip& clip);
 
 // summary for `stance bvh info --json`: frames, frame_time, joints (ROOT + JOINT entries),
 // end_sites, channels (per frame), duration_s (frames * frame_time), rotation_orders
-// ({joint name: "ZXY"}), units, scale_to_meters
+// ({joint name: "ZXY"}), units, scale_to_meters, up_axis
 nlohmann::json bvh_info_json(const BvhClip& clip);
 
 // the same summary as readable text, with the joint tree

@@ -1,6 +1,7 @@
 #include "motion/reference_motion.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <numbers>
 #include <optional>
@@ -192,11 +193,19 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   MotionSkeleton sk;
   sk.scale_to_meters =
       options.scale_to_meters > 0 ? options.scale_to_meters : detect_bvh_scale_to_meters(clip);
-  if (options.up_axis == 'y' || options.up_axis == 'Y')
-    sk.to_z_up =
-        Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()));
-  else if (options.up_axis != 'z' && options.up_axis != 'Z')
-    throw InputError(fmt::format("up axis: expected y or z, found '{}'", options.up_axis));
+  auto turn_z_up = [&](char axis, const char* what) {
+    axis = static_cast<char>(std::tolower(static_cast<unsigned char>(axis)));
+    if (axis == 'y')
+      return Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()));
+    if (axis != 'z') throw InputError(fmt::format("{}: expected y or z, found '{}'", what, axis));
+    return Eigen::Quaterniond::Identity();
+  };
+  sk.up_axis = options.up_axis != 0 ? options.up_axis : detect_bvh_up_axis(clip, false);
+  sk.world_up_axis = options.up_axis != 0 ? options.up_axis : detect_bvh_up_axis(clip, true);
+  sk.to_z_up = turn_z_up(sk.up_axis, "up axis");
+  sk.world_to_z_up = turn_z_up(sk.world_up_axis, "up axis");
+  sk.up_axis = static_cast<char>(std::tolower(static_cast<unsigned char>(sk.up_axis)));
+  sk.world_up_axis = static_cast<char>(std::tolower(static_cast<unsigned char>(sk.world_up_axis)));
   const Eigen::Matrix3d c = sk.to_z_up.toRotationMatrix();
   const double s = sk.scale_to_meters;
   auto end_site_kept = [&](const BvhJoint& jt) {
@@ -292,8 +301,11 @@ ReferenceMotion::ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton,
                                  first, last, clip.frame_count - 1));
   frame_count_ = last - first + 1;
   segments_ = skeleton_.segment_count();
+  // rest frames turned by C; the root's world orientation W R C^T, so that it poses the turned
+  // rest frames as R posed the file's (W turns the file's world Z-up, usually W = C)
   const Eigen::Quaterniond c = skeleton_.to_z_up;
   const Eigen::Quaterniond ct = c.conjugate();
+  const Eigen::Quaterniond w = skeleton_.world_to_z_up;
   rotations_.resize(static_cast<size_t>(frame_count_) * segments_);
   root_positions_.resize(frame_count_);
   const int root_joint = skeleton_.segments[0].bvh_joint;
@@ -301,13 +313,13 @@ ReferenceMotion::ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton,
     for (int k = 0; k < segments_; ++k) {
       Eigen::Quaterniond r = Eigen::Quaterniond::Identity();
       for (int j : skeleton_.segments[k].rotation_chain) r = r * clip.rotation(first + f, j);
-      Eigen::Quaterniond q = (c * r * ct).normalized();
+      Eigen::Quaterniond q = ((k == 0 ? w : c) * r * ct).normalized();
       // keep each joint's quaternion on one hemisphere over time, for clean slerp and logs
       if (f > 0 && q.coeffs().dot(rotations_[(f - 1) * segments_ + k].coeffs()) < 0)
         q.coeffs() = -q.coeffs();
       rotations_[static_cast<size_t>(f) * segments_ + k] = q;
     }
-    root_positions_[f] = skeleton_.scale_to_meters * (c * clip.translation(first + f, root_joint));
+    root_positions_[f] = skeleton_.scale_to_meters * (w * clip.translation(first + f, root_joint));
   }
   // ground alignment and start above the origin
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();

@@ -31,7 +31,9 @@ namespace stance {
 
 struct MotionSkeletonOptions {
   double scale_to_meters = 0;  // metres per file unit; 0: detect_bvh_scale_to_meters
-  char up_axis = 'y';          // the file's up axis: 'y' (BVH default) or 'z'
+  // the file's up axis, 'y' or 'z'; 0: detect_bvh_up_axis, separately for the skeleton at rest
+  // and for the world the frames pose it in
+  char up_axis = 0;
   std::vector<std::string> skip_name_patterns = {"_RIGMESH"};
   double zero_length_m = 1e-3;  // offsets shorter than this count as zero length
   // end sites outside [min, max] are ignored: shorter ones are markers, longer ones rig
@@ -60,7 +62,10 @@ struct MotionSkeleton {
   std::vector<int> segment_of_joint;     // per BVH joint: its segment, or -1 (merged/skipped)
   std::vector<std::string> joint_names;  // per BVH joint
   double scale_to_meters = 1;
-  Eigen::Quaterniond to_z_up = Eigen::Quaterniond::Identity();  // C
+  char up_axis = 'y';        // the skeleton's at rest, as read
+  char world_up_axis = 'y';  // the world's, in which the frames pose the skeleton
+  Eigen::Quaterniond to_z_up = Eigen::Quaterniond::Identity();        // C: rest frames
+  Eigen::Quaterniond world_to_z_up = Eigen::Quaterniond::Identity();  // the root's world
 
   int segment_count() const { return static_cast<int>(segments.size()); }
   // index of the segment called `name`, or -1

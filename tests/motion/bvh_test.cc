@@ -167,6 +167,7 @@ TEST(BvhSharedFiles, MassWalk) {
   EXPECT_EQ(clip.raw(131, 113), 0.0);
   EXPECT_EQ(detect_bvh_units(clip), "centimeters");
   EXPECT_EQ(detect_bvh_scale_to_meters(clip), 0.01);
+  EXPECT_EQ(detect_bvh_up_axis(clip), 'y');
 }
 
 TEST(BvhSharedFiles, CmuMixedOrdersAndLineEndings) {
@@ -206,6 +207,7 @@ TEST(BvhSharedFiles, CmuMixedOrdersAndLineEndings) {
   EXPECT_EQ(info["rotation_orders"]["Hips"], "ZYX");
   EXPECT_EQ(info["rotation_orders"]["RThumb"], "ZXY");
   EXPECT_EQ(info["units"], "cmu");
+  EXPECT_EQ(info["up_axis"], "y");
   EXPECT_NEAR(info["duration_s"].get<double>(), 994 * 0.0083333, 1e-12);
   std::string text = bvh_info_text(clip);
   EXPECT_NE(text.find("frames:      994"), std::string::npos) << text;
@@ -448,6 +450,7 @@ TEST(BvhInfo, JsonKeysOnSyntheticClip) {
   EXPECT_EQ(info["rotation_orders"].size(), 3u);
   EXPECT_EQ(info["rotation_orders"]["LeftLeg"], "YXZ");
   EXPECT_EQ(info["units"], "centimeters");
+  EXPECT_EQ(info["up_axis"], "y");
   EXPECT_NEAR(info["duration_s"].get<double>(), 0.0999999, 1e-15);
 }
 

@@ -10,6 +10,7 @@
 
 #include "core/error.h"
 #include "math/rotations.h"
+#include "motion/z_up_clip.h"
 #include "test_support.h"
 
 namespace stance {
@@ -46,6 +47,43 @@ TEST(ReferenceMotion, FramesAreTheClipsRotationsTurnedZUp) {
       Eigen::Quaterniond want = c * clip.rotation(f, sk.segments[k].bvh_joint) * c.conjugate();
       EXPECT_LT(geodesic_angle(pose.rotations[k], want), 1e-9) << "frame " << f << " seg " << k;
     }
+  }
+}
+
+// a Z-up file reads as its Y-up twin: the up axis is found from the legs, whether the skeleton
+// is written Z-up or a Y-up skeleton is turned onto Z-up by its root's rotation in every frame
+TEST(ReferenceMotion, AZUpFileReadsAsItsYUpTwin) {
+  const BvhClip y_up = make_synthetic_walk_clip();
+  const BvhClip z_up = test::written_z_up(y_up), turned = test::root_turned_z_up(y_up);
+  EXPECT_EQ(detect_bvh_up_axis(y_up), 'y');
+  EXPECT_EQ(detect_bvh_up_axis(z_up), 'z');
+  EXPECT_EQ(detect_bvh_up_axis(turned), 'z');
+
+  auto positions = [](const BvhClip& clip, char up, double t) {
+    MotionSkeletonOptions so;
+    so.up_axis = up;
+    ReferenceMotion ref(clip, make_motion_skeleton(clip, so), {});
+    ReferencePose pose = ref.make_pose();
+    ref.sample(t, pose);
+    std::vector<Eigen::Vector3d> p;
+    std::vector<Eigen::Quaterniond> o;
+    ref.forward_kinematics(pose, p, o);
+    return p;
+  };
+  for (double t : {0.0, 0.13, 0.55, 1.0}) {
+    SCOPED_TRACE(t);
+    const std::vector<Eigen::Vector3d> want = positions(y_up, 0, t);
+    for (const BvhClip* clip : {&z_up, &turned}) {
+      const std::vector<Eigen::Vector3d> got = positions(*clip, 0, t);
+      ASSERT_EQ(got.size(), want.size());
+      for (size_t k = 0; k < want.size(); ++k) EXPECT_LT((got[k] - want[k]).norm(), 1e-9) << k;
+    }
+    // read as Y-up, the Z-up file's character lies on its back: detection is what stands it up
+    const std::vector<Eigen::Vector3d> lying = positions(z_up, 'y', t);
+    const int head = make_motion_skeleton(y_up, {}).find_segment("Head");
+    ASSERT_GE(head, 0);
+    EXPECT_GT(want[head].z(), 1.3);
+    EXPECT_LT(lying[head].z(), 0.5);
   }
 }
 

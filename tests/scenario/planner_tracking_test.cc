@@ -10,6 +10,7 @@
 #include "control/mocap_retarget_tracker.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
+#include "motion/z_up_clip.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
@@ -108,6 +109,19 @@ TEST(PlannerTracking, SyntheticWalkOnTheHumanoidAtTheDefaultsAndStifferGains) {
     SCOPED_TRACE(set);
     expect_tracked(track(s, {set}));
   }
+}
+
+// a Z-up file tracks as its Y-up twin does, with no setting: here the Y-up skeleton turned onto
+// Z-up by its root (the up axis found apart for the skeleton and for the world). Read as Y-up,
+// its character would start lying down.
+TEST(PlannerTracking, AZUpWalkNeedsNoSetting) {
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() / "stance_tests" /
+                                    ("z_up_walk_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  const std::string bvh = (dir / "z_up_walk.bvh").string();
+  write_bvh(test::root_turned_z_up(read_bvh(synthetic_walk())), bvh);
+  ASSERT_EQ(detect_bvh_up_axis(read_bvh(bvh)), 'z');
+  expect_tracked(track(track_scenario(bvh, "track_z_up_walk"), {"seed=1"}));
 }
 
 // the cross-check: the base policy alone (the same tracker, no planner) falls
