@@ -197,9 +197,11 @@ for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 m
         rows.append((f"Sampling planner ({label}): compute per simulated second, 1 / 2 threads; "
                      "a rollout step vs the bare and the base-policy step",
                      f"{fmt(get(one, 'compute_s_per_sim_s'))} / {fmt(get(two, 'compute_s_per_sim_s'))} s/s; "
-                     f"{fmt(get(two, 'rollout_us'))} µs vs {fmt(get(two, 'step_us'))} / "
-                     f"{fmt(get(two, 'controlled_us'))} µs: overhead {pct(get(two, 'overhead_vs_step'))} "
-                     f"over the bare step, {pct(get(two, 'overhead_vs_controlled'))} over the base policy's"))
+                     f"1 thread: {fmt(get(one, 'rollout_us'))} µs vs {fmt(get(one, 'step_us'))} / "
+                     f"{fmt(get(one, 'controlled_us'))} µs: overhead {pct(get(one, 'overhead_vs_step'))} "
+                     f"over the bare step, {pct(get(one, 'overhead_vs_controlled'))} over the base policy's; "
+                     f"2 threads: {pct(get(two, 'overhead_vs_step'))} / {pct(get(two, 'overhead_vs_controlled'))} "
+                     "(a rollout step's time there includes waiting for the other thread's rollouts)"))
 
 if "BM_BatchLoopOverhead" in runs:
     name = "BM_BatchLoopOverhead"
