@@ -596,59 +596,6 @@ struct UnitGuess {
   std::string units;
 };
 
-UnitGuess guess_units(const BvhClip& clip) {
-  if (clip.joints.empty()) return {1.0, "unknown"};
-  // rest-pose positions relative to the first root; leaves are end sites and childless joints
-  std::vector<Eigen::Vector3d> pos(clip.joints.size(), Eigen::Vector3d::Zero());
-  std::vector<bool> has_child(clip.joints.size(), false);
-  std::vector<bool> in_first_tree(clip.joints.size(), false);
-  in_first_tree[0] = true;
-  for (size_t j = 1; j < clip.joints.size(); ++j) {
-    int p = clip.joints[j].parent;
-    if (p < 0) continue;
-    pos[j] = pos[p] + clip.joints[j].offset;
-    has_child[p] = true;
-    in_first_tree[j] = in_first_tree[p];
-  }
-  double drop_y = 0.0, drop_z = 0.0;
-  for (size_t j = 0; j < clip.joints.size(); ++j) {
-    if (!in_first_tree[j]) continue;
-    const BvhJoint& joint = clip.joints[j];
-    std::vector<Eigen::Vector3d> leaves;
-    if (joint.has_end_site) leaves.push_back(pos[j] + joint.end_site_offset);
-    if (!has_child[j]) leaves.push_back(pos[j]);
-    for (const auto& p : leaves) {
-      drop_y = std::max(drop_y, -p.y());
-      drop_z = std::max(drop_z, -p.z());
-    }
-  }
-  // the legs are the longest drop below the root: along y (the BVH norm) or z
-  const double leg = std::max(drop_y, drop_z);
-  if (!(leg > 0.0)) return {1.0, "unknown"};
-
-  struct Unit {
-    double scale;
-    const char* name;
-  };
-  static constexpr Unit kUnits[] = {{1.0, "meters"},        {0.01, "centimeters"},
-                                    {0.001, "millimeters"}, {0.0254, "inches"},
-                                    {0.3048, "feet"},       {0.056444, "cmu"}};
-  constexpr double kTypicalLegM = 0.9;
-  const Unit* best = nullptr;
-  double best_err = INFINITY;
-  for (const Unit& u : kUnits) {
-    double leg_m = leg * u.scale;
-    if (leg_m < 0.45 || leg_m > 1.5) continue;
-    double err = std::abs(std::log(leg_m / kTypicalLegM));
-    if (err < best_err) {
-      best_err = err;
-      best = &u;
-    }
-  }
-  if (best) return {best->scale, best->name};
-  return {kTypicalLegM / leg, "unknown"};
-}
-
 // the lowest drop of a leaf (end site or childless joint) below the root along -y and -z, in
 // the first frame's pose or at rest
 Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
@@ -684,6 +631,36 @@ Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
     if (!has_child[j]) lower(pos[j]);
   }
   return drop;
+}
+
+UnitGuess guess_units(const BvhClip& clip) {
+  if (clip.joints.empty()) return {1.0, "unknown"};
+  const Eigen::Vector2d drop = leaf_drop(clip, false);
+  // the legs are the longest drop below the root: along y (the BVH norm) or z
+  const double leg = drop.maxCoeff();
+  if (!(leg > 0.0)) return {1.0, "unknown"};
+
+  struct Unit {
+    double scale;
+    const char* name;
+  };
+  static constexpr Unit kUnits[] = {{1.0, "meters"},        {0.01, "centimeters"},
+                                    {0.001, "millimeters"}, {0.0254, "inches"},
+                                    {0.3048, "feet"},       {0.056444, "cmu"}};
+  constexpr double kTypicalLegM = 0.9;
+  const Unit* best = nullptr;
+  double best_err = INFINITY;
+  for (const Unit& u : kUnits) {
+    double leg_m = leg * u.scale;
+    if (leg_m < 0.45 || leg_m > 1.5) continue;
+    double err = std::abs(std::log(leg_m / kTypicalLegM));
+    if (err < best_err) {
+      best_err = err;
+      best = &u;
+    }
+  }
+  if (best) return {best->scale, best->name};
+  return {kTypicalLegM / leg, "unknown"};
 }
 
 }  // namespace

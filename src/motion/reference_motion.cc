@@ -193,19 +193,20 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   MotionSkeleton sk;
   sk.scale_to_meters =
       options.scale_to_meters > 0 ? options.scale_to_meters : detect_bvh_scale_to_meters(clip);
-  auto turn_z_up = [&](char axis, const char* what) {
-    axis = static_cast<char>(std::tolower(static_cast<unsigned char>(axis)));
+  auto lower = [](char axis) {
+    return static_cast<char>(std::tolower(static_cast<unsigned char>(axis)));
+  };
+  auto turn_z_up = [](char axis) {
     if (axis == 'y')
       return Eigen::Quaterniond(Eigen::AngleAxisd(std::numbers::pi / 2, Eigen::Vector3d::UnitX()));
-    if (axis != 'z') throw InputError(fmt::format("{}: expected y or z, found '{}'", what, axis));
+    if (axis != 'z') throw InputError(fmt::format("up axis: expected y or z, found '{}'", axis));
     return Eigen::Quaterniond::Identity();
   };
-  sk.up_axis = options.up_axis != 0 ? options.up_axis : detect_bvh_up_axis(clip, false);
-  sk.world_up_axis = options.up_axis != 0 ? options.up_axis : detect_bvh_up_axis(clip, true);
-  sk.to_z_up = turn_z_up(sk.up_axis, "up axis");
-  sk.world_to_z_up = turn_z_up(sk.world_up_axis, "up axis");
-  sk.up_axis = static_cast<char>(std::tolower(static_cast<unsigned char>(sk.up_axis)));
-  sk.world_up_axis = static_cast<char>(std::tolower(static_cast<unsigned char>(sk.world_up_axis)));
+  const bool detect = options.up_axis == 0;
+  sk.up_axis = detect ? detect_bvh_up_axis(clip, false) : lower(options.up_axis);
+  sk.world_up_axis = detect ? detect_bvh_up_axis(clip, true) : lower(options.up_axis);
+  sk.to_z_up = turn_z_up(sk.up_axis);
+  sk.world_to_z_up = turn_z_up(sk.world_up_axis);
   const Eigen::Matrix3d c = sk.to_z_up.toRotationMatrix();
   const double s = sk.scale_to_meters;
   auto end_site_kept = [&](const BvhJoint& jt) {

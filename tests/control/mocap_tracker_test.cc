@@ -211,6 +211,9 @@ TEST(MocapTracker, RejectsBadInput) {
   };
   expect_error(params_for("", "assisted"), s.xml, "bvh: a BVH file is required");
   expect_error(params_for(s.bvh, "hover"), s.xml, "mode: expected kinematic, assisted or free");
+  MocapRetargetParams sideways = params_for(s.bvh, "assisted");
+  sideways.up_axis = "x";
+  expect_error(sideways, s.xml, "up_axis: expected y, z or auto, found 'x'");
   MocapRetargetParams p = params_for(s.bvh, "assisted");
   p.kp_joints["NoSuchJoint"] = 10;
   expect_error(p, s.xml, "kp_joints: the model has no dof or joint 'NoSuchJoint'");
