@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 
 #include <fmt/format.h>
@@ -20,6 +21,52 @@ std::string lower(std::string s) {
 }
 
 }  // namespace
+
+int side_of_joint_name(const std::string& name) {
+  // words: split at anything but letters, at digits and at case changes ("Bip01 L Foot" ->
+  // bip 01 l foot, "lFoot" -> l foot, "LFoot" -> l foot, "Foot_R" -> foot r)
+  std::vector<std::string> words;
+  std::string word;
+  auto flush = [&] {
+    if (!word.empty()) words.push_back(lower(word));
+    word.clear();
+  };
+  for (size_t i = 0; i < name.size(); ++i) {
+    const unsigned char c = static_cast<unsigned char>(name[i]);
+    if (!std::isalpha(c)) {
+      flush();
+      continue;
+    }
+    if (!word.empty()) {
+      const unsigned char prev = static_cast<unsigned char>(word.back());
+      const bool next_lower =
+          i + 1 < name.size() && std::islower(static_cast<unsigned char>(name[i + 1]));
+      if (std::isupper(c) && (std::islower(prev) || next_lower)) flush();
+    }
+    word += static_cast<char>(c);
+  }
+  flush();
+  for (const std::string& w : words) {
+    if (w == "l" || w == "left") return -1;
+    if (w == "r" || w == "right") return 1;
+  }
+  // run-on lower-case names: "leftfoot", "rfoot", "lfemur" (CMU's ASF names)
+  static constexpr const char* kParts[] = {
+      "hip",      "femur", "thigh",   "upleg",  "knee",     "shin",     "tibia",
+      "calf",     "ankle", "foot",    "toe",    "heel",     "clavicle", "collar",
+      "shoulder", "shldr", "humerus", "arm",    "upperarm", "forearm",  "elbow",
+      "radius",   "wrist", "hand",    "finger", "thumb",    "leg"};
+  for (const std::string& w : words) {
+    if (w.rfind("left", 0) == 0) return -1;
+    if (w.rfind("right", 0) == 0) return 1;
+    for (const char* part : kParts)
+      if (w.size() > std::strlen(part) && w.compare(1, std::strlen(part), part) == 0) {
+        if (w[0] == 'l') return -1;
+        if (w[0] == 'r') return 1;
+      }
+  }
+  return 0;
+}
 
 void add_com_support_torque(const Engine& engine, int support_body, const Eigen::Vector3d& force,
                             const Eigen::MatrixXd& jac_com, Eigen::MatrixXd& jac_scratch,
@@ -94,25 +141,62 @@ void find_mocap_legs(const MotionSkeleton& sk, const std::array<std::string, 4>&
     return k;
   };
   hip[0] = hip[1] = foot[0] = foot[1] = -1;
-  // the topmost foot segment of each chain, and the root's child above it
-  for (int k = 1; k < sk.segment_count(); ++k) {
+  const int n = sk.segment_count();
+  // rest positions (Z-up, every rotation the identity)
+  std::vector<Eigen::Vector3d> rest(n, Eigen::Vector3d::Zero());
+  for (int k = 1; k < n; ++k) rest[k] = rest[sk.segments[k].parent] + sk.segments[k].offset;
+  // the topmost foot segment of each chain; of more than two, the two lowest at rest
+  std::vector<int> feet;
+  for (int k = 1; k < n; ++k) {
     if (!is_foot_segment_name(sk.segments[k].name)) continue;
     bool top = true;
     for (int a = sk.segments[k].parent; a > 0; a = sk.segments[a].parent)
       if (is_foot_segment_name(sk.segments[a].name)) top = false;
-    if (!top) continue;
-    int side = lower(sk.segments[k].name).find("right") != std::string::npos ||
-                       sk.segments[k].name[0] == 'R'
-                   ? 1
-                   : 0;
-    if (foot[side] < 0) foot[side] = k;
+    if (top) feet.push_back(k);
+  }
+  std::stable_sort(feet.begin(), feet.end(),
+                   [&](int a, int b) { return rest[a].z() < rest[b].z() - 1e-9; });
+  if (feet.size() > 2) feet.resize(2);
+  if (feet.size() == 1) foot[side_of_joint_name(sk.segments[feet[0]].name) > 0 ? 1 : 0] = feet[0];
+  if (feet.size() == 2) {
+    // the sides by name; where the names do not tell, by the toes: the left foot is on the
+    // left of the direction they point
+    int a = feet[0], b = feet[1];
+    const int side_a = side_of_joint_name(sk.segments[a].name);
+    const int side_b = side_of_joint_name(sk.segments[b].name);
+    bool a_right = side_a > 0 || (side_a == 0 && side_b < 0);
+    if (side_a == side_b) {
+      Eigen::Vector3d toes = Eigen::Vector3d::Zero();
+      for (int k : {a, b})
+        for (const Eigen::Vector3d& e : sk.segments[k].bone_ends) toes += e;
+      const Eigen::Vector3d left =
+          Eigen::Vector3d::UnitZ().cross(Eigen::Vector3d(toes.x(), toes.y(), 0));
+      a_right = (rest[a] - rest[b]).dot(left) < 0;
+    }
+    foot[a_right ? 1 : 0] = a;
+    foot[a_right ? 0 : 1] = b;
   }
   if (!names[2].empty()) foot[0] = find(names[2], "left_foot");
   if (!names[3].empty()) foot[1] = find(names[3], "right_foot");
-  for (int side = 0; side < 2; ++side) {
-    int k = foot[side];
-    while (k > 0 && sk.segments[k].parent > 0) k = sk.segments[k].parent;
-    hip[side] = k > 0 ? k : -1;
+  // the thighs: below the segment where the two legs part (a pelvis, or a spine as in 3ds Max's
+  // Biped), each the top of its leg's chain
+  auto chain = [&](int k) {
+    std::vector<int> up;
+    for (; k >= 0; k = sk.segments[k].parent) up.push_back(k);
+    return std::vector<int>(up.rbegin(), up.rend());
+  };
+  if (foot[0] >= 0 && foot[1] >= 0 && foot[0] != foot[1]) {
+    const std::vector<int> l = chain(foot[0]), r = chain(foot[1]);
+    size_t split = 0;
+    while (split < l.size() && split < r.size() && l[split] == r[split]) ++split;
+    if (split < l.size()) hip[0] = l[split];
+    if (split < r.size()) hip[1] = r[split];
+  } else {
+    for (int side = 0; side < 2; ++side) {
+      int k = foot[side];
+      while (k > 0 && sk.segments[k].parent > 0) k = sk.segments[k].parent;
+      hip[side] = k > 0 ? k : -1;
+    }
   }
   if (!names[0].empty()) hip[0] = find(names[0], "left_hip");
   if (!names[1].empty()) hip[1] = find(names[1], "right_hip");
@@ -174,10 +258,18 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
         helpers = helpers * src.rotation(sf, seg.rotation_chain[i]);
       out.rotation(f, seg.bvh_joint) = (helpers.conjugate() * r).normalized();
     }
+    // the root's translation: what is left after its carriers' (which keep the clip's values)
     const BvhJoint& root = src.joints[sk.segments[0].bvh_joint];
+    Eigen::Vector3d carried = Eigen::Vector3d::Zero();
+    Eigen::Quaterniond carrier = Eigen::Quaterniond::Identity();
+    for (size_t i = 0; i + 1 < sk.segments[0].rotation_chain.size(); ++i) {
+      const int j = sk.segments[0].rotation_chain[i];
+      carried += carrier * src.translation(sf, j);
+      carrier = carrier * src.rotation(sf, j);
+    }
     if (root.position_slot >= 0)
       out.positions[static_cast<size_t>(f) * src.position_joint_count + root.position_slot] =
-          (wt * roots[f]) / sk.scale_to_meters;
+          carrier.conjugate() * ((wt * roots[f]) / sk.scale_to_meters - carried);
   }
   return out;
 }

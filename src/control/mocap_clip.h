@@ -162,9 +162,15 @@ void add_com_support_torque(const Engine& engine, int support_body, const Eigen:
                             const Eigen::MatrixXd& jac_com, Eigen::MatrixXd& jac_scratch,
                             Eigen::VectorXd& tau);
 
+// the side a joint's name gives: -1 left, +1 right, 0 none. Reads "Left"/"Right" and "L"/"R" as
+// words (LeftFoot, Foot_R, "Bip01 L Foot", lFoot, mixamorig:RightFoot) and run-on lower-case
+// names (leftfoot, rfemur).
+int side_of_joint_name(const std::string& name);
+
 // the legs of a skeleton: per side (left, right) the thigh segment and the topmost foot segment
-// (named like a foot, toe or ankle; the side from "right"/"R"), or -1. Non-empty names
-// (left_hip, right_hip, left_foot, right_foot) override; unknown ones throw InputError.
+// (named like a foot, toe or ankle), or -1. The side comes from the name, else from the toes'
+// direction; each thigh is the top of its leg below the segment where the legs part. Non-empty
+// names (left_hip, right_hip, left_foot, right_foot) override; unknown ones throw InputError.
 void find_mocap_legs(const MotionSkeleton& skeleton, const std::array<std::string, 4>& names,
                      int hip[2], int foot[2]);
 

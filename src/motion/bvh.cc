@@ -596,8 +596,10 @@ struct UnitGuess {
   std::string units;
 };
 
-// the lowest drop of a leaf (end site or childless joint) below the root along -y and -z, in
-// the first frame's pose or at rest
+// the lowest drop of a leaf (end site or childless joint) below the body's root along -y and
+// -z, in the first frame's pose or at rest. The body's root is the ROOT, or, below a ROOT that
+// only carries one child with position channels of its own (Bandai Namco's joint_Root on the
+// floor), that child (make_motion_skeleton's carriers).
 Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
   const size_t n = clip.joints.size();
   std::vector<Eigen::Vector3d> pos(n, Eigen::Vector3d::Zero());
@@ -620,12 +622,24 @@ Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
       rot[j] = rot[p] * local;
     }
   }
+  size_t body_root = 0;
+  for (;;) {
+    int children = 0;
+    size_t child = 0;
+    for (size_t j = body_root + 1; j < n; ++j)
+      if (clip.joints[j].parent == static_cast<int>(body_root)) {
+        ++children;
+        child = j;
+      }
+    if (children != 1 || !clip.joints[child].has_position) break;
+    body_root = child;
+  }
   for (size_t j = 0; j < n; ++j) {
     if (!in_first_tree[j]) continue;
     const BvhJoint& joint = clip.joints[j];
     auto lower = [&](const Eigen::Vector3d& q) {
-      drop.x() = std::max(drop.x(), -q.y());
-      drop.y() = std::max(drop.y(), -q.z());
+      drop.x() = std::max(drop.x(), pos[body_root].y() - q.y());
+      drop.y() = std::max(drop.y(), pos[body_root].z() - q.z());
     };
     if (joint.has_end_site) lower(pos[j] + rot[j] * joint.end_site_offset);
     if (!has_child[j]) lower(pos[j]);

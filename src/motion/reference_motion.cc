@@ -187,6 +187,17 @@ Eigen::Quaterniond yaw_of(const Eigen::Quaterniond& q) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
 }
 
+Eigen::Vector3d root_chain_translation(const BvhClip& clip, const MotionSkeleton& skeleton,
+                                       int frame) {
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond r = Eigen::Quaterniond::Identity();
+  for (int j : skeleton.segments[0].rotation_chain) {
+    p += r * clip.translation(frame, j);
+    r = r * clip.rotation(frame, j);
+  }
+  return p;
+}
+
 MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOptions& options) {
   const int n = clip.joint_count();
   if (n == 0) throw InputError(clip.source + ": no joints");
@@ -216,7 +227,7 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   auto convert = [&](const Eigen::Vector3d& v) -> Eigen::Vector3d { return s * (c * v); };
 
   // classify: skipped by name (with the subtree), end-point leaves, merged helpers, segments
-  enum class Role { kSegment, kMerged, kEndPoint, kSkipped };
+  enum class Role { kSegment, kMerged, kEndPoint, kSkipped, kCarrier };
   std::vector<Role> role(n, Role::kSegment);
   std::vector<int> kept_children(n, 0);
   for (int j = 0; j < n; ++j) {
@@ -232,9 +243,20 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
     if (jt.parent >= 0 && kept_children[j] == 0 && !end_site_kept(jt)) role[j] = Role::kEndPoint;
     if (jt.parent >= 0) ++kept_children[jt.parent];
   }
+  // carriers: a ROOT whose one child has position channels of its own (Bandai Namco's static
+  // joint_Root above a floating Hips) only carries that child, which becomes the root segment
+  int body_root = 0;
+  while (kept_children[body_root] == 1) {
+    int child = -1;
+    for (int j = body_root + 1; j < n; ++j)
+      if (clip.joints[j].parent == body_root && role[j] != Role::kSkipped) child = j;
+    if (child < 0 || role[child] != Role::kSegment || !clip.joints[child].has_position) break;
+    role[body_root] = Role::kCarrier;
+    body_root = child;
+  }
   for (int j = 1; j < n; ++j) {
     const BvhJoint& jt = clip.joints[j];
-    if (role[j] == Role::kSegment && jt.parent >= 0 && jt.offset.norm() * s < options.zero_length_m)
+    if (role[j] == Role::kSegment && j != body_root && jt.offset.norm() * s < options.zero_length_m)
       role[j] = Role::kMerged;
   }
 
@@ -246,7 +268,7 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   std::vector<Eigen::Vector3d> pending_offset(n, Eigen::Vector3d::Zero());  // file units
   for (int j = 0; j < n; ++j) {
     const BvhJoint& jt = clip.joints[j];
-    if (role[j] == Role::kSkipped) continue;
+    if (role[j] == Role::kSkipped || role[j] == Role::kCarrier) continue;
     Eigen::Vector3d offset = jt.offset;
     const bool below_merged = jt.parent >= 0 && role[jt.parent] == Role::kMerged;
     if (below_merged) offset += pending_offset[jt.parent];
@@ -271,9 +293,11 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
          m = clip.joints[m].parent) {
       seg.rotation_chain.push_back(m);
     }
+    for (int c = j == body_root ? jt.parent : -1; c >= 0; c = clip.joints[c].parent)
+      seg.rotation_chain.push_back(c);
     std::reverse(seg.rotation_chain.begin(), seg.rotation_chain.end());
     seg.rotation_chain.push_back(j);
-    seg.offset = jt.parent >= 0 ? convert(offset) : Eigen::Vector3d::Zero();
+    seg.offset = j != body_root ? convert(offset) : Eigen::Vector3d::Zero();
     if (end_site_kept(jt)) seg.bone_ends.push_back(convert(jt.end_site_offset));
     int index = static_cast<int>(sk.segments.size());
     owner[j] = index;
@@ -309,7 +333,6 @@ ReferenceMotion::ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton,
   const Eigen::Quaterniond w = skeleton_.world_to_z_up;
   rotations_.resize(static_cast<size_t>(frame_count_) * segments_);
   root_positions_.resize(frame_count_);
-  const int root_joint = skeleton_.segments[0].bvh_joint;
   for (int f = 0; f < frame_count_; ++f) {
     for (int k = 0; k < segments_; ++k) {
       Eigen::Quaterniond r = Eigen::Quaterniond::Identity();
@@ -320,7 +343,8 @@ ReferenceMotion::ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton,
         q.coeffs() = -q.coeffs();
       rotations_[static_cast<size_t>(f) * segments_ + k] = q;
     }
-    root_positions_[f] = skeleton_.scale_to_meters * (w * clip.translation(first + f, root_joint));
+    root_positions_[f] =
+        skeleton_.scale_to_meters * (w * root_chain_translation(clip, skeleton_, first + f));
   }
   // ground alignment and start above the origin
   Eigen::Vector3d shift = Eigen::Vector3d::Zero();

@@ -12,7 +12,10 @@
 //  - a joint at zero distance from its parent (CMU LHipJoint, lowerneck, lhand) is merged into
 //    the parent segment: its children hang off the parent at the rest-pose offsets and its
 //    rotation is composed into each child's local rotation (exact when, as in the CMU files,
-//    the helper's rotation channels stay 0).
+//    the helper's rotation channels stay 0);
+//  - a ROOT whose only child has position channels of its own (Bandai Namco's joint_Root on
+//    the floor above a floating Hips) carries that child, which becomes the root segment: the
+//    carrier's translation and rotation are composed into the root's (its rotation chain).
 //
 // Frames. BVH coordinates are converted by the constant rotation C taking the file's up axis to
 // +z (Y-up: +90 deg about x): offsets become s C o and local rotations C R C^T, so the rest pose
@@ -48,7 +51,8 @@ struct MotionSegment {
   int bvh_joint = -1;  // index into BvhClip::joints
   int parent = -1;     // segment index; -1 for the root
   // BVH joints whose local rotations, multiplied in this order, give this segment's rotation
-  // relative to its parent segment: merged helper joints first, the joint itself last
+  // relative to its parent segment: merged helper joints (the root's carriers) first, the joint
+  // itself last
   std::vector<int> rotation_chain;
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // m, Z-up, in the parent frame at rest
   // end points of this segment's bones, m, in its own frame: children, end sites, and the
@@ -76,6 +80,11 @@ struct MotionSkeleton {
 
 // throws InputError when the clip has no joints or its root is skipped
 MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOptions& options);
+
+// the root segment's position in the file's frame and units at `frame`: the translations and
+// rotations of its rotation chain composed, so that carriers above a floating root move it
+Eigen::Vector3d root_chain_translation(const BvhClip& clip, const MotionSkeleton& skeleton,
+                                       int frame);
 
 struct ReferenceOptions {
   // clip range, inclusive, in frames; last_frame < 0: to the end. start_s/end_s (>= 0) override.

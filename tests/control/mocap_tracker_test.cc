@@ -14,6 +14,7 @@
 #include "engine/world_spec.h"
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
+#include "motion/clip_conventions.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
@@ -173,28 +174,42 @@ TEST(MocapTracker, AssistedTracksWithAMeasuredHelper) {
   EXPECT_FALSE(reason.empty());
 }
 
+// also for a root carried by a ROOT above it (Bandai Namco's joint_Root): the carrier keeps
+// the clip's channels, and the root's own take the rest
 TEST(MocapTracker, ExportedMotionReadsBack) {
-  BvhClip clip = make_synthetic_walk_clip();
-  ClipFiles s = make_files(clip, "track_export");
-  MocapRetargetParams p = params_for(s.bvh, "kinematic");
-  p.export_bvh = "tracked.bvh";
-  Tracked t = make_tracked(p, s.xml, 1.0);
-  track(t, 1.0);
-  std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" / "export").string();
-  std::filesystem::create_directories(dir);
-  t.tracker->write_outputs(*t.state, dir);
-  BvhClip back = read_bvh(dir + "/tracked.bvh");
-  EXPECT_EQ(back.joint_count(), clip.joint_count());
-  EXPECT_NEAR(back.frame_time_s, clip.frame_time_s, 1e-9);
-  EXPECT_NEAR(back.frame_count, 1.0 / clip.frame_time_s, 1.5);
-  // kinematic tracking: the exported frames are the clip's own, up to the tracking error
-  for (int f : {1, 20, 45}) {
-    for (int j = 1; j < clip.joint_count(); ++j)
-      EXPECT_LT(geodesic_angle(back.rotation(f, j), clip.rotation(f, j)), 2.0 * M_PI / 180)
-          << "frame " << f << " joint " << clip.joints[j].name;
-    // the root moves like the clip's, up to the constant ground-alignment shift (cm)
-    Eigen::Vector3d shift = back.translation(1, 0) - clip.translation(1, 0);
-    EXPECT_LT((back.translation(f, 0) - clip.translation(f, 0) - shift).norm(), 0.5);
+  const BvhClip plain = make_synthetic_walk_clip();
+  const BvhClip carried =
+      parse_bvh(format_bvh(test::with_carrier_root(plain, "joint_Root")), "carried.bvh");
+  for (const BvhClip* clip : {&plain, &carried}) {
+    const std::string name = clip == &plain ? "export" : "export_carried";
+    SCOPED_TRACE(name);
+    ClipFiles s = make_files(*clip, "track_" + name);
+    MocapRetargetParams p = params_for(s.bvh, "kinematic");
+    p.export_bvh = "tracked.bvh";
+    Tracked t = make_tracked(p, s.xml, 1.0);
+    track(t, 1.0);
+    std::string dir = (std::filesystem::temp_directory_path() / "stance_tests" / name).string();
+    std::filesystem::create_directories(dir);
+    t.tracker->write_outputs(*t.state, dir);
+    BvhClip back = read_bvh(dir + "/tracked.bvh");
+    EXPECT_EQ(back.joint_count(), clip->joint_count());
+    EXPECT_NEAR(back.frame_time_s, clip->frame_time_s, 1e-9);
+    EXPECT_NEAR(back.frame_count, 1.0 / clip->frame_time_s, 1.5);
+    // kinematic tracking: the exported frames are the clip's own, up to the tracking error
+    const MotionSkeleton sk = make_motion_skeleton(*clip, {});
+    const int root = sk.segments[0].bvh_joint;
+    for (int f : {1, 20, 45}) {
+      for (int j = 0; j < clip->joint_count(); ++j)
+        if (j != root)
+          EXPECT_LT(geodesic_angle(back.rotation(f, j), clip->rotation(f, j)), 2.0 * M_PI / 180)
+              << "frame " << f << " joint " << clip->joints[j].name;
+      // the root moves like the clip's, up to the constant ground-alignment shift (cm)
+      auto root_at = [&](const BvhClip& c, int frame) {
+        return root_chain_translation(c, sk, frame);
+      };
+      Eigen::Vector3d shift = root_at(back, 1) - root_at(*clip, 1);
+      EXPECT_LT((root_at(back, f) - root_at(*clip, f) - shift).norm(), 0.5);
+    }
   }
 }
 

@@ -10,7 +10,7 @@
 
 #include "core/error.h"
 #include "math/rotations.h"
-#include "motion/z_up_clip.h"
+#include "motion/clip_conventions.h"
 #include "test_support.h"
 
 namespace stance {
@@ -84,6 +84,45 @@ TEST(ReferenceMotion, AZUpFileReadsAsItsYUpTwin) {
     ASSERT_GE(head, 0);
     EXPECT_GT(want[head].z(), 1.3);
     EXPECT_LT(lying[head].z(), 0.5);
+  }
+}
+
+// Bandai Namco's files put a ROOT on the floor (joint_Root) above a Hips with position
+// channels of its own: the carrier is no body, and every body lands where the plain file puts it
+TEST(ReferenceMotion, ACarriedRootReadsAsItsPlainTwin) {
+  const BvhClip plain = make_synthetic_walk_clip();
+  const BvhClip carried =
+      parse_bvh(format_bvh(test::with_carrier_root(plain, "joint_Root")), "carried.bvh");
+  ASSERT_EQ(carried.joints[0].name, "joint_Root");
+  EXPECT_EQ(detect_bvh_up_axis(carried), 'y');
+  EXPECT_EQ(detect_bvh_scale_to_meters(carried), detect_bvh_scale_to_meters(plain));
+  const MotionSkeleton sk_plain = make_motion_skeleton(plain, {});
+  const MotionSkeleton sk = make_motion_skeleton(carried, {});
+  ASSERT_EQ(sk.segment_count(), sk_plain.segment_count());
+  EXPECT_EQ(sk.segments[0].name, "Hips");
+  EXPECT_EQ(sk.segments[0].rotation_chain, (std::vector<int>{0, 1}));
+  EXPECT_EQ(sk.segment_of_joint[0], -1);
+  for (int k = 0; k < sk.segment_count(); ++k) {
+    EXPECT_EQ(sk.segments[k].name, sk_plain.segments[k].name);
+    EXPECT_LT((sk.segments[k].offset - sk_plain.segments[k].offset).norm(), 1e-12) << k;
+  }
+  for (int f : {0, 7, 40})
+    EXPECT_LT((root_chain_translation(carried, sk, f) - plain.translation(f, 0)).norm(), 1e-6);
+
+  ReferenceMotion want(plain, sk_plain, {}), got(carried, sk, {});
+  ReferencePose a = want.make_pose(), b = got.make_pose();
+  std::vector<Eigen::Vector3d> pa, pb;
+  std::vector<Eigen::Quaterniond> oa, ob;
+  for (double t : {0.0, 0.13, 0.55, 1.0}) {
+    SCOPED_TRACE(t);
+    want.sample(t, a);
+    got.sample(t, b);
+    want.forward_kinematics(a, pa, oa);
+    got.forward_kinematics(b, pb, ob);
+    for (size_t k = 0; k < pa.size(); ++k) {
+      EXPECT_LT((pa[k] - pb[k]).norm(), 1e-8) << k;
+      EXPECT_LT(geodesic_angle(oa[k], ob[k]), 1e-8) << k;
+    }
   }
 }
 

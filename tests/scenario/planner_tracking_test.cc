@@ -9,8 +9,8 @@
 #include "app/commands.h"
 #include "control/mocap_retarget_tracker.h"
 #include "motion/bvh.h"
+#include "motion/clip_conventions.h"
 #include "motion/reference_motion.h"
-#include "motion/z_up_clip.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "test_support.h"
@@ -111,17 +111,25 @@ TEST(PlannerTracking, SyntheticWalkOnTheHumanoidAtTheDefaultsAndStifferGains) {
   }
 }
 
-// a Z-up file tracks as its Y-up twin does, with no setting: here the Y-up skeleton turned onto
-// Z-up by its root (the up axis found apart for the skeleton and for the world). Read as Y-up,
-// its character would start lying down.
-TEST(PlannerTracking, AZUpWalkNeedsNoSetting) {
+// another exporter's file of the same walk tracks as the walk does, with no setting: Z-up (the
+// Y-up skeleton turned onto Z-up by its root, the up axis found apart for the skeleton and for
+// the world), Bandai Namco's joint names, and its root carried by a moving ROOT above it. Read
+// as a plain Y-up file, its character would start lying down on a pole.
+TEST(PlannerTracking, AnotherExportersWalkNeedsNoSetting) {
   const std::filesystem::path dir = std::filesystem::temp_directory_path() / "stance_tests" /
-                                    ("z_up_walk_" + std::to_string(::getpid()));
+                                    ("other_walk_" + std::to_string(::getpid()));
   std::filesystem::create_directories(dir);
-  const std::string bvh = (dir / "z_up_walk.bvh").string();
-  write_bvh(test::root_turned_z_up(read_bvh(synthetic_walk())), bvh);
-  ASSERT_EQ(detect_bvh_up_axis(read_bvh(bvh)), 'z');
-  expect_tracked(track(track_scenario(bvh, "track_z_up_walk"), {"seed=1"}));
+  const std::string bvh = (dir / "other_walk.bvh").string();
+  write_bvh(
+      test::with_carrier_root(
+          test::renamed(test::root_turned_z_up(read_bvh(synthetic_walk())), test::bandai_names()),
+          "joint_Root"),
+      bvh);
+  const BvhClip clip = read_bvh(bvh);
+  ASSERT_EQ(detect_bvh_up_axis(clip), 'z');
+  ASSERT_EQ(clip.joints[0].name, "joint_Root");
+  ASSERT_EQ(clip.joints[0].channels.size(), 6u);
+  expect_tracked(track(track_scenario(bvh, "track_other_walk"), {"seed=1"}));
 }
 
 // the cross-check: the base policy alone (the same tracker, no planner) falls
