@@ -100,7 +100,8 @@ int main(int argc, char** argv) {
                             "output folder (track.yaml, summary.json, log.csv, tracked.bvh)");
   bvh_track_cmd->add_option("--duration", track.duration, "seconds (default: the clip once)");
   bvh_track_cmd->add_flag("--loop", track.loop, "repeat the clip, root carried forward");
-  bvh_track_cmd->add_option("--first-frame", track.first_frame, "first frame of the range");
+  bvh_track_cmd->add_option("--first-frame", track.first_frame,
+                            "first frame of the range (default: after a leading T-pose)");
   bvh_track_cmd->add_option("--last-frame", track.last_frame, "last frame (-1: the end)");
   bvh_track_cmd->add_option("--map", track.map, "YAML joint map onto --model");
   bvh_track_cmd->add_option("--model", track.model, "model file (MJCF, URDF, SKEL)");
@@ -116,7 +117,8 @@ int main(int argc, char** argv) {
   bvh2mjcf_cmd->add_option("input", bvh2mjcf.bvh, "BVH file")->required();
   bvh2mjcf_cmd->add_option("output", bvh2mjcf.mjcf, "MJCF file to write")->required();
   bvh2mjcf_cmd->add_option("--mass", bvh2mjcf.mass_kg, "total mass, kg");
-  bvh2mjcf_cmd->add_option("--first-frame", bvh2mjcf.first_frame, "frame of the start keyframe");
+  bvh2mjcf_cmd->add_option("--first-frame", bvh2mjcf.first_frame,
+                           "frame of the start keyframe (default: after a leading T-pose)");
   bvh2mjcf_cmd->add_option("--timestep", bvh2mjcf.timestep_s, "simulation timestep, s");
   // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion
   std::string export_bvh;

@@ -167,8 +167,9 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
     BvhCharacterOptions o;
     o.total_mass_kg = cmd.mass_kg;
     o.timestep_s = cmd.timestep_s;
-    o.reference.first_frame = cmd.first_frame;
     BvhClip clip = read_bvh(cmd.bvh);
+    o.reference.first_frame =
+        cmd.first_frame > 0 ? cmd.first_frame : detect_bvh_first_motion_frame(clip);
     BvhCharacter ch = make_bvh_character(clip, o);
     write_file_atomically(cmd.mjcf, ch.mjcf);
     std::cout << fmt::format("wrote {}: {} bodies, {:.6g} kg, {:.6g} m per file unit\n", cmd.mjcf,
@@ -254,6 +255,9 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
       last >= clip.frame_count)
     throw InputError(fmt::format("{}: frames {}..{} are not a range of its {} frames", cmd.bvh,
                                  cmd.first_frame, cmd.last_frame, clip.frame_count));
+  // without --first-frame, after leading frames that jump to the motion (a T-pose)
+  const int first = cmd.first_frame > 0 ? cmd.first_frame
+                                        : std::min(detect_bvh_first_motion_frame(clip), last - 1);
   fs::create_directories(cmd.out_dir);
   const fs::path dir = fs::absolute(cmd.out_dir);
   YAML::Node doc;
@@ -264,7 +268,7 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
   tracker["bvh"] = fs::absolute(cmd.bvh).string();
   tracker["mode"] = "free";
   tracker["loop"] = cmd.loop;
-  tracker["first_frame"] = cmd.first_frame;
+  tracker["first_frame"] = first;
   tracker["last_frame"] = last;
   tracker["export_bvh"] = "tracked.bvh";
   // the shared defaults, spelled out so that the scenario shows what it runs
@@ -274,7 +278,7 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
   if (cmd.map.empty()) {
     // the clip's own character, starting on the range's first frame
     BvhCharacterOptions o;
-    o.reference.first_frame = cmd.first_frame;
+    o.reference.first_frame = first;
     BvhCharacter ch = make_bvh_character(clip, o);
     write_file_atomically(dir / "character.xml", ch.mjcf);
     doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
@@ -286,7 +290,7 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
     doc["model"][0]["file"] = model;
     tracker["joint_map"] = fs::absolute(cmd.map).string();
   }
-  doc["duration"] = cmd.duration ? *cmd.duration : (last - cmd.first_frame) * clip.frame_time_s;
+  doc["duration"] = cmd.duration ? *cmd.duration : (last - first) * clip.frame_time_s;
   doc["controllers"].push_back(tracker);
   doc["planner"]["enabled"] = true;
   doc["planner"]["threads"] = cmd.threads;

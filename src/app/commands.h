@@ -60,7 +60,7 @@ int bvh_info_command(const std::string& path, bool json);
 struct Bvh2MjcfCommand {
   std::string bvh, mjcf;
   double mass_kg = 70;
-  int first_frame = 0;
+  int first_frame = 0;  // 0: the first frame of the motion (detect_bvh_first_motion_frame)
   double timestep_s = 0.002;
 };
 int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
@@ -90,7 +90,7 @@ struct BvhTrackCommand {
   std::string out_dir = "out/track";
   std::optional<double> duration;  // s; default: the clip range once
   bool loop = false;
-  int first_frame = 0;
+  int first_frame = 0;  // 0: the first frame of the motion (detect_bvh_first_motion_frame)
   int last_frame = -1;
   std::string map, model;  // both or neither
   std::string engine = "mujoco";

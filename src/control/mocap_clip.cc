@@ -95,9 +95,10 @@ size_t mocap_record_frames(double duration_s, double frame_time_s) {
 
 bool same_mocap_clip(const MocapClipParams& a, const MocapClipParams& b) {
   return a.bvh == b.bvh && a.scale_to_meters == b.scale_to_meters && a.up_axis == b.up_axis &&
-         a.first_frame == b.first_frame && a.last_frame == b.last_frame && a.start_s == b.start_s &&
-         a.end_s == b.end_s && a.loop == b.loop && a.loop_blend_s == b.loop_blend_s &&
-         a.align_ground == b.align_ground && a.ground == b.ground && a.export_bvh == b.export_bvh;
+         a.first_frame == b.first_frame && a.skip_leading_pose == b.skip_leading_pose &&
+         a.last_frame == b.last_frame && a.start_s == b.start_s && a.end_s == b.end_s &&
+         a.loop == b.loop && a.loop_blend_s == b.loop_blend_s && a.align_ground == b.align_ground &&
+         a.ground == b.ground && a.export_bvh == b.export_bvh;
 }
 
 MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base_dir) {
@@ -115,6 +116,8 @@ MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base
     throw InputError("up_axis: expected y, z or auto, found '" + params.up_axis + "'");
   ReferenceOptions ro;
   ro.first_frame = params.first_frame;
+  if (params.skip_leading_pose && params.first_frame == 0 && params.start_s < 0)
+    ro.first_frame = detect_bvh_first_motion_frame(*clip);
   ro.last_frame = params.last_frame;
   ro.start_s = params.start_s;
   ro.end_s = params.end_s;
@@ -127,7 +130,7 @@ MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base
   MocapClip out;
   out.first_frame = params.start_s >= 0
                         ? static_cast<int>(std::lround(params.start_s / clip->frame_time_s))
-                        : params.first_frame;
+                        : ro.first_frame;
   out.reference = std::make_shared<ReferenceMotion>(*clip, make_motion_skeleton(*clip, so), ro);
   out.clip = clip;
   return out;

@@ -24,6 +24,9 @@ struct MocapClipParams {
   double scale_to_meters = 0;    // 0: detect from the leg length
   std::string up_axis = "auto";  // the file's up axis: y, z, or auto (detect_bvh_up_axis)
   int first_frame = 0;
+  // first_frame 0 and no start_s: start after leading frames that jump to the motion (a T-pose
+  // first frame, as in cgspeed's CMU release: detect_bvh_first_motion_frame)
+  bool skip_leading_pose = true;
   int last_frame = -1;  // -1: the last
   double start_s = -1;  // >= 0: overrides first_frame
   double end_s = -1;    // >= 0: overrides last_frame
@@ -39,6 +42,8 @@ struct MocapClipParams {
     v("scale_to_meters", scale_to_meters, {.unit = "m", .min = 0, .help = "0: detect"});
     v("up_axis", up_axis, {.help = "the file's up axis: y, z, or auto (from the legs)"});
     v("first_frame", first_frame, {.min = 0});
+    v("skip_leading_pose", skip_leading_pose,
+      {.help = "first_frame 0: start after leading frames that jump to the motion (a T-pose)"});
     v("last_frame", last_frame, {.min = -1, .help = "-1: the last frame"});
     v("start_s", start_s, {.unit = "s", .min = -1, .help = ">= 0: overrides first_frame"});
     v("end_s", end_s, {.unit = "s", .min = -1, .help = ">= 0: overrides last_frame"});

@@ -822,6 +822,34 @@ std::string detect_bvh_units(const BvhClip& clip) {
   return guess_units(clip).units;
 }
 
+int detect_bvh_first_motion_frame(const BvhClip& clip) {
+  const int frames = clip.frame_count;
+  if (frames < 8) return 0;
+  const double scale = detect_bvh_scale_to_meters(clip);
+  // per step from frame f to f + 1: the largest turn of a joint and the largest move of a joint
+  // with position channels
+  std::vector<double> turn(frames - 1, 0.0), move(frames - 1, 0.0);
+  for (int f = 0; f + 1 < frames; ++f)
+    for (int j = 0; j < clip.joint_count(); ++j) {
+      turn[f] = std::max(turn[f], geodesic_angle(clip.rotation(f, j), clip.rotation(f + 1, j)));
+      if (clip.joints[j].position_slot >= 0)
+        move[f] =
+            std::max(move[f], scale * (clip.translation(f + 1, j) - clip.translation(f, j)).norm());
+    }
+  auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    return v[v.size() / 2];
+  };
+  // a jump: ten times a typical step, and at least 30 deg or 0.25 m
+  const double turn_jump = std::max(30 * std::numbers::pi / 180, 10 * median(turn));
+  const double move_jump = std::max(0.25, 10 * median(move));
+  // after the last jump among the first three steps
+  int first = 0;
+  for (int f = 0; f < std::min(3, frames - 2); ++f)
+    if (turn[f] > turn_jump || move[f] > move_jump) first = f + 1;
+  return first;
+}
+
 nlohmann::json bvh_info_json(const BvhClip& clip) {
   UnitGuess units = guess_units(clip);
   nlohmann::json orders = nlohmann::json::object();
@@ -842,6 +870,7 @@ nlohmann::json bvh_info_json(const BvhClip& clip) {
       {"units", units.units},
       {"scale_to_meters", units.scale_to_meters},
       {"up_axis", std::string(1, detect_bvh_up_axis(clip))},
+      {"first_motion_frame", detect_bvh_first_motion_frame(clip)},
   };
 }
 
@@ -864,6 +893,9 @@ std::string bvh_info_text(const BvhClip& clip) {
   out +=
       fmt::format("units:       {} ({:.6g} m per file unit)\n", units.units, units.scale_to_meters);
   out += fmt::format("up axis:     {}\n", detect_bvh_up_axis(clip));
+  if (int first = detect_bvh_first_motion_frame(clip); first > 0)
+    out += fmt::format(
+        "motion from: frame {} (the frames before jump to it: a T-pose or rest pose)\n", first);
   std::string orders;
   for (const auto& [name, count] : order_counts) {
     orders += fmt::format("{}{} x{}", orders.empty() ? "" : ", ", name, count);

@@ -116,9 +116,14 @@ char detect_bvh_up_axis(const BvhClip& clip, bool posed = true);
 // "inches", "feet", "cmu", or "unknown"
 std::string detect_bvh_units(const BvhClip& clip);
 
+// the first frame of the motion: 0, or 1..3 after the last jump among the first three steps
+// (a step that turns a joint by ten typical steps and at least 30 deg, or moves a joint by ten
+// typical steps and at least 0.25 m): leading T-pose frames, as cgspeed's CMU release has
+int detect_bvh_first_motion_frame(const BvhClip& clip);
+
 // summary for `stance bvh info --json`: frames, frame_time, joints (ROOT + JOINT entries),
 // end_sites, channels (per frame), duration_s (frames * frame_time), rotation_orders
-// ({joint name: "ZXY"}), units, scale_to_meters, up_axis
+// ({joint name: "ZXY"}), units, scale_to_meters, up_axis, first_motion_frame
 nlohmann::json bvh_info_json(const BvhClip& clip);
 
 // the same summary as readable text, with the joint tree

@@ -34,6 +34,25 @@ PY
 # the exported motion reads back as a BVH
 "$stance" bvh info "$tmp/t/tracked.bvh" >"$tmp/info" 2>&1 || fail "tracked.bvh: $(cat "$tmp/info")"
 
+# a clip that begins with a T-pose frame (cgspeed's CMU release): info says where the motion
+# starts, and track starts there
+python3 - models/synthetic_walk.bvh "$tmp/t_posed.bvh" <<'PY' || fail "writing the T-posed clip"
+import re, sys
+head, motion = open(sys.argv[1]).read().split("MOTION\n")
+lines = motion.splitlines()
+frames = int(lines[0].split()[1])
+channels = len(lines[2].split())
+t_pose = " ".join(["0"] * channels)
+open(sys.argv[2], "w").write(head + "MOTION\nFrames: %d\n%s\n%s\n%s\n" % (
+    frames + 1, lines[1], t_pose, "\n".join(lines[2:])))
+PY
+"$stance" bvh info "$tmp/t_posed.bvh" >"$tmp/info" 2>&1 || fail "info on the T-posed clip"
+grep -q "motion from: frame 1" "$tmp/info" || fail "info: $(cat "$tmp/info")"
+"$stance" bvh track "$tmp/t_posed.bvh" --duration 0.05 --threads 2 --out "$tmp/tp" \
+  --set planner.samples=4 --set planner.horizon_s=0.1 --quiet >"$tmp/out" 2>&1 ||
+  fail "track of the T-posed clip exited $?: $(cat "$tmp/out")"
+grep -q "first_frame: 1$" "$tmp/tp/track.yaml" || fail "track.yaml: $(cat "$tmp/tp/track.yaml")"
+
 # bad input: exit 2, one line naming the problem, the folder untouched
 sum_before=$(cat "$tmp/t"/* | md5sum)
 "$stance" bvh track "$tmp/missing.bvh" --out "$tmp/t" >"$tmp/err" 2>&1

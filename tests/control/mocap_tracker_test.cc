@@ -213,6 +213,39 @@ TEST(MocapTracker, ExportedMotionReadsBack) {
   }
 }
 
+// a clip that begins with a T-pose frame (cgspeed's CMU release) is tracked from its motion:
+// the reference is the plain clip's, unless skip_leading_pose is off
+TEST(MocapTracker, ALeadingTPoseIsNoPartOfTheReference) {
+  const BvhClip plain = make_synthetic_walk_clip();
+  const std::string plain_bvh = test::write_temp_file("plain_walk.bvh", format_bvh(plain));
+  const std::string posed_bvh = test::write_temp_file(
+      "t_posed_walk.bvh", format_bvh(test::with_leading_t_pose(plain, 1, Eigen::Vector3d::Zero())));
+  auto bodies = [](const std::string& bvh, bool skip, double t) {
+    MocapClipParams p;
+    p.bvh = bvh;
+    p.skip_leading_pose = skip;
+    MocapClip clip = load_mocap_clip(p, "");
+    ReferencePose pose = clip.reference->make_pose();
+    clip.reference->sample(t, pose);
+    std::vector<Eigen::Vector3d> pos;
+    std::vector<Eigen::Quaterniond> rot;
+    clip.reference->forward_kinematics(pose, pos, rot);
+    return pos;
+  };
+  for (double t : {0.0, 0.3, 1.0}) {
+    SCOPED_TRACE(t);
+    const std::vector<Eigen::Vector3d> want = bodies(plain_bvh, true, t);
+    const std::vector<Eigen::Vector3d> got = bodies(posed_bvh, true, t);
+    for (size_t k = 0; k < want.size(); ++k) EXPECT_LT((got[k] - want[k]).norm(), 1e-9) << k;
+  }
+  const std::vector<Eigen::Vector3d> t_pose = bodies(posed_bvh, false, 0.0);
+  const std::vector<Eigen::Vector3d> walk = bodies(plain_bvh, true, 0.0);
+  double furthest = 0;
+  for (size_t k = 0; k < walk.size(); ++k)
+    furthest = std::max(furthest, (t_pose[k] - walk[k]).norm());
+  EXPECT_GT(furthest, 0.1);
+}
+
 TEST(MocapTracker, RejectsBadInput) {
   ClipFiles s = make_files(make_synthetic_walk_clip(), "track_bad");
   auto expect_error = [&](const MocapRetargetParams& p, const std::string& xml,

@@ -11,6 +11,8 @@
 #include <gtest/gtest.h>
 
 #include "core/error.h"
+#include "motion/clip_conventions.h"
+#include "motion/reference_motion.h"
 #include "test_support.h"
 
 namespace stance {
@@ -208,6 +210,7 @@ TEST(BvhSharedFiles, CmuMixedOrdersAndLineEndings) {
   EXPECT_EQ(info["rotation_orders"]["RThumb"], "ZXY");
   EXPECT_EQ(info["units"], "cmu");
   EXPECT_EQ(info["up_axis"], "y");
+  EXPECT_EQ(info["first_motion_frame"], 0);
   EXPECT_NEAR(info["duration_s"].get<double>(), 994 * 0.0083333, 1e-12);
   std::string text = bvh_info_text(clip);
   EXPECT_NE(text.find("frames:      994"), std::string::npos) << text;
@@ -440,6 +443,44 @@ TEST(BvhUnits, DetectedFromLegLength) {
   EXPECT_NEAR(detect_bvh_scale_to_meters(parse_bvh(odd, "odd")), 0.15, 1e-15);
 }
 
+// cgspeed's CMU release puts a T-pose frame first: it is no part of the motion, wherever its
+// root stands; a clip's own fast steps (the run's flight, a 15 fps walk) are
+TEST(BvhFirstMotionFrame, LeadingRestFramesAreLeftOut) {
+  const BvhClip walk = make_synthetic_walk_clip();
+  const BvhClip run = make_synthetic_walk_clip(synthetic_run_options());
+  EXPECT_EQ(detect_bvh_first_motion_frame(walk), 0);
+  EXPECT_EQ(detect_bvh_first_motion_frame(run), 0);
+  for (int count : {1, 2}) {
+    SCOPED_TRACE(count);
+    for (const BvhClip* clip : {&walk, &run}) {
+      EXPECT_EQ(detect_bvh_first_motion_frame(
+                    test::with_leading_t_pose(*clip, count, clip->translation(0, 0))),
+                count);
+      EXPECT_EQ(detect_bvh_first_motion_frame(
+                    test::with_leading_t_pose(*clip, count, Eigen::Vector3d::Zero())),
+                count);
+    }
+  }
+  // every fourth frame of the walk: 15 fps, larger steps, still all motion
+  BvhClip slow = walk;
+  slow.frame_count = 0;
+  slow.rotations.clear();
+  slow.positions.clear();
+  for (int f = 0; f < walk.frame_count; f += 4, ++slow.frame_count) {
+    for (int j = 0; j < walk.joint_count(); ++j) slow.rotations.push_back(walk.rotation(f, j));
+    slow.positions.push_back(walk.translation(f, 0));
+  }
+  slow.frame_time_s = 4 * walk.frame_time_s;
+  EXPECT_EQ(detect_bvh_first_motion_frame(slow), 0);
+  EXPECT_EQ(bvh_info_json(
+                test::with_leading_t_pose(walk, 1, Eigen::Vector3d::Zero()))["first_motion_frame"],
+            1);
+  for (const char* name : {"mass_walk.bvh", "cmu_131_01.bvh"}) {
+    const std::string path = test::shared_bvh(name);
+    if (std::filesystem::exists(path)) EXPECT_EQ(detect_bvh_first_motion_frame(read_bvh(path)), 0);
+  }
+}
+
 TEST(BvhInfo, JsonKeysOnSyntheticClip) {
   nlohmann::json info = bvh_info_json(parse_bvh(synthetic_bvh("YXZ", kRows), "s.bvh"));
   EXPECT_EQ(info["frames"], 3);
@@ -451,6 +492,7 @@ TEST(BvhInfo, JsonKeysOnSyntheticClip) {
   EXPECT_EQ(info["rotation_orders"]["LeftLeg"], "YXZ");
   EXPECT_EQ(info["units"], "centimeters");
   EXPECT_EQ(info["up_axis"], "y");
+  EXPECT_EQ(info["first_motion_frame"], 0);
   EXPECT_NEAR(info["duration_s"].get<double>(), 0.0999999, 1e-15);
 }
 

@@ -4,7 +4,8 @@
 //    rotation in every frame;
 //  - other joint names (Bandai Namco's Foot_L, 3ds Max's "Bip01 L Foot", DAZ's lFoot);
 //  - a carrier ROOT above the old root, which gets position channels of its own (Bandai Namco's
-//    joint_Root on the floor above a floating Hips).
+//    joint_Root on the floor above a floating Hips);
+//  - leading T-pose frames (cgspeed's CMU release begins with one).
 #pragma once
 
 #include <map>
@@ -106,6 +107,29 @@ inline BvhClip with_carrier_root(const BvhClip& in, const std::string& name) {
     }
   }
   out.joints[1].offset = out.translation(0, 1);
+  return out;
+}
+
+// `count` T-pose frames put before the synthetic walk or run, its root at `root` (file units):
+// every rotation the identity but the upper arms', raised sideways from hanging down
+inline BvhClip with_leading_t_pose(const BvhClip& in, int count, const Eigen::Vector3d& root) {
+  BvhClip out = in;
+  const size_t nj = in.joints.size(), slots = in.position_joint_count;
+  out.frame_count = in.frame_count + count;
+  out.raw.resize(0, 0);
+  std::vector<Eigen::Quaterniond> t_pose(nj * count, Eigen::Quaterniond::Identity());
+  std::vector<Eigen::Vector3d> rest(slots * count);
+  for (int f = 0; f < count; ++f)
+    for (size_t j = 0; j < nj; ++j) {
+      const std::string& name = in.joints[j].name;
+      if (name == "LeftArm" || name == "RightArm")
+        t_pose[f * nj + j] = Eigen::AngleAxisd((name == "LeftArm" ? 1 : -1) * std::numbers::pi / 2,
+                                               Eigen::Vector3d::UnitZ());
+      if (in.joints[j].position_slot >= 0)
+        rest[f * slots + in.joints[j].position_slot] = j == 0 ? root : in.joints[j].offset;
+    }
+  out.rotations.insert(out.rotations.begin(), t_pose.begin(), t_pose.end());
+  out.positions.insert(out.positions.begin(), rest.begin(), rest.end());
   return out;
 }
 
