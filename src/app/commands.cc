@@ -2,6 +2,7 @@
 #include "app/guarded.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 
 #include <signal.h>
@@ -154,10 +155,29 @@ int convert_command(const std::string& in_path, const std::string& out_path) {
 int bvh_info_command(const std::string& path, bool json) {
   return guarded([&] {
     BvhClip clip = read_bvh(path);
-    if (json)
-      std::cout << bvh_info_json(clip).dump(2) << "\n";
-    else
+    // what the tracker makes of it: the root body (and the joints that carry it) and the legs
+    const MotionSkeleton sk = make_motion_skeleton(clip, {});
+    int hip[2], foot[2];
+    find_mocap_legs(sk, {"", "", "", ""}, hip, foot);
+    auto name = [&](int k) { return k >= 0 ? sk.segments[k].name : std::string("-"); };
+    std::vector<std::string> carriers;
+    for (size_t i = 0; i + 1 < sk.segments[0].rotation_chain.size(); ++i)
+      carriers.push_back(clip.joints[sk.segments[0].rotation_chain[i]].name);
+    if (json) {
+      nlohmann::json info = bvh_info_json(clip);
+      info["root_body"] = sk.segments[0].name;
+      info["root_carriers"] = carriers;
+      info["legs"] = {{"left", {{"thigh", name(hip[0])}, {"foot", name(foot[0])}}},
+                      {"right", {{"thigh", name(hip[1])}, {"foot", name(foot[1])}}}};
+      std::cout << info.dump(2) << "\n";
+    } else {
       std::cout << bvh_info_text(clip);
+      std::cout << fmt::format(
+          "root body:   {}{}\n", sk.segments[0].name,
+          carriers.empty() ? "" : fmt::format(" (carried by {})", fmt::join(carriers, ", ")));
+      std::cout << fmt::format("legs:        left {} .. {}, right {} .. {}\n", name(hip[0]),
+                               name(foot[0]), name(hip[1]), name(foot[1]));
+    }
     return kExitOk;
   });
 }

@@ -48,6 +48,14 @@ open(sys.argv[2], "w").write(head + "MOTION\nFrames: %d\n%s\n%s\n%s\n" % (
 PY
 "$stance" bvh info "$tmp/t_posed.bvh" >"$tmp/info" 2>&1 || fail "info on the T-posed clip"
 grep -q "motion from: frame 1" "$tmp/info" || fail "info: $(cat "$tmp/info")"
+grep -q "legs:        left LeftUpLeg .. LeftFoot, right RightUpLeg .. RightFoot" "$tmp/info" ||
+  fail "info's legs: $(cat "$tmp/info")"
+"$stance" bvh info --json "$tmp/t_posed.bvh" | python3 -c "
+import json, sys
+d = json.load(sys.stdin)
+assert d['first_motion_frame'] == 1 and d['root_body'] == 'Hips' and d['root_carriers'] == [], d
+assert d['legs']['right'] == {'thigh': 'RightUpLeg', 'foot': 'RightFoot'}, d['legs']" ||
+  fail "info --json on the T-posed clip"
 "$stance" bvh track "$tmp/t_posed.bvh" --duration 0.05 --threads 2 --out "$tmp/tp" \
   --set planner.samples=4 --set planner.horizon_s=0.1 --quiet >"$tmp/out" 2>&1 ||
   fail "track of the T-posed clip exited $?: $(cat "$tmp/out")"
