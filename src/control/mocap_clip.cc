@@ -263,16 +263,11 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
     }
     // the root's translation: what is left after its carriers' (which keep the clip's values)
     const BvhJoint& root = src.joints[sk.segments[0].bvh_joint];
-    Eigen::Vector3d carried = Eigen::Vector3d::Zero();
-    Eigen::Quaterniond carrier = Eigen::Quaterniond::Identity();
-    for (size_t i = 0; i + 1 < sk.segments[0].rotation_chain.size(); ++i) {
-      const int j = sk.segments[0].rotation_chain[i];
-      carried += carrier * src.translation(sf, j);
-      carrier = carrier * src.rotation(sf, j);
-    }
+    const RootCarriers carriers = root_carriers(src, sk, sf);
     if (root.position_slot >= 0)
       out.positions[static_cast<size_t>(f) * src.position_joint_count + root.position_slot] =
-          carrier.conjugate() * ((wt * roots[f]) / sk.scale_to_meters - carried);
+          carriers.rotation.conjugate() *
+          ((wt * roots[f]) / sk.scale_to_meters - carriers.translation);
   }
   return out;
 }

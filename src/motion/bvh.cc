@@ -596,10 +596,26 @@ struct UnitGuess {
   std::string units;
 };
 
-// the lowest drop of a leaf (end site or childless joint) below the body's root along -y and
-// -z, in the first frame's pose or at rest. The body's root is the ROOT, or, below a ROOT that
-// only carries one child with position channels of its own (Bandai Namco's joint_Root on the
-// floor), that child (make_motion_skeleton's carriers).
+}  // namespace
+
+int bvh_body_root(const BvhClip& clip) {
+  int body_root = 0;
+  for (;;) {
+    int children = 0, child = -1;
+    for (int j = body_root + 1; j < clip.joint_count(); ++j)
+      if (clip.joints[j].parent == body_root) {
+        ++children;
+        child = j;
+      }
+    if (children != 1 || !clip.joints[child].has_position) return body_root;
+    body_root = child;
+  }
+}
+
+namespace {
+
+// the lowest drop of a leaf (end site or childless joint) below the body's root
+// (bvh_body_root) along -y and -z, in the first frame's pose or at rest
 Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
   const size_t n = clip.joints.size();
   std::vector<Eigen::Vector3d> pos(n, Eigen::Vector3d::Zero());
@@ -622,18 +638,7 @@ Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
       rot[j] = rot[p] * local;
     }
   }
-  size_t body_root = 0;
-  for (;;) {
-    int children = 0;
-    size_t child = 0;
-    for (size_t j = body_root + 1; j < n; ++j)
-      if (clip.joints[j].parent == static_cast<int>(body_root)) {
-        ++children;
-        child = j;
-      }
-    if (children != 1 || !clip.joints[child].has_position) break;
-    body_root = child;
-  }
+  const size_t body_root = static_cast<size_t>(bvh_body_root(clip));
   for (size_t j = 0; j < n; ++j) {
     if (!in_first_tree[j]) continue;
     const BvhJoint& joint = clip.joints[j];

@@ -100,6 +100,12 @@ std::string format_bvh(const BvhClip& clip);
 // writes format_bvh(clip) to path (atomically, streamed); throws InputError when it cannot
 void write_bvh(const BvhClip& clip, const std::string& path);
 
+// the joint the body hangs from: the ROOT, or, below a ROOT that only carries one child with
+// position channels of its own (Bandai Namco's static joint_Root on the floor above a floating
+// Hips), that child (repeatedly). Units and up axis are measured below it, and
+// make_motion_skeleton makes it the root segment.
+int bvh_body_root(const BvhClip& clip);
+
 // meters per file unit, detected from the leg length: the rest-pose drop from the root to the
 // lowest end site along the up axis (Y, or Z when that drop is larger). Snaps to metres,
 // centimetres, millimetres, inches, feet or CMU units (0.056444 m) when one of them gives a

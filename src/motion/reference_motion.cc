@@ -187,15 +187,20 @@ Eigen::Quaterniond yaw_of(const Eigen::Quaterniond& q) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(yaw, Eigen::Vector3d::UnitZ()));
 }
 
+RootCarriers root_carriers(const BvhClip& clip, const MotionSkeleton& skeleton, int frame) {
+  RootCarriers out;
+  const std::vector<int>& chain = skeleton.segments[0].rotation_chain;
+  for (size_t i = 0; i + 1 < chain.size(); ++i) {
+    out.translation += out.rotation * clip.translation(frame, chain[i]);
+    out.rotation = out.rotation * clip.rotation(frame, chain[i]);
+  }
+  return out;
+}
+
 Eigen::Vector3d root_chain_translation(const BvhClip& clip, const MotionSkeleton& skeleton,
                                        int frame) {
-  Eigen::Vector3d p = Eigen::Vector3d::Zero();
-  Eigen::Quaterniond r = Eigen::Quaterniond::Identity();
-  for (int j : skeleton.segments[0].rotation_chain) {
-    p += r * clip.translation(frame, j);
-    r = r * clip.rotation(frame, j);
-  }
-  return p;
+  const RootCarriers c = root_carriers(clip, skeleton, frame);
+  return c.translation + c.rotation * clip.translation(frame, skeleton.segments[0].bvh_joint);
 }
 
 MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOptions& options) {
@@ -243,17 +248,11 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
     if (jt.parent >= 0 && kept_children[j] == 0 && !end_site_kept(jt)) role[j] = Role::kEndPoint;
     if (jt.parent >= 0) ++kept_children[jt.parent];
   }
-  // carriers: a ROOT whose one child has position channels of its own (Bandai Namco's static
-  // joint_Root above a floating Hips) only carries that child, which becomes the root segment
-  int body_root = 0;
-  while (kept_children[body_root] == 1) {
-    int child = -1;
-    for (int j = body_root + 1; j < n; ++j)
-      if (clip.joints[j].parent == body_root && role[j] != Role::kSkipped) child = j;
-    if (child < 0 || role[child] != Role::kSegment || !clip.joints[child].has_position) break;
-    role[body_root] = Role::kCarrier;
-    body_root = child;
-  }
+  // carriers: the joints above bvh_body_root, which becomes the root segment
+  int body_root = bvh_body_root(clip);
+  if (role[body_root] != Role::kSegment) body_root = 0;
+  for (int c = clip.joints[body_root].parent; c >= 0; c = clip.joints[c].parent)
+    role[c] = Role::kCarrier;
   for (int j = 1; j < n; ++j) {
     const BvhJoint& jt = clip.joints[j];
     if (role[j] == Role::kSegment && j != body_root && jt.offset.norm() * s < options.zero_length_m)

@@ -81,8 +81,16 @@ struct MotionSkeleton {
 // throws InputError when the clip has no joints or its root is skipped
 MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOptions& options);
 
-// the root segment's position in the file's frame and units at `frame`: the translations and
-// rotations of its rotation chain composed, so that carriers above a floating root move it
+// the pose of the joints that carry the root segment (its rotation chain but its own joint) at
+// `frame`, composed: file frame and units; the identity when nothing carries it
+struct RootCarriers {
+  Eigen::Vector3d translation = Eigen::Vector3d::Zero();
+  Eigen::Quaterniond rotation = Eigen::Quaterniond::Identity();
+};
+RootCarriers root_carriers(const BvhClip& clip, const MotionSkeleton& skeleton, int frame);
+
+// the root segment's position in the file's frame and units at `frame`: its own translation
+// moved by its carriers
 Eigen::Vector3d root_chain_translation(const BvhClip& clip, const MotionSkeleton& skeleton,
                                        int frame);
 

@@ -49,13 +49,18 @@ struct Legs {
   std::string hip[2], foot[2];
 };
 
-// the legs found in a one-frame file of a hierarchy (every channel 0 but the root's height)
-Legs legs_of(const std::string& hierarchy, int channels) {
+// the skeleton of a one-frame file of a hierarchy (every channel 0 but the root's height)
+MotionSkeleton skeleton_of(const std::string& hierarchy, int channels) {
   std::string row;
   for (int c = 0; c < channels; ++c) row += c == 1 ? "100 " : "0 ";
-  BvhClip clip = parse_bvh(
-      "HIERARCHY\n" + hierarchy + "MOTION\nFrames: 1\nFrame Time: 0.01\n" + row + "\n", "legs.bvh");
-  MotionSkeleton sk = make_motion_skeleton(clip, {});
+  return make_motion_skeleton(
+      parse_bvh("HIERARCHY\n" + hierarchy + "MOTION\nFrames: 1\nFrame Time: 0.01\n" + row + "\n",
+                "legs.bvh"),
+      {});
+}
+
+Legs legs_of(const std::string& hierarchy, int channels) {
+  const MotionSkeleton sk = skeleton_of(hierarchy, channels);
   int hip[2], foot[2];
   find_mocap_legs(sk, {"", "", "", ""}, hip, foot);
   Legs out;
@@ -128,11 +133,7 @@ TEST(MocapLegs, NamesGivenOverrideAndUnknownOnesAreNamed) {
                   leg("LeftUpLeg", "LeftLeg", "LeftFoot", "LeftToe", 9) +
                   leg("RightUpLeg", "RightLeg", "RightFoot", "RightToe", -9) +
                   upper_body("Spine", "Head") + "}\n";
-  std::string row;
-  for (int c = 0; c < 6 + 3 * 10; ++c) row += c == 1 ? "100 " : "0 ";
-  BvhClip clip = parse_bvh("HIERARCHY\n" + h + "MOTION\nFrames: 1\nFrame Time: 0.01\n" + row + "\n",
-                           "legs.bvh");
-  MotionSkeleton sk = make_motion_skeleton(clip, {});
+  const MotionSkeleton sk = skeleton_of(h, 6 + 3 * 10);
   int hip[2], foot[2];
   find_mocap_legs(sk, {"", "", "LeftToe", ""}, hip, foot);
   EXPECT_EQ(sk.segments[foot[0]].name, "LeftToe");
