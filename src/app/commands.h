@@ -52,7 +52,9 @@ int info_command(const InfoCommand& cmd);
 
 int convert_command(const std::string& in_path, const std::string& out_path);
 
-// `stance bvh info FILE [--json]`
+// `stance bvh info FILE [--json]`: bvh_info_text/json, and what the tracker makes of the file:
+// the root body and the joints that carry it, and the legs (JSON: root_body, root_carriers,
+// legs {left, right: {thigh, foot}})
 int bvh_info_command(const std::string& path, bool json);
 
 // `stance bvh2mjcf IN.bvh OUT.xml [--mass KG] [--first-frame N] [--timestep S]`: a character
