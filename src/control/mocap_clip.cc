@@ -149,12 +149,13 @@ void find_mocap_legs(const MotionSkeleton& sk, const std::array<std::string, 4>&
   std::vector<Eigen::Vector3d> rest(n, Eigen::Vector3d::Zero());
   for (int k = 1; k < n; ++k) rest[k] = rest[sk.segments[k].parent] + sk.segments[k].offset;
   // the topmost foot segment of each chain; of more than two, the two lowest at rest
+  const std::vector<bool> foot_like = foot_segments(sk);
   std::vector<int> feet;
   for (int k = 1; k < n; ++k) {
-    if (!is_foot_segment_name(sk.segments[k].name)) continue;
+    if (!foot_like[k]) continue;
     bool top = true;
     for (int a = sk.segments[k].parent; a > 0; a = sk.segments[a].parent)
-      if (is_foot_segment_name(sk.segments[a].name)) top = false;
+      if (foot_like[a]) top = false;
     if (top) feet.push_back(k);
   }
   std::stable_sort(feet.begin(), feet.end(),

@@ -72,19 +72,46 @@ bool is_foot_segment_name(const std::string& name) {
          lower.find("ankle") != std::string::npos;
 }
 
+std::vector<bool> foot_segments(const MotionSkeleton& sk) {
+  const int n = sk.segment_count();
+  std::vector<bool> named(n, false);
+  int named_tops = 0;
+  for (int k = 1; k < n; ++k) {
+    named[k] = is_foot_segment_name(sk.segments[k].name);
+    named_tops += named[k] && !named[sk.segments[k].parent];
+  }
+  if (named_tops >= 2) return named;
+  // the names do not tell: a foot is what stands lowest. The ankle of a standing skeleton sits
+  // below a tenth of the root's height, the knee near half of it.
+  std::vector<Eigen::Vector3d> rest(n, Eigen::Vector3d::Zero());
+  double lowest = 0;
+  for (int k = 0; k < n; ++k) {
+    if (k > 0) rest[k] = rest[sk.segments[k].parent] + sk.segments[k].offset;
+    lowest = std::min(lowest, rest[k].z());
+    for (const Eigen::Vector3d& e : sk.segments[k].bone_ends)
+      lowest = std::min(lowest, rest[k].z() + e.z());
+  }
+  const double height = rest[0].z() - lowest;
+  if (!(height > 0)) return named;
+  std::vector<bool> low(n, false);
+  for (int k = 1; k < n; ++k) low[k] = rest[k].z() - lowest <= 0.25 * height;
+  return low;
+}
+
 BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& o) {
   if (!(o.total_mass_kg > 0)) throw InputError("--mass must be > 0");
   BvhCharacter ch;
   ch.skeleton = make_motion_skeleton(clip, o.skeleton);
   const MotionSkeleton& sk = ch.skeleton;
   const int n = sk.segment_count();
+  const std::vector<bool> feet = foot_segments(sk);
 
   // geometry per segment, then one density for the total mass
   std::vector<std::vector<Geom>> geoms(n);
   bool any_bone = false;
   for (int k = 0; k < n; ++k) {
     const MotionSegment& seg = sk.segments[k];
-    if (is_foot_segment_name(seg.name) && !seg.bone_ends.empty()) {
+    if (feet[k] && !seg.bone_ends.empty()) {
       geoms[k].push_back(foot_box(seg, o));
       any_bone = true;
       continue;
@@ -98,7 +125,7 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
       // a shin ends one radius short of the ankle: its round end must not reach below the foot's
       // sole, or the character stands on two balls and no ankle torque can balance it
       for (int c : seg.children)
-        if (is_foot_segment_name(sk.segments[c].name) && (sk.segments[c].offset - e).norm() < 1e-9)
+        if (feet[c] && (sk.segments[c].offset - e).norm() < 1e-9)
           g.to = e * std::max(0.0, 1 - g.radius / len);
       geoms[k].push_back(g);
       any_bone = true;

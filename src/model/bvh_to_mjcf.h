@@ -11,6 +11,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
@@ -41,8 +42,13 @@ struct BvhCharacter {
 // the character of a clip; throws InputError for clips without bones
 BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& options);
 
-// true for segment names that get a foot box (foot, toe, ankle; case-insensitive)
+// true for segment names of a foot (foot, toe, ankle; case-insensitive)
 bool is_foot_segment_name(const std::string& name);
+
+// per segment: a foot or a toe (they get a foot box, and the tracker finds the legs by them).
+// By name; where the names mark fewer than two feet, the segments whose joints sit in the lowest
+// quarter of the skeleton's height at rest.
+std::vector<bool> foot_segments(const MotionSkeleton& skeleton);
 
 // reads a BVH file and writes the character's MJCF; throws InputError on bad input
 void write_bvh_character(const std::string& bvh_path, const std::string& mjcf_path,

@@ -7,6 +7,7 @@
 
 #include "control/mocap_clip.h"
 #include "core/error.h"
+#include "model/bvh_to_mjcf.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
 
@@ -49,14 +50,16 @@ struct Legs {
   std::string hip[2], foot[2];
 };
 
-// the skeleton of a one-frame file of a hierarchy (every channel 0 but the root's height)
-MotionSkeleton skeleton_of(const std::string& hierarchy, int channels) {
+// a one-frame file of a hierarchy (every channel 0 but the root's height)
+BvhClip clip_of(const std::string& hierarchy, int channels) {
   std::string row;
   for (int c = 0; c < channels; ++c) row += c == 1 ? "100 " : "0 ";
-  return make_motion_skeleton(
-      parse_bvh("HIERARCHY\n" + hierarchy + "MOTION\nFrames: 1\nFrame Time: 0.01\n" + row + "\n",
-                "legs.bvh"),
-      {});
+  return parse_bvh("HIERARCHY\n" + hierarchy + "MOTION\nFrames: 1\nFrame Time: 0.01\n" + row + "\n",
+                   "legs.bvh");
+}
+
+MotionSkeleton skeleton_of(const std::string& hierarchy, int channels) {
+  return make_motion_skeleton(clip_of(hierarchy, channels), {});
 }
 
 Legs legs_of(const std::string& hierarchy, int channels) {
@@ -126,6 +129,46 @@ TEST(MocapLegs, WithoutSidesInTheNamesTheToesTell) {
                       : Legs{{"Thigh2", "Thigh1"}, {"Foot2", "Foot1"}};
     expect_legs(legs_of(h, 6 + 3 * 10), want);
   }
+}
+
+// nothing named foot, toe or ankle: the feet are what stands lowest, for the legs and the soles
+TEST(MocapLegs, FeetNamedNoFootAreFoundByHeight) {
+  for (bool sides : {true, false}) {
+    SCOPED_TRACE(sides);
+    const std::string l = sides ? "l_" : "", r = sides ? "r_" : "", one = sides ? "" : "1",
+                      two = sides ? "" : "2";
+    std::string h =
+        std::string("ROOT Pelvis\n{\nOFFSET 0 0 0\n") + kRoot6 +
+        leg(l + "thigh" + one, l + "shin" + one, l + "pes" + one, l + "digits" + one, 9) +
+        leg(r + "thigh" + two, r + "shin" + two, r + "pes" + two, r + "digits" + two, -9) +
+        upper_body("Spine", "Head") + "}\n";
+    expect_legs(legs_of(h, 6 + 3 * 10),
+                {{l + "thigh" + one, r + "thigh" + two}, {l + "pes" + one, r + "pes" + two}});
+    const MotionSkeleton sk = skeleton_of(h, 6 + 3 * 10);
+    const std::vector<bool> feet = foot_segments(sk);
+    for (int k = 0; k < sk.segment_count(); ++k) {
+      const std::string& name = sk.segments[k].name;
+      const bool want =
+          name.find("pes") != std::string::npos || name.find("digits") != std::string::npos;
+      EXPECT_EQ(feet[k], want) << name;
+    }
+  }
+  // the soles: as many foot boxes as the same skeleton with foot names gets
+  auto boxes = [](const std::string& foot, const std::string& toe) {
+    std::string h = std::string("ROOT Pelvis\n{\nOFFSET 0 0 0\n") + kRoot6 +
+                    leg("l_thigh", "l_shin", "l_" + foot, "l_" + toe, 9) +
+                    leg("r_thigh", "r_shin", "r_" + foot, "r_" + toe, -9) +
+                    upper_body("Spine", "Head") + "}\n";
+    const BvhClip clip = clip_of(h, 6 + 3 * 10);
+    const std::string mjcf = make_bvh_character(clip, {}).mjcf;
+    int n = 0;
+    for (size_t at = mjcf.find("type=\"box\""); at != std::string::npos;
+         at = mjcf.find("type=\"box\"", at + 1))
+      ++n;
+    return n;
+  };
+  EXPECT_EQ(boxes("pes", "digits"), boxes("foot", "toe"));
+  EXPECT_GE(boxes("pes", "digits"), 2);
 }
 
 TEST(MocapLegs, NamesGivenOverrideAndUnknownOnesAreNamed) {
