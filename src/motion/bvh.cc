@@ -598,6 +598,14 @@ struct UnitGuess {
 
 }  // namespace
 
+Eigen::Vector3d bvh_rest_translation(const BvhClip& clip, int joint) {
+  const BvhJoint& j = clip.joints[joint];
+  if (j.position_slot < 0 || clip.frame_count == 0) return j.offset;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (int f = 0; f < clip.frame_count; ++f) sum += clip.translation(f, joint);
+  return sum / clip.frame_count;
+}
+
 int bvh_body_root(const BvhClip& clip) {
   int body_root = 0;
   for (;;) {
@@ -634,7 +642,9 @@ Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
     } else {
       in_first_tree[j] = in_first_tree[p];
       has_child[p] = true;
-      pos[j] = pos[p] + rot[p] * joint.offset;
+      const int ji = static_cast<int>(j);
+      pos[j] = pos[p] + rot[p] * (posed && clip.frame_count > 0 ? clip.translation(0, ji)
+                                                                : bvh_rest_translation(clip, ji));
       rot[j] = rot[p] * local;
     }
   }

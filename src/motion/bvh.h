@@ -100,6 +100,11 @@ std::string format_bvh(const BvhClip& clip);
 // writes format_bvh(clip) to path (atomically, streamed); throws InputError when it cannot
 void write_bvh(const BvhClip& clip, const std::string& path);
 
+// a joint's translation from its parent at rest: its OFFSET, or for a joint with position
+// channels (they replace the OFFSET), their mean over the frames. Exporters that key every
+// joint's position mostly repeat the OFFSET there, but not all do.
+Eigen::Vector3d bvh_rest_translation(const BvhClip& clip, int joint);
+
 // the joint the body hangs from: the ROOT, or, below a ROOT that only carries one child with
 // position channels of its own (Bandai Namco's static joint_Root on the floor above a floating
 // Hips), that child (repeatedly). Units and up axis are measured below it, and

@@ -254,8 +254,8 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   for (int c = clip.joints[body_root].parent; c >= 0; c = clip.joints[c].parent)
     role[c] = Role::kCarrier;
   for (int j = 1; j < n; ++j) {
-    const BvhJoint& jt = clip.joints[j];
-    if (role[j] == Role::kSegment && j != body_root && jt.offset.norm() * s < options.zero_length_m)
+    if (role[j] == Role::kSegment && j != body_root &&
+        bvh_rest_translation(clip, j).norm() * s < options.zero_length_m)
       role[j] = Role::kMerged;
   }
 
@@ -268,7 +268,7 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   for (int j = 0; j < n; ++j) {
     const BvhJoint& jt = clip.joints[j];
     if (role[j] == Role::kSkipped || role[j] == Role::kCarrier) continue;
-    Eigen::Vector3d offset = jt.offset;
+    Eigen::Vector3d offset = bvh_rest_translation(clip, j);
     const bool below_merged = jt.parent >= 0 && role[jt.parent] == Role::kMerged;
     if (below_merged) offset += pending_offset[jt.parent];
     int parent_segment = jt.parent >= 0 ? owner[jt.parent] : -1;

@@ -110,6 +110,32 @@ inline BvhClip with_carrier_root(const BvhClip& in, const std::string& name) {
   return out;
 }
 
+// every joint keyed with position channels that carry its bone, and the hierarchy's OFFSETs
+// scaled by `offset_scale` (0: all zero), as exporters that key every joint may write them
+inline BvhClip with_bones_in_position_channels(const BvhClip& in, double offset_scale) {
+  BvhClip out = in;
+  int column = 0, slots = 0;
+  for (BvhJoint& joint : out.joints) {
+    if (!joint.has_position) {
+      joint.channels.insert(joint.channels.begin(), {BvhChannel::kXposition, BvhChannel::kYposition,
+                                                     BvhChannel::kZposition});
+      joint.has_position = true;
+    }
+    joint.first_column = column;
+    column += static_cast<int>(joint.channels.size());
+    joint.position_slot = slots++;
+  }
+  out.channel_count = column;
+  out.position_joint_count = slots;
+  out.raw.resize(0, 0);
+  out.positions.assign(static_cast<size_t>(slots) * in.frame_count, Eigen::Vector3d::Zero());
+  for (int f = 0; f < in.frame_count; ++f)
+    for (size_t j = 0; j < out.joints.size(); ++j)
+      out.positions[static_cast<size_t>(f) * slots + j] = in.translation(f, static_cast<int>(j));
+  for (size_t j = 1; j < out.joints.size(); ++j) out.joints[j].offset *= offset_scale;
+  return out;
+}
+
 // `count` T-pose frames put before the synthetic walk or run, its root at `root` (file units):
 // every rotation the identity but the upper arms', raised sideways from hanging down
 inline BvhClip with_leading_t_pose(const BvhClip& in, int count, const Eigen::Vector3d& root) {

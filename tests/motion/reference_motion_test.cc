@@ -126,6 +126,37 @@ TEST(ReferenceMotion, ACarriedRootReadsAsItsPlainTwin) {
   }
 }
 
+// position channels on every joint replace the OFFSETs (BVH's rule): files whose OFFSETs are
+// zero, or differ from the keyed bones, read as the plain file
+TEST(ReferenceMotion, KeyedBonesReplaceTheOffsets) {
+  const BvhClip plain = make_synthetic_walk_clip();
+  const MotionSkeleton sk_plain = make_motion_skeleton(plain, {});
+  ReferenceMotion want(plain, sk_plain, {});
+  for (double offset_scale : {1.0, 0.0, 0.5}) {
+    SCOPED_TRACE(offset_scale);
+    const BvhClip keyed = parse_bvh(
+        format_bvh(test::with_bones_in_position_channels(plain, offset_scale)), "keyed.bvh");
+    ASSERT_EQ(keyed.position_joint_count, keyed.joint_count());
+    EXPECT_EQ(detect_bvh_up_axis(keyed), 'y');
+    EXPECT_EQ(detect_bvh_scale_to_meters(keyed), detect_bvh_scale_to_meters(plain));
+    const MotionSkeleton sk = make_motion_skeleton(keyed, {});
+    ASSERT_EQ(sk.segment_count(), sk_plain.segment_count());
+    for (int k = 0; k < sk.segment_count(); ++k)
+      EXPECT_LT((sk.segments[k].offset - sk_plain.segments[k].offset).norm(), 1e-9) << k;
+    ReferenceMotion got(keyed, sk, {});
+    ReferencePose a = want.make_pose(), b = got.make_pose();
+    std::vector<Eigen::Vector3d> pa, pb;
+    std::vector<Eigen::Quaterniond> oa, ob;
+    for (double t : {0.0, 0.37, 1.0}) {
+      want.sample(t, a);
+      got.sample(t, b);
+      want.forward_kinematics(a, pa, oa);
+      got.forward_kinematics(b, pb, ob);
+      for (size_t k = 0; k < pa.size(); ++k) EXPECT_LT((pa[k] - pb[k]).norm(), 1e-8) << k;
+    }
+  }
+}
+
 TEST(ReferenceMotion, SlerpBetweenFramesAndVelocityIsItsDerivative) {
   ReferenceMotion ref = synthetic_reference();
   ReferencePose a = ref.make_pose(), b = ref.make_pose(), mid = ref.make_pose();
