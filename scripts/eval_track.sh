@@ -8,11 +8,15 @@
 #   EVAL_SET="--set controllers.0.root_force_kd=100" scripts/eval_track.sh
 # which adds those --set arguments to every run, writes to out/eval_track_candidate and leaves
 # the docs alone (a candidate's table is not the shipped defaults' table).
+# EVAL_ONLY="synthetic_run mass_walk/kp0.8" reruns only those clips (or clip/setting rows); the
+# other rows are read from their folders of an earlier run, for a change known not to touch
+# them (one that acts only above a body error those rows never reached).
 set -euo pipefail
 BUILD=${1:-build}
 ONLY_SECONDS=${2:-}
 STANCE=$BUILD/stance
 EVAL_SET=${EVAL_SET:-}
+EVAL_ONLY=${EVAL_ONLY:-}
 OUT=out/eval_track
 [ -n "$EVAL_SET" ] && OUT=out/eval_track_candidate
 SHARED=${STANCE_SHARED:-../shared}
@@ -75,6 +79,11 @@ for entry in "${clips[@]}"; do
   for s in "${settings[@]}"; do
     IFS='|' read -r sname sargs <<< "$s"
     dir="$OUT/$name/$sname"
+    if [ -n "$EVAL_ONLY" ] && ! [[ " $EVAL_ONLY " == *" $name "* || " $EVAL_ONLY " == *" $name/$sname "* ]]; then
+      echo "eval-track: $name $sname: kept from the earlier run" >&2
+      if [ -f "$dir/summary.json" ]; then row "$name" "$sname" "$dir" >> "$table"; fi
+      continue
+    fi
     echo "eval-track: $name $sname" >&2
     # shellcheck disable=SC2086
     "$STANCE" bvh track "$bvh" --out "$dir" "${dur[@]}" --threads "$THREADS" --quiet $extra $sargs \

@@ -35,6 +35,23 @@ Eigen::Vector3d support_center(const PlannerModel& m, const Engine& e) {
   return sum / static_cast<double>(m.support_bodies.size());
 }
 
+// the controllers' tracking errors, summed; false when none tracks a reference
+bool tracking_error(const Simulation& sim, TrackingError& total) {
+  total = TrackingError{};
+  bool tracked = false;
+  TrackingError one;
+  for (size_t i = 0; i < sim.controllers().size(); ++i) {
+    one = TrackingError{};
+    if (!sim.controllers()[i]->tracking_error(sim.controller_state(i), sim.engine(), one)) continue;
+    tracked = true;
+    total.joint_rad += one.joint_rad;
+    total.root_m += one.root_m;
+    total.body_m += one.body_m;
+    total.root_tilt_rad += one.root_tilt_rad;
+  }
+  return tracked;
+}
+
 }  // namespace
 
 // ---- the plan
@@ -283,17 +300,8 @@ double Planner::rollout(Simulation& sim, Candidate& c) const {
     if (t + 1e-9 < next_cost) continue;
     next_cost += p.cost_interval_s;
     const Engine& e = sim.engine();
-    TrackingError total, one;
-    bool tracked = false;
-    for (size_t i = 0; i < sim.controllers_.size(); ++i) {
-      one = TrackingError{};
-      if (!sim.controllers_[i]->tracking_error(*sim.states_[i], e, one)) continue;
-      tracked = true;
-      total.joint_rad += one.joint_rad;
-      total.root_m += one.root_m;
-      total.body_m += one.body_m;
-      total.root_tilt_rad += one.root_tilt_rad;
-    }
+    TrackingError total;
+    const bool tracked = tracking_error(sim, total);
     double cost;
     if (tracked) {
       cost = w.joint * total.joint_rad * total.joint_rad + w.root * total.root_m * total.root_m +
@@ -367,7 +375,9 @@ void Planner::plan(Simulation& sim) {
   best_ = nominal_;
   double best_cost = std::numeric_limits<double>::infinity();
   int best_round = -1, best_index = -1;
-  for (int round = 0; round < rounds; ++round) {
+  // one round: candidate 0 is the plan so far (rolled out again only in round 0), the others
+  // are drawn around mean_ with deviation_
+  auto run_round = [&](int round) {
     for (int i = 0; i < k; ++i) {
       Eigen::MatrixXd& knots = candidates_[i].knots;
       if (i == 0)
@@ -377,12 +387,14 @@ void Planner::plan(Simulation& sim) {
       else
         draw(mean_, deviation_, plan.plans, round, i, knots);
     }
-    pool_->run(k, [&](int worker, int i) {
-      candidates_[i].cost = rollout(*workers_[worker], candidates_[i]);
+    const int first = round == 0 ? 0 : 1;  // best_'s cost is known after round 0
+    pool_->run(k - first, [&](int worker, int task) {
+      Candidate& c = candidates_[first + task];
+      c.cost = rollout(*workers_[worker], c);
     });
-    for (int i = 0; i < k; ++i) rollout_steps_ += candidates_[i].steps;
+    for (int i = first; i < k; ++i) rollout_steps_ += candidates_[i].steps;
     // the cheapest, the lower index on a tie: the same for any thread count
-    for (int i = 0; i < k; ++i)
+    for (int i = first; i < k; ++i)
       if (candidates_[i].cost < best_cost) {
         best_cost = candidates_[i].cost;
         best_ = candidates_[i].knots;
@@ -390,6 +402,9 @@ void Planner::plan(Simulation& sim) {
         best_index = i;
         best_path_.assign(candidates_[i].path.begin(), candidates_[i].path.end());
       }
+  };
+  for (int round = 0; round < rounds; ++round) {
+    run_round(round);
     if (round + 1 == rounds) break;
     // cem: refit the mean and deviation to the elites
     std::iota(order_.begin(), order_.end(), 0);
@@ -403,6 +418,18 @@ void Planner::plan(Simulation& sim) {
     for (int e = 0; e < elites; ++e)
       deviation_ += (candidates_[order_[e]].knots - mean_).cwiseAbs2();
     deviation_ = (deviation_ / elites).cwiseSqrt().cwiseMax(0.1 * p.noise);
+  }
+  TrackingError now_error;
+  // in trouble (the reference slipping away), more rounds around the best: the budget goes
+  // where a miss would cost the run, not to every step of a walk that is going well
+  if (p.rescue_rounds > 0 && p.rescue_error_m > 0 && tracking_error(sim, now_error) &&
+      now_error.body_m >= p.rescue_error_m) {
+    ++plan.rescues;
+    for (int r = 0; r < p.rescue_rounds; ++r) {
+      mean_ = best_;
+      deviation_.setConstant(dims, n, p.noise);
+      run_round(rounds + r);
+    }
   }
   plan.knots = best_;
   ++plan.plans;

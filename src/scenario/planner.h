@@ -46,13 +46,14 @@ struct CorrectionPlan {
   long plans = 0;         // planning steps so far: the noise streams' index
   double cost_sum = 0;    // the chosen candidates' costs, summed (a metric)
   long kept_nominal = 0;  // planning steps whose choice was the shifted plan or no correction
+  long rescues = 0;       // planning steps that ran rescue rounds
 
   // the correction at time t in plan units (dim knots.rows()); beyond the last knot it holds
   void evaluate(double t, Eigen::Ref<Eigen::VectorXd> out) const;
 
   template <class A>
   void serialize(A& a) {
-    a(knots), a(t0), a(knot_dt), a(next_plan), a(plans), a(cost_sum), a(kept_nominal);
+    a(knots), a(t0), a(knot_dt), a(next_plan), a(plans), a(cost_sum), a(kept_nominal), a(rescues);
   }
 };
 

@@ -766,6 +766,7 @@ RunResult Simulation::result() const {
     pm["dimensions"] = model_->planner->dimensions.size();
     pm["mean_cost"] = plan.plans ? plan.cost_sum / plan.plans : 0.0;
     pm["kept_nominal_share"] = plan.plans ? double(plan.kept_nominal) / plan.plans : 0.0;
+    pm["rescues"] = plan.rescues;
   }
   return r;
 }

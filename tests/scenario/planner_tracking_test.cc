@@ -141,13 +141,44 @@ TEST(PlannerTracking, TheSameWalkFallsWithoutThePlanner) {
 
 TEST(PlannerTracking, SamePlanForAnyThreadCount) {
   const std::string s = track_scenario(synthetic_walk(), "track_walk_threads");
+  // with rescue rounds at every planning step but the first (no error yet at t = 0)
   auto run = [&](int threads) {
-    RunResult r = track(s, {"duration=0.3", "planner.threads=" + std::to_string(threads)});
-    return without_wall_clock(r.metrics).dump();
+    RunResult r = track(s, {"duration=0.3", "planner.rescue_error_m=0.001",
+                            "planner.threads=" + std::to_string(threads)});
+    return without_wall_clock(r.metrics);
   };
-  const std::string one = run(1);
-  EXPECT_EQ(run(2), one);
-  EXPECT_EQ(run(3), one);
+  const nlohmann::json one = run(1);
+  EXPECT_EQ(run(2).dump(), one.dump());
+  EXPECT_EQ(run(3).dump(), one.dump());
+  EXPECT_EQ(one["planner"]["rescues"].get<long>(), one["planner"]["plans"].get<long>() - 1);
+}
+
+// rescue rounds add candidates around the best: the plan they choose costs no more than the
+// plan chosen without them, from the same state
+TEST(PlannerTracking, RescueRoundsOnlyLowerTheChosenCost) {
+  const std::string s = track_scenario(synthetic_walk(), "track_walk_rescue");
+  RunOptions quiet;
+  quiet.quiet = true;
+  Simulation off(load_scenario(s, {"planner.threads=2", "planner.rescue_error_m=0"}), quiet);
+  Simulation on(load_scenario(s, {"planner.threads=2", "planner.rescue_error_m=0.001"}), quiet);
+  while (off.time() < 0.5) ASSERT_TRUE(off.step());
+  SimulationState state;
+  off.save(state);
+  on.restore(state);
+  for (int k = 0; k < 3; ++k) {
+    SCOPED_TRACE(k);
+    const CorrectionPlan& a = off.progress().plan;
+    const CorrectionPlan& b = on.progress().plan;
+    const long plans = a.plans, rescues = b.rescues;
+    const double before_a = a.cost_sum, before_b = b.cost_sum;
+    while (off.progress().plan.plans == plans) ASSERT_TRUE(off.step());
+    while (on.progress().plan.plans == plans) ASSERT_TRUE(on.step());
+    EXPECT_EQ(b.rescues, rescues + 1);
+    EXPECT_EQ(a.rescues, 0);
+    EXPECT_LE(b.cost_sum - before_b, a.cost_sum - before_a + 1e-12);
+    off.save(state);  // the next planning step from the same state again
+    on.restore(state);
+  }
 }
 
 }  // namespace
