@@ -271,6 +271,26 @@ void Planner::draw(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& deviation
       knots(d, j) = std::clamp(mean(d, j) + deviation(d, j) * normal(rng), -limit, limit);
 }
 
+Eigen::Vector3d Planner::capture_offset(const Simulation& sim) const {
+  // the capture point (COM + v sqrt(h / g)) against the start: where the COM would have to be
+  // to come to rest, so a push shows before the COM has moved
+  const Engine& e = sim.engine();
+  const Eigen::Vector3d up = sim.model().up;
+  const Eigen::Vector3d com = e.com();
+  const Eigen::Vector3d vel = horizontal(e.com_velocity(), up);
+  const double h = std::max(1e-3, up.dot(com) - sim.model().scenario.fall.ground_height);
+  const double g = std::max(1e-6, e.gravity().norm());
+  const Eigen::Vector3d anchor = model_->support_bodies.empty()
+                                     ? sim.progress_.com0
+                                     : support_center(*model_, e) + model_->com_over_support0;
+  return horizontal(com - anchor, up) + std::sqrt(h / g) * vel;
+}
+
+double Planner::balance_error(const Simulation& sim) const {
+  TrackingError e;
+  return tracking_error(sim, e) ? e.body_m : capture_offset(sim).norm();
+}
+
 double Planner::rollout(Simulation& sim, Candidate& c) const {
   const PlannerParams& p = model_->params;
   const PlannerCostWeights& w = p.cost;
@@ -308,16 +328,9 @@ double Planner::rollout(Simulation& sim, Candidate& c) const {
              w.body * total.body_m * total.body_m +
              w.root_tilt * total.root_tilt_rad * total.root_tilt_rad;
     } else {
-      // the capture point (COM + v sqrt(h / g)) against the start: where the COM would have
-      // to be to come to rest, so a push shows before the COM has moved
       const Eigen::Vector3d com = e.com();
       const Eigen::Vector3d vel = horizontal(e.com_velocity(), up);
-      const double h = std::max(1e-3, up.dot(com) - m.scenario.fall.ground_height);
-      const double g = std::max(1e-6, e.gravity().norm());
-      const Eigen::Vector3d anchor = model_->support_bodies.empty()
-                                         ? sim.progress_.com0
-                                         : support_center(*model_, e) + model_->com_over_support0;
-      const Eigen::Vector3d offset = horizontal(com - anchor, up) + std::sqrt(h / g) * vel;
+      const Eigen::Vector3d offset = capture_offset(sim);
       double tilt = 0;
       if (model_->root_body >= 0) {
         const Eigen::Vector3d root_up = e.body_pose(model_->root_body).quat * model_->root_up_local;
@@ -419,11 +432,9 @@ void Planner::plan(Simulation& sim) {
       deviation_ += (candidates_[order_[e]].knots - mean_).cwiseAbs2();
     deviation_ = (deviation_ / elites).cwiseSqrt().cwiseMax(0.1 * p.noise);
   }
-  TrackingError now_error;
-  // in trouble (the reference slipping away), more rounds around the best: the budget goes
-  // where a miss would cost the run, not to every step of a walk that is going well
-  if (p.rescue_rounds > 0 && p.rescue_error_m > 0 && tracking_error(sim, now_error) &&
-      now_error.body_m >= p.rescue_error_m) {
+  // in trouble (the reference slipping away, or a push), more rounds around the best: the
+  // budget goes where a miss would cost the run, not to every step of a walk that goes well
+  if (p.rescue_rounds > 0 && p.rescue_error_m > 0 && balance_error(sim) >= p.rescue_error_m) {
     ++plan.rescues;
     for (int r = 0; r < p.rescue_rounds; ++r) {
       mean_ = best_;

@@ -120,6 +120,10 @@ class Planner {
   void draw(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& deviation, long plan, int round,
             int index, Eigen::MatrixXd& knots) const;
   double rollout(Simulation& sim, Candidate& c) const;
+  // how far off the run is: a tracked reference's mean body error, or with nothing tracked, the
+  // capture point's horizontal offset from where it started over the feet (m)
+  double balance_error(const Simulation& sim) const;
+  Eigen::Vector3d capture_offset(const Simulation& sim) const;
 
   std::shared_ptr<const PlannerModel> model_;
   std::unique_ptr<WorkerPool> pool_;

@@ -56,8 +56,9 @@ struct PlannerParams {
   double timestep = 0;              // s, the rollouts' step; 0: the scenario's
   double cost_interval_s = 0.01;    // s between cost samples in a rollout
   int threads = 0;                  // rollout threads; 0: every core
-  // in trouble, plan harder: while a tracked reference's mean body error is at least
-  // `rescue_error_m` (0: never), `rescue_rounds` more rounds of `samples` around the best
+  // in trouble, plan harder: while the run is at least `rescue_error_m` off (a tracked
+  // reference's mean body error, else the capture point's offset; 0: never), `rescue_rounds`
+  // more rounds of `samples` around the best
   double rescue_error_m = 0.15;  // m
   int rescue_rounds = 2;
   // where no controller offers a correction: residual torques on these dofs (empty: every dof
@@ -83,7 +84,7 @@ struct PlannerParams {
     v("cost_interval_s", cost_interval_s, {.unit = "s", .min = 0, .max = 1});
     v("threads", threads, {.min = 0, .max = 1024, .help = "rollout threads; 0: every core"});
     v("rescue_error_m", rescue_error_m,
-      {.unit = "m", .min = 0, .max = 10, .help = "body error that brings rescue rounds; 0: never"});
+      {.unit = "m", .min = 0, .max = 10, .help = "error that brings rescue rounds; 0: never"});
     v("rescue_rounds", rescue_rounds,
       {.min = 0, .max = 100, .help = "extra rounds of samples around the best, in trouble"});
     v("residual_dofs", residual_dofs, {.help = "dofs of residual torques; empty: all joints"});

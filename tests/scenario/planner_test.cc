@@ -66,8 +66,9 @@ TEST(WorkerPool, RunsEveryTaskOnceAndRethrowsOnTheCaller) {
   EXPECT_EQ(after, 4);
 }
 
-// a short planning run of biped_stand; its trace of positions
-std::vector<double> planned_trace(int threads, const std::vector<std::string>& extra = {}) {
+// a short planning run of biped_stand; its trace of positions (and its rescue count)
+std::vector<double> planned_trace(int threads, const std::vector<std::string>& extra = {},
+                                  long* rescues = nullptr) {
   std::vector<std::string> sets = {"planner.enabled=true", "planner.samples=6",
                                    "planner.horizon_s=0.2", "planner.interval_s=0.05",
                                    "planner.threads=" + std::to_string(threads)};
@@ -81,6 +82,7 @@ std::vector<double> planned_trace(int threads, const std::vector<std::string>& e
     out.insert(out.end(), q.data(), q.data() + q.size());
   }
   EXPECT_GE(sim.progress().plan.plans, 6);
+  if (rescues) *rescues = sim.progress().plan.rescues;
   return out;
 }
 
@@ -91,6 +93,13 @@ TEST(Planner, SamePlanForAnyThreadCount) {
   std::vector<double> one = planned_trace(1, push);
   EXPECT_EQ(planned_trace(2, push), one);
   EXPECT_EQ(planned_trace(3, push), one);
+  // with rescue rounds (the push moves the capture point more than 2 cm)
+  const std::vector<std::string> rescued = {push[0], "planner.rescue_error_m=0.02"};
+  long rescues = 0;
+  std::vector<double> one_rescued = planned_trace(1, rescued, &rescues);
+  EXPECT_GT(rescues, 0);
+  EXPECT_NE(one_rescued, one);
+  EXPECT_EQ(planned_trace(3, rescued), one_rescued);
   // and the planner does something: without it the run differs
   std::vector<double> base = planned_trace(1, {"planner.samples=1", push[0]});
   EXPECT_NE(base, one);
