@@ -400,7 +400,9 @@ void Planner::plan(Simulation& sim) {
       else
         draw(mean_, deviation_, plan.plans, round, i, knots);
     }
-    const int first = round == 0 ? 0 : 1;  // best_'s cost is known after round 0
+    // after round 0, candidate 0 is best_, whose cost is known (rollouts are deterministic)
+    const int first = round == 0 ? 0 : 1;
+    if (first == 1) candidates_[0].cost = best_cost;
     pool_->run(k - first, [&](int worker, int task) {
       Candidate& c = candidates_[first + task];
       c.cost = rollout(*workers_[worker], c);

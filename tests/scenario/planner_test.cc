@@ -7,6 +7,7 @@
 
 #include <functional>
 #include <iostream>
+#include <memory>
 
 #include "core/error.h"
 #include "run_support.h"
@@ -103,6 +104,39 @@ TEST(Planner, SamePlanForAnyThreadCount) {
   // and the planner does something: without it the run differs
   std::vector<double> base = planned_trace(1, {"planner.samples=1", push[0]});
   EXPECT_NE(base, one);
+}
+
+// CEM's refits add candidates around the elites: the plan it chooses costs no more than the
+// plan predictive sampling chooses from the same state (its first round draws the same streams)
+TEST(Planner, CemRoundsOnlyLowerTheChosenCost) {
+  auto make = [](const std::string& method) {
+    return std::make_unique<Simulation>(
+        load_scenario(test::scenario_path("biped_stand.yaml"),
+                      {"planner.enabled=true", "planner.samples=6", "planner.horizon_s=0.2",
+                       "planner.interval_s=0.05", "planner.threads=2", "planner.method=" + method,
+                       "planner.iterations=3", "planner.elites=2",
+                       "perturbations=[{body: h_spine, force: [80, 0, 0], start: 0.05, "
+                       "duration: 0.1}]"}),
+        test::quiet());
+  };
+  std::unique_ptr<Simulation> sampling = make("sampling"), cem = make("cem");
+  while (sampling->time() < 0.1) ASSERT_TRUE(sampling->step());
+  SimulationState state;
+  bool lower = false;
+  for (int k = 0; k < 4; ++k) {
+    SCOPED_TRACE(k);
+    sampling->save(state);
+    cem->restore(state);
+    const CorrectionPlan& a = sampling->progress().plan;
+    const CorrectionPlan& b = cem->progress().plan;
+    const long plans = a.plans;
+    const double before_a = a.cost_sum, before_b = b.cost_sum;
+    while (sampling->progress().plan.plans == plans) ASSERT_TRUE(sampling->step());
+    while (cem->progress().plan.plans == plans) ASSERT_TRUE(cem->step());
+    EXPECT_LE(b.cost_sum - before_b, a.cost_sum - before_a + 1e-12);
+    lower = lower || b.cost_sum - before_b < a.cost_sum - before_a;
+  }
+  EXPECT_TRUE(lower) << "the refits never found a cheaper plan";
 }
 
 TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
