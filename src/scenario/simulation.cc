@@ -875,8 +875,9 @@ std::unique_ptr<Simulation> Simulation::clone() const {
 }
 
 namespace {
-constexpr char kStateMagic[] = "stance-state 2\n";
-}
+// 3: the plan counts its rescue rounds
+constexpr char kStateMagic[] = "stance-state 3\n";
+}  // namespace
 
 void Simulation::write_state(const std::string& path) const {
   std::string out = kStateMagic;
@@ -902,7 +903,10 @@ void Simulation::read_state(const std::string& path) {
   std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const std::string magic = kStateMagic;
   if (data.compare(0, magic.size(), magic) != 0)
-    throw InputError(fmt::format("{}: not a stance state file", path));
+    throw InputError(fmt::format(
+        "{}: not a stance state file, or one written by another stance version (this one reads "
+        "'{}')",
+        path, magic.substr(0, magic.size() - 1)));
   const Engine& e = *engine_;
   try {
     StateReader r(data, magic.size());
