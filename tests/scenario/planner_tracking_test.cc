@@ -111,6 +111,20 @@ TEST(PlannerTracking, SyntheticWalkOnTheHumanoidAtTheDefaultsAndStifferGains) {
   }
 }
 
+// mass_walk.bvh through its joint map onto humanoid.xml
+TEST(PlannerTracking, MassWalkOnTheHumanoidAtTheDefaultsAndSofterGains) {
+  const std::string bvh = test::shared_bvh("mass_walk.bvh");
+  if (!std::filesystem::exists(bvh)) GTEST_SKIP() << bvh << " is absent";
+  const std::string s =
+      track_scenario(bvh, "track_mass_humanoid", true,
+                     test::source_dir() + "/models/maps/mass_walk_to_humanoid.yaml",
+                     "mujoco://model/humanoid/humanoid.xml");
+  for (const std::string& set : {std::string("seed=1"), kp_times(0.8)}) {
+    SCOPED_TRACE(set);
+    expect_tracked(track(s, {set}));
+  }
+}
+
 // another exporter's file of the same walk tracks as the walk does, with no setting: Z-up (the
 // Y-up skeleton turned onto Z-up by its root, the up axis found apart for the skeleton and for
 // the world), Bandai Namco's joint names, and its root carried by a moving ROOT above it. Read
