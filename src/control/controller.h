@@ -263,6 +263,9 @@ struct ControllerContext {
   // a second engine of the same world, for controllers that probe the model's kinematics while
   // they are built (the run's own engine is const to them); empty: not available
   std::function<std::unique_ptr<Engine>()> scratch_engine;
+  // built for the planner's rollouts, runs that are scored and thrown away: the controller may
+  // skip its metrics, signals and recordings there (the run's own controllers keep them)
+  bool rollout = false;
 };
 
 using ControllerFactory = std::function<std::shared_ptr<const Controller>(

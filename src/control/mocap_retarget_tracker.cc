@@ -33,7 +33,8 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     : type_name_(type_name),
       params_(params),
       mode_(parse_mocap_root_mode(params.mode)),
-      duration_s_(ctx.duration_s) {
+      duration_s_(ctx.duration_s),
+      metrics_(!ctx.rollout) {
   if (!ctx.scratch_engine)
     throw InputError("mocap_retarget: needs a scratch engine of the model to probe it");
   std::unique_ptr<Engine> probe = ctx.scratch_engine();
@@ -413,7 +414,7 @@ void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlO
   const double dt = engine.timestep();
   engine.get_positions(s.q);
   engine.get_velocities(s.v);
-  accumulate_metrics(s, engine);
+  if (metrics_) accumulate_metrics(s, engine);
   if (!params_.export_bvh.empty() && engine.time() + 1e-9 >= s.next_record_t) {
     for (const RetargetBody& b : motion_->bodies())
       s.recorded_rotations.push_back(engine.body_pose(b.body).quat);

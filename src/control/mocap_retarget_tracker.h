@@ -183,6 +183,8 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
   MocapRetargetParams params_;
   MocapRootMode mode_ = MocapRootMode::kAssisted;
   double duration_s_ = 0;  // the run's length (the recording's reserve); 0: unknown
+  // false in the planner's rollouts: no errors, foot skate or second fall check accumulated
+  bool metrics_ = true;
   MocapClip clip_;
   std::shared_ptr<const RetargetedMotion> motion_;
   int root_body_ = -1, root_dof_ = -1;

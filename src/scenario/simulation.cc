@@ -276,8 +276,9 @@ void build_controllers(const LoadedScenario& loaded, const RunOptions& options,
     if (options.cache && !external) {
       YAML::Emitter out;
       out << node;
-      m.controllers.push_back(
-          options.cache->get_or_build(fmt::format("{}|{}|{}", world, i, out.c_str()), build));
+      m.controllers.push_back(options.cache->get_or_build(
+          fmt::format("{}|{}|{}|{}", world, i, m.rollout ? "rollout" : "run", out.c_str()),
+          build));
     } else {
       m.controllers.push_back(build());
     }
@@ -288,8 +289,10 @@ void add_planner(const LoadedScenario& loaded, const RunOptions& options, Simula
 
 std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
                                              const RunOptions& options,
-                                             std::unique_ptr<Engine>& engine) {
+                                             std::unique_ptr<Engine>& engine,
+                                             bool rollout = false) {
   auto m = std::make_shared<SimulationModel>();
+  m->rollout = rollout;
   m->scenario = loaded.scenario;
   m->source = loaded.source;
   Scenario& sc = m->scenario;
@@ -375,7 +378,7 @@ void add_planner(const LoadedScenario& loaded, const RunOptions& options, Simula
   ro.extra_pushes.clear();
   ro.duration = m.scenario.duration + p.horizon_s + 1;
   std::unique_ptr<Engine> scratch;
-  std::shared_ptr<SimulationModel> rollout = build_model(r, ro, scratch);
+  std::shared_ptr<SimulationModel> rollout = build_model(r, ro, scratch, true);
   m.planner = make_planner_model(p, m, rollout);
   m.plans = true;
   auto dimensions = std::make_shared<PlannerModel>(*m.planner);
@@ -396,7 +399,8 @@ ControllerContext controller_context(const SimulationModel& m, size_t index) {
           [scenario, engine_name] {
             std::lock_guard<std::mutex> lock(model_load_mutex());
             return make_scenario_engine(scenario, engine_name);
-          }};
+          },
+          m.rollout};
 }
 
 std::unique_ptr<Engine> SimulationModel::make_engine() const {
