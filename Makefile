@@ -74,12 +74,12 @@ install: build
 demo: build
 	@bash scripts/demo.sh $(STANCE)
 
-# the benchmarks and the seed's S0 loop in one run, printed as the README's table
+# the benchmarks and the seed's S0 loop in one run, printed as docs/results.md's table
 bench: deps $(BUILD)/CMakeCache.txt
 	cmake --build $(BUILD) -j$(JOBS) --target stance_bench stance_cli stance_atlas_simbicon_peer
 	@bash bench/report.sh $(BUILD)
 
-# the README's section "The peer: DART's atlas_simbicon" alone (make bench runs it too)
+# docs/results.md's section "The peer: DART's atlas_simbicon" alone (make bench runs it too)
 bench-atlas: deps $(BUILD)/CMakeCache.txt
 	cmake --build $(BUILD) -j$(JOBS) --target stance_cli stance_atlas_simbicon_peer
 	@bash bench/atlas_peer.sh $(BUILD)
@@ -88,7 +88,7 @@ bench-atlas: deps $(BUILD)/CMakeCache.txt
 eval-track: build
 	@bash scripts/eval_track.sh $(BUILD)
 
-# the README's robustness maps (docs/img/robustness_*.png; 11 minutes measured on 2 busy cores)
+# docs/results.md's robustness maps (docs/img/robustness_*.png; 11 minutes on 2 busy cores)
 robustness-maps: build
 	@bash scripts/robustness_maps.sh $(STANCE)
 

@@ -2,7 +2,8 @@
 # The peer of issue 19, side by side: DART's own atlas_simbicon example controller (bench/peer/,
 # compiled from dart-doc's sources, nothing copied) and stance's Atlas walk on DART, one right
 # after the other, the same length under the same pushes and fall criterion, printed as the
-# README's section "The peer: DART's atlas_simbicon" in markdown (docs/simbicon.md, "The peer").
+# section "The peer: DART's atlas_simbicon" of docs/results.md in markdown (docs/simbicon.md,
+# "The peer").
 # `make bench` runs it after bench/report.sh's table; `make bench-atlas` runs it alone.
 #   bench/atlas_peer.sh [BUILD_DIR] [--json OUT.json]
 # STANCE_PEER_SCENARIO runs another stance scenario in the walk's place (e.g.

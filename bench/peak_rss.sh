@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Peak resident memory of `stance run` over a 60 s and a 600 s run of the scenarios whose
 # controllers keep per-step records (SIMBICON's and the slope walker's steps, the tracker's
-# exported frames): what still grows with a run's length. Prints the README's table.
+# exported frames): what still grows with a run's length. Prints docs/results.md's table.
 #   bash bench/peak_rss.sh build/stance
 set -eu
 stance=$1

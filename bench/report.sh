@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # make bench: the Google Benchmark suite (build/stance_bench) and, in the same run, the seed's S0
 # loop (../shared/peers/dartpy_biped_spd.py under Debian's python3-dartpy), printed as the
-# README's benchmark table in markdown. Every comparison with the seed is a ratio of two figures
-# measured minutes apart in this one run, and both figures are shown.
+# benchmark table of docs/results.md in markdown. Every comparison with the seed is a ratio of
+# two figures measured minutes apart in this one run, and both figures are shown.
 #   bench/report.sh [BUILD_DIR] [--json OUT.json]
 # STANCE_BENCH_MIN_TIME (seconds per benchmark, default 0.5; the S0 ones get 4x) trades time for
 # noise.

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# make eval-track: the planner's tracking matrix (issue 14). Every clip under one parameter set:
+# make eval-track: the planner's tracking matrix. Every clip under one parameter set:
 # the defaults at planner seeds 1-5, then at seed 1 kp x0.8, kp x1.2, a 1 ms and a 2 ms timestep.
 # Writes out/eval_track/<clip>/<setting>/ (each a bvh track output folder), out/eval_track/table.md,
-# and puts the table between the EVAL-TRACK markers of docs/mocap.md and README.md.
+# and puts the table between the EVAL-TRACK markers of docs/results.md.
 # Usage: scripts/eval_track.sh [BUILD] [SECONDS]   (SECONDS: override every clip's length)
 # A candidate change to the shared defaults is evaluated with EVAL_SET, e.g.
 #   EVAL_SET="--set controllers.0.root_force_kd=100" scripts/eval_track.sh
@@ -99,7 +99,7 @@ if [ -n "$EVAL_SET" ]; then
 fi
 
 # the table into the docs, between the markers
-python3 - "$table" docs/mocap.md README.md <<'PY'
+python3 - "$table" docs/results.md <<'PY'
 import sys, re
 table = open(sys.argv[1]).read().strip()
 for path in sys.argv[2:]:

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
-# The README's robustness maps (make robustness-maps): stance robustness on the S0 standing biped
-# (both engines) and the S1 SIMBICON walkers, each into out/robustness/<name>/, its polar plot
-# copied to docs/img/robustness_<name>.png; then the issue-19 characters' SIMBICON walks (Atlas
-# on both engines, MuJoCo's humanoid, fullbody1 on both engines), 8 directions at one phase.
+# The robustness maps of docs/results.md (make robustness-maps): stance robustness on the S0
+# standing biped (both engines) and the S1 SIMBICON walkers, each into out/robustness/<name>/,
+# its polar plot copied to docs/img/robustness_<name>.png; then the characters' SIMBICON walks
+# (Atlas on both engines, MuJoCo's humanoid, fullbody1 on both engines), 8 directions at one phase.
 # 11 minutes measured on 2 busy cores for the first four; the characters' about 30 more.
 # Names given after the binary: only those maps.
 set -euo pipefail

@@ -4,10 +4,10 @@
 # `out/` holds a previous good run's files. Each row checks: the exit code; that the one-line
 # message names the place (its `where`: file:line, the parameter or the option); the whole
 # message; and that `out/` is left byte for byte as it was (no file changed, added or removed,
-# temporaries included). The README's table is printed from the same file (--markdown), and this
-# test checks that the README holds exactly that table, so the two cannot disagree.
+# temporaries included). CONTRIBUTING.md's table is printed from the same file (--markdown), and
+# this test checks that CONTRIBUTING.md holds exactly that table, so the two cannot disagree.
 #   bash tests/cli/bad_inputs.sh build/stance     run every row
-#   bash tests/cli/bad_inputs.sh --markdown       print the README's table
+#   bash tests/cli/bad_inputs.sh --markdown       print CONTRIBUTING.md's table
 # A row: area | input | command (after `stance`) | exit | where | message (stderr, exact)
 set -u
 here=$(cd "$(dirname "$0")" && pwd)
@@ -53,12 +53,12 @@ fail() {
   fails=$((fails + 1))
 }
 
-# the README's table is this file's
+# CONTRIBUTING.md's table is this file's
 expected=$(markdown)
-in_readme=$(sed -n '/<!-- bad-inputs:begin -->/,/<!-- bad-inputs:end -->/p' "$root/README.md" |
+in_doc=$(sed -n '/<!-- bad-inputs:begin -->/,/<!-- bad-inputs:end -->/p' "$root/CONTRIBUTING.md" |
   sed '1d;$d')
-[ "$expected" = "$in_readme" ] ||
-  fail "README's bad-input table differs from $table (regenerate: bash $0 --markdown)"
+[ "$expected" = "$in_doc" ] ||
+  fail "CONTRIBUTING.md's bad-input table differs from $table (regenerate: bash $0 --markdown)"
 [ "$(rows | wc -l)" -ge 30 ] || fail "fewer than 30 rows"
 
 # the inputs, and a previous good run's files in good_out/
