@@ -69,6 +69,8 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
         source, mode ? mode.Mark().line + 1 : 0,
         "parameter 'camera.mode': expected follow or fixed, found '" + s.camera.mode + "'"));
   }
+  s.expect.given = static_cast<bool>(doc["expect"]);
+  check_expectation(s.expect, source, doc["expect"]);
   if (YAML::Node c = doc["controllers"]) {
     if (!c.IsSequence())
       throw InputError(located(source, c.Mark().line + 1, "'controllers' must be a list"));

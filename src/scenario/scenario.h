@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "params/params.h"
+#include "scenario/expectation.h"
 #include "scenario/planner_params.h"
 
 namespace stance {
@@ -120,6 +121,7 @@ struct Scenario {
   LogOptions log;
   PlannerParams planner;
   CameraParams camera;
+  Expectation expect;  // what the scenario shows (scenario/expectation.h)
 
   template <class V>
   void visit(V& v) {
@@ -145,6 +147,7 @@ struct Scenario {
     v("log", log);
     v("planner", planner);
     v("camera", camera);
+    v("expect", expect, {.help = "what a run shows: fell, metric bounds (checked after a run)"});
   }
 };
 

@@ -32,6 +32,7 @@ nlohmann::json RunResult::to_json() const {
   j["wall_time_s"] = wall_time_s;
   j["steps"] = steps;
   j["metrics"] = metrics;
+  if (!expectation.is_null()) j["expectation"] = expectation;
   return j;
 }
 
@@ -50,6 +51,7 @@ RunResult RunResult::from_json(const nlohmann::json& j) {
   r.wall_time_s = j.at("wall_time_s").get<double>();
   r.steps = j.at("steps").get<long>();
   r.metrics = j.at("metrics");
+  r.expectation = j.value("expectation", nlohmann::json());
   return r;
 }
 
@@ -454,6 +456,10 @@ Simulation::Simulation(const LoadedScenario& loaded, const RunOptions& options) 
   engine_->forward();
   if (model_->plans) planner_ = std::make_unique<Planner>(model_->planner);
   start_run();
+  // the expectation's metrics by the names this run will report, before it writes anything
+  if (model_->scenario.expect.given)
+    check_expectation_metrics(model_->scenario.expect, result().metrics, loaded.source,
+                              loaded.document["expect"]);
 }
 
 Simulation::~Simulation() = default;
@@ -803,6 +809,8 @@ RunResult Simulation::run(long max_steps) {
   r.metrics["compute_s_per_sim_s"] = r.sim_time > 0 ? r.wall_time_s / r.sim_time : 0.0;
   if (r.metrics.contains("mocap") && r.metrics["mocap"].is_object())
     r.metrics["mocap"]["compute_s_per_sim_s"] = r.metrics["compute_s_per_sim_s"];
+  if (model_->scenario.expect.given)
+    r.expectation = evaluate_expectation(model_->scenario.expect, r.to_json());
   for (StepObserver* o : observers_) o->on_finish(*this, r);
   if (log) {
     remove_observer(log.get());

@@ -62,6 +62,8 @@ struct RunResult {
   double wall_time_s = 0;
   long steps = 0;
   nlohmann::json metrics = nlohmann::json::object();
+  // the scenario's `expect` checked on this run (scenario/expectation.h); null: it has none
+  nlohmann::json expectation;
 
   nlohmann::json to_json() const;
   // back from to_json() (results gathered from another MPI rank)
