@@ -30,6 +30,9 @@ int main(int argc, char** argv) {
                     "go on to the end after a fall (default: stop 1 s after it)");
   run_cmd->add_option("--record", run.record, "render an MP4 offscreen (ffmpeg)");
   run_cmd->add_option("--screenshot", run.screenshot, "render one PNG frame at --at");
+  run_cmd->add_flag("--check", run.check, "exit 4 when the scenario's expect block does not hold")
+      ->excludes("--record")
+      ->excludes("--screenshot");
   run_cmd->add_option("--at", run.screenshot_at, "screenshot time, s");
   run_cmd->add_option("--fps", run.fps, "video frames per simulated second");
   run_cmd->add_option("--size", run.size, "frame size WxH");

@@ -84,6 +84,8 @@ int run_command(const RunCommand& cmd) {
     if (cmd.past_fall) opt.stop_after_fall_s = -1;
     for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
     opt.interrupt = &g_interrupt;
+    if (cmd.check && !loaded.scenario.expect.given)
+      throw InputError(cmd.scenario + ": --check: the scenario has no 'expect' block to check");
     Simulation run(loaded, opt);
     InterruptHandler interrupt_handler;
     RunResult r = run.run();
@@ -104,6 +106,12 @@ int run_command(const RunCommand& cmd) {
         std::cout << "  wrote " << (std::filesystem::path(cmd.out_dir) / "summary.json").string()
                   << " and log.csv\n";
     }
+    // one line: on stderr when --check turns a miss into the exit code
+    const bool missed = !r.expectation.is_null() && !r.expectation.at("held").get<bool>();
+    if (cmd.check && missed)
+      std::cerr << expectation_line(r.expectation) << "\n";
+    else if (!cmd.quiet && !r.expectation.is_null())
+      std::cout << "  " << expectation_line(r.expectation) << "\n";
     if (r.diverged) {
       std::cerr << "error: simulation diverged: " << r.divergence << "\n";
       return kExitDiverged;
@@ -113,6 +121,7 @@ int run_command(const RunCommand& cmd) {
                                cmd.out_dir.empty() ? "" : "; summary.json and log.csv written");
       return kExitInterrupted;
     }
+    if (cmd.check && missed) return kExitExpectationNotHeld;
     return kExitOk;
   });
 }

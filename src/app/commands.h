@@ -1,6 +1,7 @@
 // The CLI's commands, as library functions: apps/stance_main.cc only parses arguments.
 // Each returns the process exit code: 0 done (a fall is a result), 2 bad input, 3 simulation
-// diverged, 70 internal error (a bug), 71 the machine lacks something (memory, display, ffmpeg).
+// diverged, 4 (run --check) the scenario's expectation did not hold, 70 internal error (a bug),
+// 71 the machine lacks something (memory, display, ffmpeg).
 #pragma once
 
 #include <optional>
@@ -12,6 +13,8 @@ namespace stance {
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitBadInput = 2;
 inline constexpr int kExitDiverged = 3;
+// `stance run --check`: the scenario's `expect` did not hold (scenario/expectation.h)
+inline constexpr int kExitExpectationNotHeld = 4;
 inline constexpr int kExitInternalError = 70;  // BSD's EX_SOFTWARE
 inline constexpr int kExitEnvironment = 71;    // BSD's EX_OSERR
 inline constexpr int kExitInterrupted = 130;   // 128 + SIGINT, as a shell reports it
@@ -25,6 +28,7 @@ struct RunCommand {
   std::string out_dir = "out";
   bool quiet = false;
   bool past_fall = false;  // go on to the end after a fall (default: stop 1 s after it)
+  bool check = false;      // exit kExitExpectationNotHeld when the expectation does not hold
   // offscreen recording (src/viz/viz_commands.h): a video and/or one frame at screenshot_at
   std::string record;        // .mp4
   std::string screenshot;    // .png

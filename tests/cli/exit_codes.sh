@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
-# the exit codes: 0 a completed run (a fall too), 2 bad input found where it enters, 70 a bug with
-# 'internal error:' (forced by STANCE_TEST_INTERNAL_ERROR, a switch for this test only).
+# the exit codes: 0 a completed run (a fall too), 2 bad input found where it enters, 4 a missed
+# expectation under --check, 70 a bug with 'internal error:' (forced by STANCE_TEST_INTERNAL_ERROR,
+# a switch for this test only).
 set -u
 stance=$1
 tmp=$(mktemp -d)
@@ -32,6 +33,30 @@ if [ "$rc" -ne 0 ] || ! grep -q '"fell": true' "$tmp/fall/summary.json"; then
   echo "FAIL: a fall -> rc=$rc (want 0) or no fell: true"
   fails=$((fails + 1))
 fi
+
+# the scenario's expectation: --check turns a miss into exit 4 with its one line; without --check
+# a miss is a result (exit 0, "held": false in summary.json)
+held='expect={fell: false, metrics: [{name: pushes_survived, min: 1}]}'
+missed='expect={fell: false, metrics: [{name: torque_rms, max: 1}]}'
+"$stance" run scenarios/pd_hold.yaml --set "$held" --check --quiet --out "$tmp/held"
+rc=$?
+if [ "$rc" -ne 0 ] || ! grep -q '"held": true' "$tmp/held/summary.json"; then
+  echo "FAIL: a held expectation with --check -> rc=$rc (want 0) or no held: true"
+  fails=$((fails + 1))
+fi
+"$stance" run scenarios/pd_hold.yaml --set "$missed" --quiet --out "$tmp/missed"
+rc=$?
+if [ "$rc" -ne 0 ] || ! grep -q '"held": false' "$tmp/missed/summary.json"; then
+  echo "FAIL: a missed expectation without --check -> rc=$rc (want 0) or no held: false"
+  fails=$((fails + 1))
+fi
+expect 4 "expectation NOT held at 5.000 s: no fall; torque_rms 10.71 not <= 1" -- \
+  "$stance" run scenarios/pd_hold.yaml --set "$missed" --check --quiet --out "$tmp/missed"
+# pd_hold without its expect block (the block's indented lines and comments go with it)
+awk '/^expect:/ {skip = 1; next} skip && /^[ #]/ {next} {skip = 0; print}' scenarios/pd_hold.yaml |
+  sed "s#\.\./models#$(pwd)/models#" >"$tmp/no_expect.yaml"
+expect 2 "error: $tmp/no_expect.yaml: --check: the scenario has no 'expect' block to check" -- \
+  "$stance" run "$tmp/no_expect.yaml" --check --out "$tmp/no_expect"
 
 # every command's boundary: a bug is exit 70 and one line starting 'internal error:'
 for cmd in "run scenarios/pd_hold.yaml --quiet" "info models/arm3.xml" "list" \
