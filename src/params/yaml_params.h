@@ -149,14 +149,18 @@ struct YamlTextSource {
   std::string where(const YAML::Mark& mark, bool column, const std::string& message) const;
 };
 
-// load YAML strictly: syntax errors ("file:line:col: malformed YAML: ..."), a duplicate key in a
-// mapping (naming both lines), a key that is not a word, aliases (recursive ones named as such)
-// and a second document are InputErrors. Every stance YAML file is read through these.
+// load YAML strictly: text that is not UTF-8 (UTF-16, a binary file, a NUL byte, a bad byte:
+// "file:line: ..."), syntax errors ("file:line:col: malformed YAML: ..."), a duplicate key in a
+// mapping (naming both lines), a key that is not a word, aliases (recursive ones named as such),
+// lists and mappings nested more than 64 deep, and a second document are InputErrors. Every
+// stance YAML file is read through these.
 YAML::Node load_yaml_text(const std::string& text, const YamlTextSource& source);
 YAML::Node load_yaml_file(const std::string& path);
 
 // apply "a.b.c=value" to a YAML tree (value parsed as YAML, so lists work: "[1, 2, 3]").
-// Keys inside lists are addressed by index: "controllers.0.kp=300".
+// Keys inside lists are addressed by index: "controllers.0.kp=300". An empty name ("a..b", ".a",
+// "a."), an index into a list the document lacks, a value whose '[' or '{' does not close, and
+// bytes that are not UTF-8 are InputErrors naming the assignment.
 void apply_yaml_override(YAML::Node& root, const std::string& assignment);
 
 }  // namespace stance

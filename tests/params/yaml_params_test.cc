@@ -261,5 +261,141 @@ TEST(StrictYaml, FilesGoThroughIt) {
   }
 }
 
+// the exact message apply_yaml_override throws for `assignment` on the document `yaml`
+std::string set_error(const std::string& yaml, const std::string& assignment) {
+  YAML::Node root = YAML::Load(yaml);
+  try {
+    apply_yaml_override(root, assignment);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+// an empty name read as index 0 or as the key '' (controllers..kp set controllers[0].kp)
+TEST(YamlOverride, AnEmptyNameInThePathIsAnError) {
+  const std::string doc = "duration: 1\ncontrollers: [{type: pd, kp: 1}]\n";
+  EXPECT_EQ(set_error(doc, "controllers..kp=1"),
+            "--set controllers..kp=1: an empty name in 'controllers..kp' (two dots in a row)");
+  EXPECT_EQ(set_error(doc, ".duration=0.5"),
+            "--set .duration=0.5: an empty name in '.duration' (a dot at its start)");
+  EXPECT_EQ(set_error(doc, "duration.=5"),
+            "--set duration.=5: an empty name in 'duration.' (a dot at its end)");
+  // an index is digits only
+  EXPECT_EQ(set_error(doc, "controllers.+0.kp=1"),
+            "--set controllers.+0.kp=1: '+0' is not an index of a list of 1");
+  EXPECT_EQ(set_error(doc, "controllers.0.kp=2"), "");
+}
+
+TEST(YamlOverride, AnIndexIntoAListTheDocumentLacksSaysSo) {
+  EXPECT_EQ(set_error("duration: 1\n", "perturbations.3.start=1"),
+            "--set perturbations.3.start=1: the scenario has no 'perturbations', so index 3 is "
+            "past the end of an empty list");
+  EXPECT_EQ(set_error("a: {b: 1}\nc:\n", "c.0=1"),
+            "--set c.0=1: the scenario has no 'c', so index 0 is past the end of an empty list");
+  EXPECT_EQ(set_error("a: {b: 1}\n", "a.x.2.y=1"),
+            "--set a.x.2.y=1: the scenario has no 'a.x', so index 2 is past the end of an empty "
+            "list");
+  // a new key in a mapping is still made
+  EXPECT_EQ(set_error("duration: 1\n", "log.rate_hz=5"), "");
+}
+
+// yaml-cpp read "[0,0" as a list used as a key
+TEST(YamlOverride, AnUnclosedBracketInTheValueIsNamed) {
+  const std::string doc = "gravity: [0, 0, -9.81]\nname: x\n";
+  EXPECT_EQ(set_error(doc, "gravity=[0,0"), "--set gravity=[0,0: the value has an unclosed '['");
+  EXPECT_EQ(set_error(doc, "gravity={a: [1, 2}"),
+            "--set gravity={a: [1, 2}: the value's '[' is closed by '}'");
+  EXPECT_EQ(set_error(doc, "gravity=[[0, 0], 1"),
+            "--set gravity=[[0, 0], 1: the value has an unclosed '['");
+  // brackets inside quotes and inside plain words are text
+  EXPECT_EQ(set_error(doc, "gravity=['a]', \"b[\", it's]"), "");
+  EXPECT_EQ(set_error(doc, "name=a[1"), "");
+}
+
+TEST(YamlOverride, BytesThatAreNotUtf8AreNamedAndEscaped) {
+  // yaml-cpp read FF FE as a UTF-16 byte order mark: "expected a string, found nothing"
+  EXPECT_EQ(set_error("name: x\n", "name=\xFF\xFE"),
+            "--set name=\\xFF\\xFE: not UTF-8 text (byte 0xFF at character 6)");
+  EXPECT_EQ(set_error("name: x\n", "na\xC3me=1"),
+            "--set na\\xC3me=1: not UTF-8 text (byte 0xC3 at character 3)");
+}
+
+TEST(YamlOverride, NestingAndPathsAreBounded) {
+  EXPECT_EQ(set_error("a: 1\n", "a=" + std::string(100, '[') + std::string(100, ']')),
+            "--set a=" + std::string(100, '[') + std::string(100, ']') +
+                ": lists and mappings nested more than 64 deep");
+  std::string path = "a";
+  for (int i = 0; i < 99; ++i) path += ".a";
+  EXPECT_EQ(set_error("a: 1\n", path + "=1"),
+            "--set " + path + "=1: a path of 100 names (at most 64)");
+}
+
+TEST(StrictYaml, NestingIsBoundedBeforeYamlCppRecurses) {
+  // yaml-cpp said "malformed YAML: bad file" at 2,000 levels, with the column of the line's end
+  for (int depth : {65, 3000, 100000})
+    EXPECT_EQ(strict_error("a: " + std::string(depth, '[') + std::string(depth, ']') + "\n"),
+              "s.yaml:1: lists and mappings nested more than 64 deep")
+        << depth;
+  EXPECT_EQ(strict_error(std::string(64, '[') + std::string(64, ']') + "\n"), "");
+  std::string dashes;
+  for (int i = 0; i < 100000; ++i) dashes += "- ";
+  EXPECT_EQ(strict_error(dashes + "1\n"), "s.yaml:1: lists and mappings nested more than 64 deep");
+  std::string block = "x:\n";
+  for (int i = 1; i <= 100; ++i) block += std::string(i, ' ') + "a:\n";
+  EXPECT_EQ(strict_error(block), "s.yaml:65: lists and mappings nested more than 64 deep");
+}
+
+TEST(StrictYaml, TextThatIsNotUtf8IsRefusedWithItsLine) {
+  using namespace std::string_literals;
+  // yaml-cpp: "bad character found while scanning hex number"
+  EXPECT_EQ(strict_error("name: t\nduration: 1\0\n"s), "s.yaml:2: a NUL byte at column 12");
+  // passed on, to fail in summary.json's writer after log.csv was written
+  EXPECT_EQ(strict_error("duration: 1\nname: \"a\xFF\xFE\"\n"),
+            "s.yaml:2: not UTF-8 text (byte 0xFF at column 9)");
+  EXPECT_EQ(strict_error("# caf\xE9\nname: x\n"),
+            "s.yaml:1: not UTF-8 text (byte 0xE9 at column 6)");
+  EXPECT_EQ(strict_error("\xFF\xFE"
+                         "n\0a\0m\0e\0"s),
+            "s.yaml: UTF-16 text (byte order mark FF FE): save it as UTF-8");
+  EXPECT_EQ(strict_error("\xEF\xBB\xBF"
+                         "name: x\n"),
+            "");
+}
+
+// the strict checks' findings wait for yaml-cpp's syntax errors: an unclosed '[' is one, not a
+// list used as a key
+TEST(StrictYaml, ASyntaxErrorWinsOverAStrictFinding) {
+  EXPECT_EQ(strict_error("a: [0,0"), "s.yaml:1:1: malformed YAML: end of sequence flow not found");
+  EXPECT_EQ(strict_error("[0,0"), "s.yaml:1:1: malformed YAML: end of sequence flow not found");
+}
+
+// strings reach summary.json, whose writer needs UTF-8: a node made in code is checked too
+TEST(YamlParams, StringsMustBeUtf8) {
+  YAML::Node doc;
+  doc["items"].push_back(YAML::Node(YAML::NodeType::Map));
+  doc["items"][0]["body"] = "h\xFF";
+  doc["inner"]["names"].push_back("ok");
+  doc["inner"]["names"].push_back("\xC3(");
+  Outer o;
+  try {
+    YamlParamReader(doc, {"s.yaml"}).read(o);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "s.yaml: (from --set) parameter 'inner.names[1]': not UTF-8 text (byte 0xC3 at "
+                 "character 1)");
+  }
+  doc.remove("inner");
+  try {
+    YamlParamReader(doc, {"s.yaml"}).read(o);
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_STREQ(e.what(),
+                 "s.yaml: (from --set) parameter 'items[0].body': not UTF-8 text (byte 0xFF at "
+                 "character 2)");
+  }
+}
+
 }  // namespace
 }  // namespace stance
