@@ -660,6 +660,7 @@ class DartEngine final : public Engine {
     for (const SkeletonBlock& b : blocks_) b.skeleton->setPositions(q.segment(b.dof_start, b.ndof));
     positions_set_since_step_ = true;
     positions_usable_ = -1;
+    broad_phase_rebuilt_ = false;
   }
   void set_velocities(const Eigen::Ref<const Eigen::VectorXd>& v) override {
     check_size(v.size(), ndof_, "set_velocities");
@@ -680,6 +681,7 @@ class DartEngine final : public Engine {
     b.skeleton->setPosition(dof - b.dof_start, value);
     positions_set_since_step_ = true;
     positions_usable_ = -1;
+    broad_phase_rebuilt_ = false;
   }
 
   void difference_positions(const Eigen::Ref<const Eigen::VectorXd>& q0,
@@ -752,7 +754,11 @@ class DartEngine final : public Engine {
     if (positions_set_since_step_) {
       dart::constraint::ConstraintSolver* solver = world_->getConstraintSolver();
       forward_contacts_.clear();
+      // the query, and the next step, each on a broad phase built from the state alone
+      rebuild_broad_phase();
       solver->getCollisionGroup()->collide(solver->getCollisionOption(), &forward_contacts_);
+      broad_phase_rebuilt_ = false;
+      rebuild_broad_phase();
       use_forward_contacts_ = true;
       positions_set_since_step_ = false;
     }
@@ -840,6 +846,10 @@ class DartEngine final : public Engine {
       c.segment(b.dof_start, b.ndof) = b.skeleton->getCoriolisAndGravityForces();
   }
   void constraint_forces(Eigen::Ref<Eigen::VectorXd> f) const override {
+    if (constraint_restored_) {
+      f = restored_constraint_;
+      return;
+    }
     for (const SkeletonBlock& b : blocks_)
       f.segment(b.dof_start, b.ndof) = b.skeleton->getConstraintForces();
   }
@@ -1005,6 +1015,8 @@ class DartEngine final : public Engine {
     }
   }
 
+  // extra: the last step's constraint forces (dim nv; read by controllers before the next
+  // step) and the velocity servos' commands (dim nv; NaN: none)
   void save_state(EngineState& s) const override {
     s.time = world_->getTime();
     s.q.resize(ndof_);
@@ -1013,12 +1025,41 @@ class DartEngine final : public Engine {
     get_velocities(s.v);
     s.act.resize(0);
     s.ctrl.resize(0);
-    s.extra.clear();
+    s.extra.resize(2 * static_cast<size_t>(ndof_));
+    Eigen::Map<Eigen::VectorXd> constraint(s.extra.data(), ndof_);
+    constraint_forces(constraint);
+    std::copy(velocity_command_.begin(), velocity_command_.end(), s.extra.begin() + ndof_);
+    // what follows a saved state then depends on it alone, as after its restore
+    rebuild_broad_phase();
   }
+  // bit-exact: a run from a restored state repeats the run that followed its save, whatever
+  // this engine (or another one built from the same files) ran in between
   void restore_state(const EngineState& s) override {
     world_->setTime(s.time);
     set_positions(s.q);
     set_velocities(s.v);
+    // the per-step inputs of a run that was left before its step
+    for (const SkeletonBlock& b : blocks_) {
+      b.skeleton->clearInternalForces();
+      b.skeleton->clearExternalForces();
+    }
+    external_forces_since_step_ = false;
+    const bool warm = s.extra.size() == 2 * static_cast<size_t>(ndof_);
+    if (warm)
+      restored_constraint_ = Eigen::Map<const Eigen::VectorXd>(s.extra.data(), ndof_);
+    else
+      restored_constraint_.setZero(ndof_);  // a cold start (an older state file)
+    constraint_restored_ = true;
+    for (int dof = 0; dof < ndof_; ++dof) {
+      const double command = warm ? s.extra[ndof_ + dof] : kNaN;
+      const double now = velocity_command_[dof];
+      if (command != now && !(std::isnan(command) && std::isnan(now)))
+        set_dof_velocity_command(dof, command);
+    }
+    // contacts come from forward() now
+    forward_contacts_.clear();
+    use_forward_contacts_ = true;
+    rebuild_broad_phase();
   }
 
   void step() override {
@@ -1032,6 +1073,8 @@ class DartEngine final : public Engine {
     step_start_time_ = world_->getTime();
     if (!state_is_finite()) return;
     world_->step();
+    broad_phase_rebuilt_ = false;
+    constraint_restored_ = false;
     use_forward_contacts_ = false;
     positions_set_since_step_ = false;
     positions_usable_ = -1;
@@ -1179,6 +1222,29 @@ class DartEngine final : public Engine {
       world_->getConstraintSolver()->setCollisionDetector(
           dart::collision::DARTCollisionDetector::create());
     }
+  }
+
+  // FCL's and Bullet's broad phases keep a tree that each collision check refits from the last
+  // one, and they report contact pairs in its order: two runs from one state differed in the
+  // last bits when their histories did (a planner's result then depended on its thread count).
+  // Each check also rebalances the tree a little, so it is rebuilt from the current poses after
+  // a save, a restore and forward()'s check: a step's contacts are then a function of the
+  // state alone. The collision objects (and the shapes' geometry) are kept: a second group holds
+  // them meanwhile, and its check moves their bounding boxes to the current poses first.
+  void rebuild_broad_phase() const {
+    if (broad_phase_rebuilt_) return;
+    broad_phase_rebuilt_ = true;
+    dart::constraint::ConstraintSolver* solver = world_->getConstraintSolver();
+    const auto detector = solver->getCollisionDetector();
+    if (detector->getType() == dart::collision::DARTCollisionDetector::getStaticType()) return;
+    const dart::collision::CollisionGroupPtr group = solver->getCollisionGroup();
+    const auto holder = detector->createCollisionGroupAsSharedPtr();
+    for (size_t i = 0; i < world_->getNumSkeletons(); ++i)
+      holder->addShapeFramesOf(world_->getSkeleton(i).get());
+    holder->collide(dart::collision::CollisionOption(false, 1));
+    group->removeAllShapeFrames();
+    for (size_t i = 0; i < world_->getNumSkeletons(); ++i)
+      group->addShapeFramesOf(world_->getSkeleton(i).get());
   }
 
   // true when DART's own (deterministic) detector handles every collision shape
@@ -1342,6 +1408,11 @@ class DartEngine final : public Engine {
   mutable int positions_usable_ = -1;
   // an external force was added since the last step (DART clears them in the step)
   bool external_forces_since_step_ = false;
+  // the broad phase was rebuilt from the current poses and has not been used since
+  mutable bool broad_phase_rebuilt_ = false;
+  // restore_state's constraint forces (dim nv), reported until the next step
+  Eigen::VectorXd restored_constraint_;
+  bool constraint_restored_ = false;
 };
 
 }  // namespace
