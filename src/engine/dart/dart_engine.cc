@@ -14,10 +14,10 @@
 //  - contacts come from the last step (with forces) or, when positions were set since,
 //    from forward() (geometry only, zero forces).
 //  - collision detection uses DART's own detector whenever every collision shape is a box or
-//    sphere: it tests pairs in a fixed order, so restore_state + step replays bit-exactly. FCL
-//    and Bullet order contacts by their broad-phase trees, which depend on history, so a
-//    replay then differs in the last bits (the contact LCP sees a permuted problem). Models
-//    with other shapes keep the detector the file asks for.
+//    sphere: it tests pairs in a fixed order. Models with other shapes keep the detector the
+//    file asks for; FCL and Bullet order contacts by their broad-phase trees, which depend on
+//    history, so the tree is rebuilt from the state at save, restore and forward's contact
+//    query (rebuild_broad_phase): restore_state + step replays bit-exactly on every detector.
 //  - MJCF through DART 6.12's MjcfParser: <option> timestep/gravity are read here (the parser
 //    ignores them), a missing <default> is supplied (the parser asserts on it), <freejoint/>
 //    becomes <joint type="free"/> (the parser skips the shorthand and welds the body), and
