@@ -11,6 +11,46 @@
 #include "viz/viz_commands.h"
 #endif
 
+namespace {
+// the parse error of a command word that names no command, at any level (`stance rnu`, `stance
+// bvh inf`), or of a missing one (`stance bvh`), as one line with the nearest name; false when
+// the error is another
+bool report_command_word(CLI::App& app, int argc, char** argv) {
+  CLI::App* level = &app;
+  std::string path;  // "bvh"
+  for (int i = 1;; ++i) {
+    const auto all = [](CLI::App*) { return true; };
+    std::vector<std::string> names;
+    CLI::App* next = nullptr;
+    for (CLI::App* sub : level->get_subcommands(all)) {
+      names.push_back(sub->get_name());
+      if (i < argc && sub->check_name(argv[i])) next = sub;
+    }
+    if (names.empty()) return false;  // the words from here on are arguments
+    const std::string help = path.empty() ? "stance --help" : "stance " + path + " --help";
+    const std::string prefix = path.empty() ? "" : path + " ";
+    if (i >= argc || argv[i][0] == '-') {
+      if (i < argc || level->get_require_subcommand_min() == 0) return false;
+      std::string list;
+      for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+      std::cerr << "error: '" << (path.empty() ? "stance" : "stance " + path)
+                << "' needs a command: " << list << " (" << help << " lists them)\n";
+      return true;
+    }
+    if (!next) {
+      const std::string word = argv[i];
+      const std::string nearest = stance::nearest_name(word, names);
+      std::cerr << "error: unknown command '" << prefix << word << "'"
+                << (nearest.empty() ? "" : " (did you mean '" + prefix + nearest + "'?)") << " ("
+                << help << " lists them)\n";
+      return true;
+    }
+    level = next;
+    path = prefix + next->get_name();
+  }
+}
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{"stance: physics-based biped balance and locomotion control"};
   app.require_subcommand(1);
@@ -253,20 +293,13 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     // --help and --version print and exit 0; every other parse error is one line, exit 2
     if (e.get_exit_code() == 0) return app.exit(e);
-    std::vector<std::string> commands;
-    for (const CLI::App* sub : app.get_subcommands([](const CLI::App*) { return true; }))
-      commands.push_back(sub->get_name());
-    const std::string first = argc > 1 ? argv[1] : "";
-    if (!first.empty() && first[0] != '-' &&
-        std::find(commands.begin(), commands.end(), first) == commands.end())
-      std::cerr << "error: unknown command '" << first << "'"
-                << stance::did_you_mean(first, commands) << " (stance --help lists them)\n";
-    else
+    if (!report_command_word(app, argc, argv))
       std::cerr << "error: " << e.what() << " (see --help)\n";
     return stance::kExitBadInput;
   }
   if (*run_cmd && (!run.record.empty() || !run.screenshot.empty())) {
 #ifdef STANCE_HAVE_VIEWER
+    if (int code = stance::check_run_options(run); code != stance::kExitOk) return code;
     return stance::record_command(run);
 #else
     std::cerr << "error: --record/--screenshot need the viewer build (STANCE_WITH_VIEWER)\n";
@@ -280,6 +313,8 @@ int main(int argc, char** argv) {
   if (*view_cmd || *shots_cmd) {
 #ifdef STANCE_HAVE_VIEWER
     if (*view_cmd) return stance::view_command(view);
+    if (int code = stance::check_screenshots_options(shots_dir, shots_at); code != stance::kExitOk)
+      return code;
     if (shots_gif)
       return stance::gifs_command(shots_dir, shots_out,
                                   shots_cmd->count("--size") ? shots_size : "480x300");

@@ -28,6 +28,7 @@
 #include "model/skel_to_mjcf.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
+#include "params/option_check.h"
 #include "scenario/batch_ranks.h"
 #include "scenario/push_threshold.h"
 #include "scenario/robustness.h"
@@ -70,8 +71,43 @@ class InterruptHandler {
 };
 }  // namespace
 
+// the ranges of the numeric options: those of the parameters they set, where there is one
+namespace {
+ParamMeta duration_range() {
+  return param_meta<Scenario>("duration");
+}
+ParamMeta threads_range() {
+  return param_meta<PlannerParams>("threads");
+}
+constexpr ParamMeta kFirstFrameRange{.min = 0};
+constexpr ParamMeta kLastFrameRange{.min = -1};  // -1: the clip's end
+constexpr ParamMeta kTimeRange{.min = 0};        // s from the start of a run
+}  // namespace
+
+void check_run_command(const RunCommand& cmd) {
+  check_option_number("--duration", cmd.duration, duration_range());
+  check_option_number("--at", cmd.screenshot_at, kTimeRange);
+}
+
+int check_run_options(const RunCommand& cmd) {
+  return guarded([&] {
+    check_run_command(cmd);
+    return kExitOk;
+  });
+}
+
+int check_screenshots_options(const std::string& scenario_dir, double at) {
+  return guarded([&] {
+    check_option_number("--at", at, kTimeRange);
+    if (!std::filesystem::is_directory(scenario_dir))
+      throw InputError(fmt::format("--dir {}: no such folder", scenario_dir));
+    return kExitOk;
+  });
+}
+
 int run_command(const RunCommand& cmd) {
   return guarded([&] {
+    check_run_command(cmd);
     LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
     if (loaded.scenario.name.empty())
       loaded.scenario.name = std::filesystem::path(cmd.scenario).stem().string();
@@ -193,6 +229,7 @@ int bvh_info_command(const std::string& path, bool json) {
 
 int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
   return guarded([&] {
+    check_option_number("--first-frame", cmd.first_frame, kFirstFrameRange);
     BvhCharacterOptions o;
     o.total_mass_kg = cmd.mass_kg;
     o.timestep_s = cmd.timestep_s;
@@ -228,6 +265,9 @@ std::vector<std::string> position_names(const Engine& engine) {
 
 int bvh_retarget_command(const BvhRetargetCommand& cmd) {
   return guarded([&] {
+    check_option_number("--duration", cmd.duration_s, duration_range());
+    check_option_number("--first-frame", cmd.first_frame, kFirstFrameRange);
+    check_option_number("--last-frame", cmd.last_frame, kLastFrameRange);
     MocapClipParams clip_params;
     clip_params.bvh = cmd.bvh;
     clip_params.loop = cmd.loop;
@@ -276,8 +316,12 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
   namespace fs = std::filesystem;
   if (cmd.map.empty() != cmd.model.empty())
     throw InputError("bvh track: --map and --model go together");
+  check_option_number("--duration", cmd.duration, duration_range());
   if (cmd.duration && !(*cmd.duration > 0))
     throw InputError("--duration: expected a positive number of seconds");
+  check_option_number("--first-frame", cmd.first_frame, kFirstFrameRange);
+  check_option_number("--last-frame", cmd.last_frame, kLastFrameRange);
+  check_option_number("--threads", cmd.threads, threads_range());
   const BvhClip clip = read_bvh(cmd.bvh);
   const int last = cmd.last_frame < 0 ? clip.frame_count - 1 : cmd.last_frame;
   if (cmd.first_frame < 0 || cmd.first_frame >= clip.frame_count || last <= cmd.first_frame ||
@@ -426,6 +470,8 @@ int sweep_command(const SweepCommand& command) {
     o.engine = cmd.engine;
     o.duration = cmd.duration;
     o.interrupt = &g_interrupt;
+    check_option_number("--duration", cmd.duration, duration_range());
+    check_option_number("--threads", cmd.threads, threads_range());
     if (!cmd.values.empty()) {
       o.values = parse_value_list(cmd.values);
     } else {
@@ -525,6 +571,9 @@ int push_threshold_command(const PushThresholdCommand& cmd) {
       o.axis = 2;
     else
       throw InputError(fmt::format("--axis '{}': use x, y or z", cmd.axis));
+    check_option_number("--duration", cmd.duration, duration_range());
+    check_option_number("--at", cmd.at, kTimeRange);
+    check_option_number("--threads", cmd.threads, threads_range());
     o.body = cmd.body;
     o.engine = cmd.engine;
     o.duration = cmd.duration;
@@ -590,6 +639,8 @@ int robustness_command(const RobustnessCommand& command) {
   return guarded([&] {
     RobustnessCommand cmd = command;
     if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
+    check_option_number("--duration", cmd.duration, duration_range());
+    check_option_number("--threads", cmd.threads, threads_range());
     RobustnessOptions o;
     o.body = cmd.body;
     o.directions = cmd.directions;
@@ -682,6 +733,9 @@ int tune_command(const TuneCommand& command) {
   return guarded([&] {
     TuneCommand cmd = command;
     if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
+    check_option_number("--duration", cmd.duration, duration_range());
+    check_option_number("--threads", cmd.threads, threads_range());
+    check_option_number("--seed", static_cast<double>(cmd.seed), {.min = 0});
     TuneOptions o;
     o.scenario = cmd.scenario;
     o.sets = cmd.sets;
@@ -689,7 +743,7 @@ int tune_command(const TuneCommand& command) {
     for (const auto& n : cmd.neighbours) o.neighbours.push_back(parse_neighbour(n));
     o.budget = cmd.budget;
     o.population = cmd.population;
-    o.seed = cmd.seed;
+    o.seed = static_cast<unsigned long long>(cmd.seed);
     o.threads = cmd.threads;
     o.engine = cmd.engine;
     o.duration = cmd.duration;

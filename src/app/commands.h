@@ -38,6 +38,13 @@ struct RunCommand {
   std::string camera;  // follow or free (fixed); empty: the scenario's (camera.mode)
 };
 int run_command(const RunCommand& cmd);
+// the options' values checked as the parameters they set (--duration as the scenario's
+// duration); throws InputError. run_command checks them; the recorder's callers call this first
+void check_run_command(const RunCommand& cmd);
+// the same, as an exit code (0, or 2 after the one-line message)
+int check_run_options(const RunCommand& cmd);
+// `stance screenshots`: --at a time >= 0, --dir a folder (0, or 2 after the message)
+int check_screenshots_options(const std::string& scenario_dir, double at);
 
 // `stance view SCENARIO [--engine E]`: runs in src/viz (viz/viz_commands.h)
 struct ViewCommand {
@@ -188,8 +195,8 @@ struct TuneCommand {
   std::vector<std::string> neighbours;  // "k*=0.85,k2=0.001"
   int budget = 40;
   int population = 8;
-  unsigned long long seed = 1;
-  int threads = 0;  // 0: all cores
+  long long seed = 1;  // >= 0 (signed, so that a negative one is refused, not wrapped)
+  int threads = 0;     // 0: all cores
   std::string engine;
   std::optional<double> duration;
   std::string metric;

@@ -816,8 +816,10 @@ RunResult Simulation::run(long max_steps) {
     remove_observer(log.get());
     for (size_t i = 0; i < controllers_.size(); ++i)
       controllers_[i]->write_outputs(*states_[i], run_files_.out_dir);
-    write_file_atomically(std::filesystem::path(run_files_.out_dir) / "summary.json",
-                          r.to_json().dump(2) + "\n");
+    // bytes that are not UTF-8 (a file name's) are written as U+FFFD rather than lost with the file
+    write_file_atomically(
+        std::filesystem::path(run_files_.out_dir) / "summary.json",
+        r.to_json().dump(2, ' ', false, nlohmann::json::error_handler_t::replace) + "\n");
   }
   if (bar) remove_observer(bar.get());
   return r;

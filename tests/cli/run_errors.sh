@@ -129,5 +129,16 @@ PY
   fails=$((fails + 1))
 }
 
+# a scenario without a name is named after its file, whose name may hold bytes that are not
+# UTF-8: summary.json is still written (the bytes as U+FFFD), not lost to an internal error
+good ok.yaml
+sed '/^name:/d' "$tmp/ok.yaml" >"$tmp/"$'walk\xff.yaml'
+expect 0 "" -- "$stance" run "$tmp/"$'walk\xff.yaml' --out "$tmp/not_utf8" --quiet
+python3 -c "import json,sys; d=json.load(open('$tmp/not_utf8/summary.json', encoding='utf-8'));
+sys.exit(0 if d['scenario'] == 'walk\ufffd' else 1)" || {
+  echo "FAIL: summary.json of a scenario file whose name is not UTF-8"
+  fails=$((fails + 1))
+}
+
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]
