@@ -8,6 +8,7 @@
 #include <set>
 
 #include "core/error.h"
+#include "core/timestep.h"
 #include "engine/backend_world.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
@@ -21,6 +22,8 @@ namespace {
 
 BackendWorld world_options(const WorldSpec& spec) {
   if (spec.models.empty()) throw InputError("no model given");
+  if (spec.timestep && !timestep_problem(*spec.timestep).empty())
+    throw InputError("timestep: " + timestep_problem(*spec.timestep));
   BackendWorld world;
   world.timestep = spec.timestep;
   world.gravity = spec.gravity;
@@ -39,9 +42,47 @@ void warn_once(const std::string& message) {
   if (printed.insert(message).second) std::cerr << "warning: " << message << "\n";
 }
 
-}  // namespace
+// MuJoCo's compiler error about a body of a URDF/SDF translation ("x.urdf (translated to
+// MJCF):9: Error: mass and inertia of moving bodies must be larger than mjMINVAL Object name =
+// base, id = 1, line = 9, column = -1") located at the link's own file and line; unchanged when
+// it names no link
+std::string located_in_robot_file(const std::string& message, const RobotTranslation& t) {
+  const std::string object = "Object name = ";
+  const size_t at = message.find(object);
+  const size_t error = message.find("Error: ");
+  if (at == std::string::npos || error == std::string::npos || error > at) return message;
+  const size_t name_at = at + object.size();
+  const std::string name = message.substr(name_at, message.find(',', name_at) - name_at);
+  const auto link = t.body_lines.find(name);
+  if (link == t.body_lines.end()) return message;
+  std::string why = message.substr(error + 7, at - error - 7);
+  while (!why.empty() && why.back() == ' ') why.pop_back();
+  // stance's own check (model/robot_model.h) passed: DART can move what MuJoCo refuses
+  if (why.find("mass and inertia of moving bodies") != std::string::npos)
+    why =
+        "MuJoCo needs a moving link's mass and every principal inertia (with the links welded "
+        "to it) above 1e-15 (mjMINVAL); DART loads it (--engine dart)";
+  else
+    why = "MuJoCo: " + why;
+  return located(link->second.first, link->second.second, fmt::format("link '{}': {}", name, why));
+}
 
-std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
+// the model files' own time step (core/timestep.h's rule; the spec's is checked first), named
+// with the file that gives it: the first MJCF or SKEL file (URDF/SDF get 1 ms)
+std::unique_ptr<Engine> checked_timestep(std::unique_ptr<Engine> engine, const WorldSpec& spec) {
+  const std::string problem = timestep_problem(engine->timestep());
+  if (problem.empty()) return engine;
+  for (const ModelFile& mf : spec.models) {
+    const std::string path = resolve_model_path(mf.path);
+    const ModelFormat format = model_format(path);
+    if (format == ModelFormat::kMjcf)
+      throw InputError(located(mf.path, mjcf_option_line(path), "<option> timestep: " + problem));
+    if (format == ModelFormat::kSkel) throw InputError(mf.path + ": <time_step>: " + problem);
+  }
+  throw InputError(spec.models.front().path + ": timestep: " + problem);
+}
+
+std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
   BackendWorld world = world_options(spec);
   std::vector<SkelInput> skel_inputs;
   std::vector<RobotInput> robot_inputs;
@@ -60,7 +101,11 @@ std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
     RobotTranslation t = robots_to_mjcf(robot_inputs);
     for (const std::string& w : t.warnings) warn_once(w);
     world.models.push_back({spec.models.front().path, "", t.mjcf, ModelFormat::kMjcf, {}});
-    return open_mujoco_engine(world);
+    try {
+      return open_mujoco_engine(world);
+    } catch (const InputError& e) {
+      throw InputError(located_in_robot_file(e.what(), t));
+    }
   }
   if (!skel_inputs.empty()) {
     // SKEL through its MJCF translation, which keeps DART's initial state (<init_pos>) in
@@ -81,6 +126,12 @@ std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
   check_mjcf_root(mf.path, path);
   world.models.push_back({path, path, "", model_format(path), mf.offset});
   return open_mujoco_engine(world);
+}
+
+}  // namespace
+
+std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
+  return checked_timestep(open_mujoco_world(spec), spec);
 }
 
 std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
@@ -104,7 +155,7 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
     }
     world.models.push_back(std::move(model));
   }
-  return open_dart_engine(world);
+  return checked_timestep(open_dart_engine(world), spec);
 #else
   throw InputError("this build of stance has no DART backend");
 #endif

@@ -13,7 +13,9 @@ namespace stance {
 // "mujoco://model/X" -> "$STANCE_MUJOCO_MODELS/X" or "/usr/share/mujoco/model/X" (Debian's
 // libmujoco-samples: humanoid/humanoid.xml and friends).
 // Other paths, relative ones included, are returned unchanged.
-// Throws InputError "<path>: no such file" when the resolved file does not exist.
+// Throws InputError "<path>: no such file" when the resolved file does not exist, and says what
+// it is when it is no regular file: "a folder, not a file", "not a regular file (a character
+// device)".
 std::string resolve_model_path(const std::string& path);
 
 // An MJCF file's root element must be <mujoco>: MuJoCo's mj_loadXML would hand a <robot> root to
@@ -21,5 +23,8 @@ std::string resolve_model_path(const std::string& path);
 // Throws InputError "<name>:<line>: root element <x>: ..." otherwise; a file that is not
 // well-formed XML is left to MuJoCo, whose message has the line.
 void check_mjcf_root(const std::string& name, const std::string& path);
+
+// the line of an MJCF file's <option> element; 0 when it has none (or only in an included file)
+int mjcf_option_line(const std::string& path);
 
 }  // namespace stance

@@ -23,7 +23,9 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 #include <limits>
+#include <map>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/model_format.h"
@@ -91,7 +93,11 @@ constexpr size_t kMaxRobotLinks = 1000;
 // Reads and checks a URDF (.urdf) or SDF (.sdf, one <model>) file: well-formed XML, required
 // elements and attributes, numbers (counts, finite), masses >= 0, physical inertias, known joint
 // types, unit-able axes, one tree (no unknown links, no link with two parents, no cycle), mesh
-// files that exist (package:// resolved). Throws InputError "file:line: message".
+// files that exist (package:// resolved), and joints that move inertia: a floating base whose
+// links all weigh 0, or a joint whose links below have no inertia along its dofs (with the
+// joints below them free), is refused at the joint's (or root link's) line, as DART aborts on
+// both; massless links welded to mass or carrying mass below them pass. Throws InputError
+// "file:line: message".
 RobotModel read_robot(const std::string& shown_name, const std::string& path,
                       const RobotOptions& options);
 
@@ -112,6 +118,8 @@ struct RobotTranslation {
   std::string mjcf;  // the whole MJCF document
   // one line per file whose visual meshes MuJoCo cannot read and were dropped
   std::vector<std::string> warnings;
+  // where each body (a link) is written: its file as shown and line, for MuJoCo's messages
+  std::map<std::string, std::pair<std::string, int>> body_lines;
 };
 
 // Composes URDF/SDF files into one MuJoCo world, each a tree of bodies under <worldbody>, with a

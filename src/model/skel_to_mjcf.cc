@@ -17,6 +17,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/model_format.h"
+#include "core/timestep.h"
 #include "model/model_path.h"
 
 namespace stance {
@@ -738,7 +739,8 @@ SkelFile read_skel_file(const SkelInput& input) {
   if (const XMLElement* physics = world->FirstChildElement("physics")) {
     if (const XMLElement* t = physics->FirstChildElement("time_step")) {
       f.timestep = r.number(t);
-      if (*f.timestep <= 0) r.fail(t, "<time_step> must be positive");
+      const std::string problem = timestep_problem(*f.timestep);
+      if (!problem.empty()) r.fail(t, "<time_step>: " + problem);
     }
     if (const XMLElement* g = physics->FirstChildElement("gravity")) f.gravity = r.vector3(g);
   }

@@ -276,5 +276,49 @@ TEST(RobotModel, SdfReadsPosesInTheModelFrame) {
             "prismatic, ball)");
 }
 
+// a joint must move something with inertia (DART asserted on a massless child link); a massless
+// link passes where mass hangs below it or is welded to it
+TEST(RobotModel, JointsMustMoveInertia) {
+  const std::string sdf = R"(<sdf version="1.4">
+  <model name="m">
+    <link name="a"/>
+    <link name="b"><inertial><mass>0</mass><inertia><ixx>0</ixx><ixy>0</ixy><ixz>0</ixz>
+      <iyy>0</iyy><iyz>0</iyz><izz>0</izz></inertia></inertial></link>
+    <joint name="j" type="revolute"><parent>a</parent><child>b</child>
+      <axis><xyz>1 0 0</xyz></axis></joint>
+  </model>
+</sdf>
+)";
+  EXPECT_EQ(error_of("z.sdf", sdf),
+            "z.sdf:6: joint 'j' moves nothing with inertia: link 'b' (line 4) and the links "
+            "below it weigh 0 kg; give them <inertial> mass and inertia, or make the joint fixed");
+  // the same link with a link of mass welded below it, or moving a slide: fine
+  std::string welded = sdf;
+  welded.replace(welded.find("  </model>"), 0,
+                 "    <link name=\"c\"><pose>0 0 -1 0 0 0</pose></link>\n"
+                 "    <joint name=\"w\" type=\"fixed\"><parent>b</parent><child>c</child>"
+                 "</joint>\n");
+  EXPECT_EQ(error_of("w.sdf", welded), "no error");
+  // a point mass on the hinge's own axis turns with no inertia about it
+  std::string point = sdf;
+  point.replace(point.find("<mass>0</mass>"), 14, "<mass>2</mass>");
+  EXPECT_EQ(error_of("p.sdf", point),
+            "p.sdf:6: joint 'j' moves nothing with inertia: link 'b' (line 4) and the links "
+            "below it have no inertia about the joint's axis; give them <inertial> mass and "
+            "inertia, or make the joint fixed");
+  std::string slide = point;
+  slide.replace(slide.find("revolute"), 8, "prismatic");
+  EXPECT_EQ(error_of("s.sdf", slide), "no error");
+  // a fixed robot whose links all weigh 0 moves nothing: nothing to refuse
+  const std::string urdf = "<robot name=\"r\">\n<link name=\"a\">\n" +
+                           std::string(R"(<inertial><mass value="0"/>
+    <inertia ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"/></inertial>)") +
+                           "\n</link>\n</robot>\n";
+  EXPECT_EQ(error_of("f.urdf", urdf, {.fixed_base = true}), "no error");
+  EXPECT_EQ(error_of("f.urdf", urdf),
+            "f.urdf:2: link 'a': a floating base whose links all weigh 0 kg cannot move: give "
+            "the links <inertial> masses, or weld the base to the world");
+}
+
 }  // namespace
 }  // namespace stance

@@ -720,7 +720,10 @@ TEST_F(SkelTest, DartChecksRejectWhatCrashedDartWithFileAndLine) {
       {"nan_time_step", one_body_skel("", "free", "", "<time_step>nan</time_step>"), 2,
        "'nan' is not a number"},
       {"zero_time_step", one_body_skel("", "free", "", "<time_step>0</time_step>"), 2,
-       "<time_step> must be positive"},
+       "<time_step>: 0 s: a time step must be positive (at least 1e-05 s)"},
+      // a simulated second in 10^9 steps (core/timestep.h)
+      {"tiny_time_step", one_body_skel("", "free", "", "<time_step>1e-9</time_step>"), 2,
+       "<time_step>: 1e-09 s is below the smallest time step, 1e-05 s"},
       {"bad_boolean", one_body_skel("<gravity>yes</gravity>"), 5, "expected true/false/1/0"},
       {"init_pos_size", one_body_skel("", "ball", "<init_pos>0 0</init_pos>"), 8,
        "expected 3 numbers, found 2"},

@@ -47,6 +47,7 @@
 
 #include "core/error.h"
 #include "core/model_format.h"
+#include "core/timestep.h"
 #include "engine/backend_world.h"
 #include "engine/engine.h"
 
@@ -384,6 +385,35 @@ bool name_unnamed_joints(tinyxml2::XMLElement* worldbody) {
   return changed;
 }
 
+// DART 6.12's MJCF reader names a geom's shape node after the geom, and an unnamed one
+// "default": its NameManager then printed a line for each further unnamed geom of a skeleton
+// ("The name [default] is a duplicate, so it has been renamed to [default(1)]"). Each gets a
+// name of its own, "geom<k>" (k its index in document order); true when any was named
+bool name_unnamed_geoms(tinyxml2::XMLElement* worldbody) {
+  std::set<std::string> taken;
+  std::vector<tinyxml2::XMLElement*> geoms;
+  std::function<void(tinyxml2::XMLElement*)> collect = [&](tinyxml2::XMLElement* parent) {
+    for (tinyxml2::XMLElement* e = parent->FirstChildElement(); e; e = e->NextSiblingElement()) {
+      if (std::strcmp(e->Name(), "geom") == 0) {
+        geoms.push_back(e);
+        if (const char* name = e->Attribute("name")) taken.insert(name);
+      }
+      if (std::strcmp(e->Name(), "body") == 0) collect(e);
+    }
+  };
+  collect(worldbody);
+  bool changed = false;
+  for (size_t k = 0; k < geoms.size(); ++k) {
+    if (geoms[k]->Attribute("name")) continue;
+    std::string name = fmt::format("geom{}", k);
+    while (taken.count(name)) name += "_";
+    taken.insert(name);
+    geoms[k]->SetAttribute("name", name.c_str());
+    changed = true;
+  }
+  return changed;
+}
+
 // DART 6.12's MJCF reader crashes on a <site> in <worldbody> and on one without a type; sites
 // carry no mass or contact, so they are left out of the text DART reads; true when any was
 bool drop_sites(tinyxml2::XMLElement* parent) {
@@ -461,17 +491,18 @@ MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& f
                     std::string("option gravity: expected 3 numbers, got '") + g + "'"));
       out.gravity = v;
     }
-    if (!(out.timestep > 0))
-      throw InputError(
-          located(shown_name, option->GetLineNum(), "option timestep must be positive"));
+    if (const std::string problem = timestep_problem(out.timestep); !problem.empty())
+      throw InputError(located(shown_name, option->GetLineNum(), "<option> timestep: " + problem));
   }
   if (const tinyxml2::XMLElement* worldbody = root->FirstChildElement("worldbody")) {
     collect_inertials(shown_name, worldbody, out.inertials);
     check_bodies_have_joints(shown_name, worldbody, false);
   }
   bool patched = false;
-  if (tinyxml2::XMLElement* worldbody = doc.RootElement()->FirstChildElement("worldbody"))
+  if (tinyxml2::XMLElement* worldbody = doc.RootElement()->FirstChildElement("worldbody")) {
     patched = name_unnamed_joints(worldbody);
+    patched = name_unnamed_geoms(worldbody) || patched;
+  }
   patched = expand_freejoints(doc.RootElement()) || patched;
   patched = drop_sites(doc.RootElement()) || patched;
   patched = bound_infinite_planes(doc.RootElement()) || patched;
