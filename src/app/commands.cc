@@ -22,6 +22,7 @@
 #include "control/retarget.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/timestep.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
 #include "model/bvh_to_mjcf.h"
@@ -229,6 +230,8 @@ int bvh_info_command(const std::string& path, bool json) {
 
 int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
   return guarded([&] {
+    if (const std::string problem = timestep_problem(cmd.timestep_s); !problem.empty())
+      throw InputError("--timestep: " + problem);
     check_option_number("--first-frame", cmd.first_frame, kFirstFrameRange);
     BvhCharacterOptions o;
     o.total_mass_kg = cmd.mass_kg;

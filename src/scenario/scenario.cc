@@ -1,12 +1,33 @@
 #include "scenario/scenario.h"
 
 #include <filesystem>
+#include <tuple>
 
 #include "control/controller.h"
 #include "core/error.h"
+#include "core/timestep.h"
 #include "params/yaml_params.h"
 
 namespace stance {
+
+namespace {
+// 0 takes the model file's (the planner: the scenario's) time step; any other value must be one
+// that every engine and run can take (core/timestep.h)
+void check_timesteps(const Scenario& s, const YAML::Node& doc, const std::string& source) {
+  const YAML::Node planner = doc["planner"];
+  const std::tuple<const char*, double, YAML::Node, const char*> steps[] = {
+      {"timestep", s.timestep, doc["timestep"], "the model file's own"},
+      {"planner.timestep", s.planner.timestep,
+       planner && planner.IsMap() ? planner["timestep"] : YAML::Node(), "the scenario's"}};
+  for (const auto& [name, dt, node, zero] : steps) {
+    if (dt == 0) continue;
+    const std::string problem = timestep_problem(dt);
+    if (!problem.empty())
+      throw InputError(located(source, node ? node.Mark().line + 1 : 0,
+                               fmt::format("parameter '{}': {}; 0 takes {}", name, problem, zero)));
+  }
+}
+}  // namespace
 
 LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& source,
                               const std::string& base_dir) {
@@ -52,6 +73,7 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
                                          "mesh, found '{}'",
                                          i, s.model[i].mesh_collision)));
   }
+  check_timesteps(s, doc, source);
   if (s.torque_limits != "auto" && s.torque_limits != "on" && s.torque_limits != "off")
     throw InputError(located(
         source, doc["torque_limits"] ? doc["torque_limits"].Mark().line + 1 : 0,

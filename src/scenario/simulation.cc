@@ -12,6 +12,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/timestep.h"
 #include "engine/world_spec.h"
 #include "scenario/observers.h"
 
@@ -357,6 +358,9 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
   e.save_state(m->initial);
   for (const auto& c : m->controllers) c->signal_names(m->signal_names);
   const double dt = e.timestep();
+  // a run too long to finish in any reasonable time (duration, timestep or both absurd)
+  if (const std::string problem = step_count_problem(sc.duration, dt); !problem.empty())
+    throw InputError(loaded.source + ": " + problem);
   m->total_steps = std::lround(sc.duration / dt);
   m->log_every = std::max<long>(1, std::lround(1.0 / (sc.log.rate_hz * dt)));
   if (sc.planner.enabled) add_planner(loaded, options, *m);
