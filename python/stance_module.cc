@@ -18,6 +18,7 @@
 #include "control/controller.h"
 #include "control/lqr.h"
 #include "core/error.h"
+#include "core/timestep.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
 #include "math/dare.h"
@@ -117,6 +118,15 @@ nlohmann::json py_to_json(py::handle o) {
 void check_size(const char* what, Eigen::Index got, int want) {
   if (got != want)
     throw InputError(fmt::format("{}: expected {} values, found {}", what, want, got));
+}
+
+// a state the engine would take in and quietly lose (MuJoCo resets a NaN state in its next
+// step): "set_q: q[3] is nan: positions must be finite numbers"
+void check_finite(const char* what, const char* arg, ConstVec x, const char* meaning) {
+  for (Eigen::Index i = 0; i < x.size(); ++i)
+    if (!std::isfinite(x[i]))
+      throw InputError(
+          fmt::format("{}: {}[{}] is {}: {} must be finite numbers", what, arg, i, x[i], meaning));
 }
 
 // a body, dof, joint or actuator given by name or index
@@ -305,6 +315,17 @@ py::dict log_arrays(const MemoryLog& log) {
   return d;
 }
 
+// Engine.step on a state that diverged (MuJoCo's warning, DART's instability): .result is None
+[[noreturn]] void raise_engine_divergence(const Engine& e) {
+  py::handle type(divergence_error_type);
+  const std::string why = e.last_warning();
+  py::object error =
+      type(fmt::format("simulation diverged: {}", why.empty() ? "the state is not finite" : why));
+  error.attr("result") = py::none();
+  PyErr_SetObject(type.ptr(), error.ptr());
+  throw py::error_already_set();
+}
+
 [[noreturn]] void raise_divergence(const RunResult& r, py::object result) {
   py::handle type(divergence_error_type);
   py::object e = type(fmt::format("simulation diverged: {}", r.divergence));
@@ -471,7 +492,14 @@ into a new engine ("mujoco" or "dart"), forwarded.)")
       .def_property_readonly("njoint", &Engine::njoint)
       .def_property_readonly("total_mass", &Engine::total_mass, "kg, mobile bodies")
       .def_property_readonly("time", &Engine::time, "s")
-      .def_property("timestep", &Engine::timestep, &Engine::set_timestep, "s")
+      .def_property(
+          "timestep", &Engine::timestep,
+          [](Engine& e, double dt) {
+            if (const std::string problem = timestep_problem(dt); !problem.empty())
+              throw InputError("timestep: " + problem);
+            e.set_timestep(dt);
+          },
+          "s, in [1e-5, 1]")
       .def_property("gravity", &Engine::gravity, &Engine::set_gravity, "m/s^2")
       .def_property_readonly(
           "q",
@@ -497,6 +525,7 @@ into a new engine ("mujoco" or "dart"), forwarded.)")
           "set_q",
           [](Engine& e, ConstVec q) {
             check_size("set_q", q.size(), e.nq());
+            check_finite("set_q", "q", q, "positions");
             e.set_positions(q);
             e.forward();
           },
@@ -505,6 +534,7 @@ into a new engine ("mujoco" or "dart"), forwarded.)")
           "set_v",
           [](Engine& e, ConstVec v) {
             check_size("set_v", v.size(), e.nv());
+            check_finite("set_v", "v", v, "velocities");
             e.set_velocities(v);
             e.forward();
           },
@@ -512,6 +542,11 @@ into a new engine ("mujoco" or "dart"), forwarded.)")
       .def(
           "set_dof_position",
           [](Engine& e, py::object dof, double value) {
+            if (!std::isfinite(value))
+              throw InputError(
+                  fmt::format("set_dof_position: value is {}: positions must be "
+                              "finite numbers",
+                              value));
             e.set_dof_position(dof_arg(e, dof), value);
             e.forward();
           },
@@ -570,7 +605,14 @@ into a new engine ("mujoco" or "dart"), forwarded.)")
           py::arg("body"), "-1 for the world")
       // dynamics
       .def("forward", &Engine::forward, "compute everything that depends on q and v")
-      .def("step", &Engine::step, "advance one timestep, consuming the per-step inputs")
+      .def(
+          "step",
+          [](Engine& e) {
+            e.step();
+            if (!e.state_is_finite()) raise_engine_divergence(e);
+          },
+          "advance one timestep, consuming the per-step inputs; DivergenceError (its .result "
+          "None) when the state diverged, as MuJoCo's warnings or DART's checks tell")
       .def(
           "mass_matrix",
           [](const Engine& e) {

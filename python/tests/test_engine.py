@@ -152,3 +152,35 @@ def test_engine_state_save_restore():
 def test_bad_model_raises_input_error():
     with pytest.raises(stance.InputError, match="nope.xml"):
         stance.Engine.load("/nonexistent/nope.xml")
+
+
+# MuJoCo's next step quietly resets a NaN state: the setters refuse one, naming the argument
+def test_setters_refuse_non_finite_values(engine):
+    q = engine.q.copy()
+    q[3] = np.nan
+    with pytest.raises(ValueError, match=r"set_q: q\[3\] is nan: positions must be finite"):
+        engine.set_q(q)
+    v = np.zeros(engine.nv)
+    v[1] = np.inf
+    with pytest.raises(ValueError, match=r"set_v: v\[1\] is inf: velocities must be finite"):
+        engine.set_v(v)
+    with pytest.raises(ValueError, match="set_dof_position: value is nan"):
+        engine.set_dof_position("j_shin_left", float("nan"))
+    for dt in (0.0, -1e-3, float("nan"), 1e-12):
+        with pytest.raises(ValueError, match="timestep: "):
+            engine.timestep = dt
+    # nothing was taken in: the engine still steps
+    assert np.isfinite(engine.q).all()
+    engine.step()
+    assert engine.state_is_finite()
+
+
+# a state that blows up in a step is reported, with the engine's own words, not reset quietly
+def test_step_reports_divergence(engine):
+    v = np.zeros(engine.nv)
+    v[engine.dof_index("j_shin_left")] = 1e12
+    engine.set_v(v)
+    with pytest.raises(stance.DivergenceError, match="simulation diverged: .*instability") as e:
+        for _ in range(3):
+            engine.step()
+    assert e.value.result is None
