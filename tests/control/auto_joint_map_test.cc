@@ -1,0 +1,104 @@
+// The joint map found from the model's tree (bvh track without --map): the same map as the
+// hand-written one on MuJoCo's humanoid.xml, complete legs on DART's Atlas (hinge chains: three
+// bodies at each hip, two at each ankle) and fullbody1 (Y-up), a clear error without legs, and
+// a YAML file that reads back as the same map.
+#include "control/auto_joint_map.h"
+
+#include <gtest/gtest.h>
+
+#include <map>
+
+#include "core/error.h"
+#include "engine/world_spec.h"
+#include "motion/bvh.h"
+#include "test_support.h"
+
+namespace stance {
+namespace {
+
+MotionSkeleton synthetic_walk_skeleton() {
+  return make_motion_skeleton(make_synthetic_walk_clip(), MotionSkeletonOptions{});
+}
+
+std::unique_ptr<Engine> load(const std::string& engine, const std::string& file) {
+  WorldSpec spec;
+  spec.models.push_back({file});
+  auto e = make_engine(engine, spec);
+  e->forward();
+  return e;
+}
+
+std::map<std::string, std::string> pairs_of(const JointMap& map) {
+  std::map<std::string, std::string> out;
+  for (const JointMapEntry& j : map.joints) out[j.segment] = j.body;
+  return out;
+}
+
+TEST(AutoJointMap, HumanoidMatchesTheHandWrittenMap) {
+  auto model = load("mujoco", test::kHumanoidXml);
+  AutoJointMap found = find_joint_map(synthetic_walk_skeleton(), "walk", *model, "humanoid");
+  const JointMap hand = read_joint_map("models/maps/synthetic_walk_to_humanoid.yaml");
+  EXPECT_EQ(pairs_of(found.map), pairs_of(hand));
+  EXPECT_EQ(found.map.model_up, 'z');
+  // the humanoid's legs are longer than the synthetic walker's
+  EXPECT_GT(*found.map.scale, 0.5);
+  EXPECT_LT(*found.map.scale, 2.0);
+}
+
+TEST(AutoJointMap, TheWrittenFileReadsBackAsTheSameMap) {
+  auto model = load("mujoco", test::kHumanoidXml);
+  AutoJointMap found = find_joint_map(synthetic_walk_skeleton(), "walk", *model, "humanoid");
+  const std::string path = test::write_temp_file(
+      "auto_map.yaml", joint_map_yaml(found, "walk.bvh", "humanoid.xml"));
+  const JointMap back = read_joint_map(path);
+  EXPECT_EQ(pairs_of(back), pairs_of(found.map));
+  EXPECT_NEAR(*back.scale, *found.map.scale, 1e-5 * *found.map.scale);
+  EXPECT_EQ(back.model_up, found.map.model_up);
+}
+
+TEST(AutoJointMap, AtlasHingeChainsGiveCompleteLegs) {
+  if (!test::have_atlas()) GTEST_SKIP() << "no dart-doc Atlas";
+  auto model = load("dart", "dart://sample/sdf/atlas/atlas_v3_no_head.urdf");
+  AutoJointMap found = find_joint_map(synthetic_walk_skeleton(), "walk", *model, "atlas");
+  auto pairs = pairs_of(found.map);
+  // the thigh is the hip's third hinge body (l_uglut, l_lglut, l_uleg), the foot the ankle's
+  // second (l_talus, l_foot)
+  EXPECT_EQ(pairs["Hips"], "pelvis");
+  EXPECT_EQ(pairs["LeftUpLeg"], "l_uleg");
+  EXPECT_EQ(pairs["LeftLeg"], "l_lleg");
+  EXPECT_EQ(pairs["LeftFoot"], "l_foot");
+  EXPECT_EQ(pairs["RightUpLeg"], "r_uleg");
+  EXPECT_EQ(pairs["RightLeg"], "r_lleg");
+  EXPECT_EQ(pairs["RightFoot"], "r_foot");
+  EXPECT_EQ(pairs["Chest"], "utorso");
+  EXPECT_EQ(pairs["LeftArm"], "l_uarm");
+  EXPECT_EQ(pairs["RightForeArm"], "r_larm");
+  // no head: the light camera frames on the torso are no head
+  EXPECT_EQ(pairs.count("Head"), 0u);
+}
+
+TEST(AutoJointMap, Fullbody1YUpGivesCompleteLegs) {
+  if (!test::have_dart_data()) GTEST_SKIP() << "no dart-doc";
+  auto model = load("dart", test::kFullbodySkel);
+  AutoJointMap found = find_joint_map(synthetic_walk_skeleton(), "walk", *model, "fullbody1");
+  EXPECT_EQ(found.map.model_up, 'y');
+  const JointMap hand = read_joint_map("models/maps/synthetic_walk_to_fullbody1.yaml");
+  EXPECT_EQ(pairs_of(found.map), pairs_of(hand));
+  std::cout << joint_map_report(found);
+}
+
+TEST(AutoJointMap, AModelWithoutLegsIsAnErrorNamingItsBodies) {
+  const std::string xml = test::write_temp_file("no_legs.xml", test::kFloatingChainMjcf);
+  auto model = load("mujoco", xml);
+  try {
+    find_joint_map(synthetic_walk_skeleton(), "walk", *model, "no_legs.xml");
+    FAIL() << "expected an InputError";
+  } catch (const InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("no_legs.xml: found no two legs"), std::string::npos) << what;
+    EXPECT_NE(what.find("base, link1, link2"), std::string::npos) << what;
+  }
+}
+
+}  // namespace
+}  // namespace stance
