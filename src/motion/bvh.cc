@@ -48,10 +48,15 @@ bool is_hspace(char c) {
   return c == ' ' || c == '\t' || c == '\v' || c == '\f';
 }
 
-// a quoted token for messages, shortened when huge
+// a quoted token for messages, shortened when huge; control bytes (a NUL would cut the line
+// on a terminal) shown as \xNN
 std::string quoted(std::string_view token) {
-  if (token.size() > 40) return fmt::format("'{}...'", token.substr(0, 40));
-  return fmt::format("'{}'", token);
+  std::string shown;
+  for (char c : token.substr(0, 40)) {
+    const auto b = static_cast<unsigned char>(c);
+    shown += b < 0x20 || b == 0x7f ? fmt::format("\\x{:02x}", b) : std::string(1, c);
+  }
+  return fmt::format("'{}{}'", shown, token.size() > 40 ? "..." : "");
 }
 
 // std::from_chars for a whole token, also accepting a leading '+'; false when the token is not
@@ -360,6 +365,12 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
       if (name.empty()) in.fail(line, fmt::format("{} without a name", t));
       check_joint_name(in, line, name);
       BvhJoint j;
+      // a joint is found by its name (joint maps, the character's bodies)
+      if (int first = clip.find_joint(name); first >= 0) {
+        in.fail(line, fmt::format("a second joint named '{}' (the first is at line {}): joint "
+                                  "names must be unique",
+                                  name, clip.joints[first].line));
+      }
       j.name = std::string(name);
       j.parent = open.empty() ? -1 : open.back().joint;
       j.line = line;
@@ -390,6 +401,13 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
       Eigen::Vector3d v;
       for (int i = 0; i < 3; ++i) v[i] = in.number("an OFFSET value");
       BvhJoint& j = clip.joints[open.back().joint];
+      for (int i = 0; i < 3; ++i) {
+        if (std::abs(v[i]) > kMaxBvhCoordinate) {
+          in.fail(line, fmt::format("OFFSET value {:g} is beyond the {:g} file units a "
+                                    "skeleton can span",
+                                    v[i], kMaxBvhCoordinate));
+        }
+      }
       (open.back().end_site ? j.end_site_offset : j.offset) = v;
     } else if (iequals(t, "CHANNELS")) {
       if (open.empty() || open.back().end_site) in.fail(line, "CHANNELS outside a joint block");
@@ -432,8 +450,10 @@ void parse_motion(Scanner& in, BvhClip& clip) {
   }
   t = in.token_on_this_line();
   double dt = 0.0;
-  if (!parse_double(t, dt) || dt <= 0.0) {
-    in.fail(fmt::format("bad frame time {} (expected seconds > 0)", quoted(t)));
+  if (!parse_double(t, dt) || !(dt >= kMinBvhFrameTimeS && dt <= kMaxBvhFrameTimeS)) {
+    in.fail(fmt::format("bad frame time {} (expected {} to {} s: {} to {} frames per second)",
+                        quoted(t), kMinBvhFrameTimeS, kMaxBvhFrameTimeS, 1 / kMinBvhFrameTimeS,
+                        1 / kMaxBvhFrameTimeS));
   }
   clip.frame_count = frames;
   clip.frame_time_s = dt;
@@ -447,6 +467,10 @@ void parse_motion(Scanner& in, BvhClip& clip) {
                                      frames, clip.joints.size(), kMaxBvhPoses));
   }
   std::vector<double> rows;
+  std::vector<int> position_columns;
+  for (const BvhJoint& j : clip.joints)
+    for (size_t c = 0; c < j.channels.size(); ++c)
+      if (!is_rotation(j.channels[c])) position_columns.push_back(j.first_column + int(c));
   for (int f = 0; f < frames; ++f) {
     rows.resize(rows.size() + cols);
     in.skip_space();
@@ -454,7 +478,16 @@ void parse_motion(Scanner& in, BvhClip& clip) {
       in.fail(fmt::format("truncated data: 'Frames: {}' (line {}) but only {} motion rows", frames,
                           frames_line, f));
     }
-    in.motion_row(rows.data() + static_cast<size_t>(f) * cols, cols);
+    double* row = rows.data() + static_cast<size_t>(f) * cols;
+    in.motion_row(row, cols);
+    for (int c : position_columns) {
+      if (std::abs(row[c]) > kMaxBvhCoordinate) {
+        in.fail(
+            fmt::format("position {:g} (value {} of the motion row) is beyond the {:g} file "
+                        "units a clip can span",
+                        row[c], c + 1, kMaxBvhCoordinate));
+      }
+    }
   }
   in.skip_space();
   if (!in.at_end()) {
@@ -597,6 +630,36 @@ struct UnitGuess {
 };
 
 }  // namespace
+// the text after a UTF-8 byte order mark, if any. UTF-16, with its mark or without (ASCII text
+// in UTF-16 has a NUL in one of its first two bytes), is refused by name rather than read as
+// bytes that stop at the first NUL.
+std::string_view text_without_utf8_bom(std::string_view text, const std::string& name) {
+  if (text.substr(0, 3) == "\xEF\xBB\xBF") return text.substr(3);
+  if (text.size() < 2) return text;
+  // what the file is, and the encoding iconv converts it from
+  const char* what = nullptr;
+  const char* from = "UTF-16";
+  if (text.substr(0, 2) == "\xFF\xFE") {
+    what = "little-endian, with a byte order mark";
+  } else if (text.substr(0, 2) == "\xFE\xFF") {
+    what = "big-endian, with a byte order mark";
+  } else if (text[0] != '\0' && text[1] == '\0') {
+    what = "little-endian";
+    from = "UTF-16LE";
+  } else if (text[0] == '\0' && text[1] != '\0') {
+    what = "big-endian";
+    from = "UTF-16BE";
+  }
+  if (what) {
+    throw InputError(located(name, 1,
+                             fmt::format("the file is UTF-16 ({}); stance reads BVH as "
+                                         "ASCII or UTF-8: convert it, e.g. with iconv "
+                                         "-f {} -t UTF-8",
+                                         what, from)));
+  }
+  return text;
+}
+
 
 Eigen::Vector3d bvh_rest_translation(const BvhClip& clip, int joint) {
   const BvhJoint& j = clip.joints[joint];
@@ -714,7 +777,7 @@ int BvhClip::find_joint(std::string_view name) const {
 BvhClip parse_bvh(std::string_view text, const std::string& name_for_errors) {
   BvhClip clip;
   clip.source = name_for_errors;
-  Scanner in(text, name_for_errors);
+  Scanner in(text_without_utf8_bom(text, name_for_errors), name_for_errors);
   parse_hierarchy(in, clip);
 
   // motion-row columns and position slots

@@ -84,9 +84,19 @@ struct BvhClip {
 // how deep they nest (within the 96 nested bodies MuJoCo reads, for bvh2mjcf's character)
 constexpr int kMaxBvhJoints = 1000;
 constexpr int kMaxBvhDepth = 90;
+// the frame time every command accepts: 10 kHz to 1 Hz. Exporters write 24 to 240 Hz, optical
+// capture reaches 1 kHz; a shorter step is a unit slip (ms read as s), and the recording and
+// resampling of a run grow with the frame rate.
+constexpr double kMinBvhFrameTimeS = 1e-4;
+constexpr double kMaxBvhFrameTimeS = 1.0;
+// the largest OFFSET or position channel value, in file units (1e7 mm is 10 km): beyond it a
+// character's bodies or its path are no measurement but a corrupt file
+constexpr double kMaxBvhCoordinate = 1e7;
 
 // reads and parses a BVH file (the whole file is read into memory first). One ROOT per file.
-// Joint names are UTF-8 without braces or control characters, so that they write back.
+// Joint names are UTF-8 without braces or control characters, so that they write back, and
+// unique. The text is ASCII or UTF-8 (a UTF-8 byte order mark is skipped; UTF-16 is refused by
+// name). Frame time and coordinates are checked against the limits above.
 BvhClip read_bvh(const std::string& path);
 
 // parses BVH text; name_for_errors prefixes error messages ("name:line: ...")

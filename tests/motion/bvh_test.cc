@@ -648,5 +648,88 @@ TEST(BvhErrors, BoundsAndNamesTheWriterCouldNotWriteBack) {
   EXPECT_EQ(parse_bvh(nested_bvh(kMaxBvhDepth - 1), "test.bvh").joint_count(), kMaxBvhDepth);
 }
 
+// one rule for every command that reads a clip: a frame rate of 1 Hz to 10 kHz. 1e-300
+// crashed bvh track, 1e-7 ran out of memory, 1e-5 ran and blew up.
+TEST(BvhErrors, FrameTimeOutsideCaptureRatesNamesTheLine) {
+  const std::string good = synthetic_bvh("ZXY", kRows);
+  for (const char* bad : {"1e-300", "1e-7", "1e-5", "0.00009", "1.5", "120", "0", "-0.01"}) {
+    const std::string msg = parse_error(synthetic_bvh("ZXY", kRows, bad));
+    EXPECT_EQ(msg, fmt::format("test.bvh:23: bad frame time '{}' (expected 0.0001 to 1 s: 10000 "
+                               "to 1 frames per second)",
+                               bad))
+        << bad;
+  }
+  for (const char* fine : {"0.0001", "0.001", "0.00833333", "0.0333333", "1"}) {
+    EXPECT_EQ(parse_error(synthetic_bvh("ZXY", kRows, fine)), "") << fine;
+  }
+  EXPECT_EQ(parse_bvh(good, "test.bvh").frame_time_s, 0.0333333);
+}
+
+// two joints of one name made an MJCF that stance then refused, naming the generated file
+TEST(BvhErrors, SecondJointOfOneNameNamesBothLines) {
+  const std::string twice =
+      replace_once(synthetic_bvh("ZXY", kRows), "JOINT LeftLeg\n", "JOINT LeftUpLeg\n");
+  EXPECT_EQ(parse_error(twice),
+            "test.bvh:10: a second joint named 'LeftUpLeg' (the first is at "
+            "line 6): joint names must be unique");
+  // End Sites have no names of their own
+  EXPECT_EQ(parse_error(synthetic_bvh("ZXY", kRows)), "");
+}
+
+// an OFFSET or a position of 1e300 is a corrupt file, not a skeleton; 1e7 file units still read
+TEST(BvhErrors, AbsurdOffsetsAndPositionsNameTheLine) {
+  const std::string good = synthetic_bvh("ZXY", kRows);
+  const std::string beyond = " is beyond the 1e+07 file units a skeleton can span";
+  EXPECT_EQ(parse_error(replace_once(good, "OFFSET 10 -5 0", "OFFSET 10 -1e300 0")),
+            "test.bvh:8: OFFSET value -1e+300" + beyond);
+  const std::string end_site = "OFFSET 0 -45 0\n      }";
+  EXPECT_EQ(parse_error(replace_once(good, end_site, "OFFSET 0 -4.5e7 0\n      }")),
+            "test.bvh:16: OFFSET value -4.5e+07" + beyond);
+  EXPECT_EQ(parse_error(replace_once(good, "1.75 94.5", "1.75 2e8")),
+            "test.bvh:25: position 2e+08 (value 2 of the motion row) is beyond the 1e+07 file "
+            "units a clip can span");
+  // angles are no coordinates: any finite angle reads
+  EXPECT_EQ(parse_error(replace_once(good, "1.75 94.5 -2 170", "1.75 94.5 -2 1e300")), "");
+  EXPECT_EQ(parse_error(replace_once(good, "OFFSET 10 -5 0", "OFFSET 10 -1e7 0")), "");
+}
+
+TEST(BvhEncoding, Utf8ByteOrderMarkIsSkipped) {
+  const std::string good = synthetic_bvh("ZXY", kRows);
+  const BvhClip plain = parse_bvh(good, "plain.bvh");
+  const BvhClip marked = parse_bvh("\xEF\xBB\xBF" + good, "marked.bvh");
+  expect_same_motion(plain, marked, 1e-15);
+  // line numbers are unchanged after the mark
+  EXPECT_EQ(parse_error("\xEF\xBB\xBF" + replace_once(good, "OFFSET 10 -5 0", "OFFSET 10 -5o 0")),
+            "test.bvh:8: bad number '-5o' for an OFFSET value");
+}
+
+// UTF-16 text, with its byte order mark or without: named as such, not quoted as raw bytes
+// cut at the first NUL
+TEST(BvhEncoding, Utf16IsNamed) {
+  const std::string good = synthetic_bvh("ZXY", kRows);
+  auto utf16 = [&](bool big_endian, bool mark) {
+    std::string out;
+    if (mark) out = big_endian ? "\xFE\xFF" : "\xFF\xFE";
+    for (char c : good) {
+      out += big_endian ? std::string(1, '\0') + c : std::string(1, c) + '\0';
+    }
+    return out;
+  };
+  const std::string hint = "; stance reads BVH as ASCII or UTF-8: convert it, e.g. with iconv -f ";
+  EXPECT_EQ(parse_error(utf16(false, true)),
+            "test.bvh:1: the file is UTF-16 (little-endian, with a byte order mark)" + hint +
+                "UTF-16 -t UTF-8");
+  EXPECT_EQ(parse_error(utf16(true, true)),
+            "test.bvh:1: the file is UTF-16 (big-endian, with a byte order mark)" + hint +
+                "UTF-16 -t UTF-8");
+  EXPECT_EQ(parse_error(utf16(false, false)),
+            "test.bvh:1: the file is UTF-16 (little-endian)" + hint + "UTF-16LE -t UTF-8");
+  EXPECT_EQ(parse_error(utf16(true, false)),
+            "test.bvh:1: the file is UTF-16 (big-endian)" + hint + "UTF-16BE -t UTF-8");
+  // a stray NUL elsewhere is shown, not left to cut the message
+  EXPECT_EQ(parse_error(replace_once(good, "OFFSET 10 -5 0", std::string("OFFSET 10 -5\0 0", 16))),
+            "test.bvh:8: bad number '-5\\x00' for an OFFSET value");
+}
+
 }  // namespace
 }  // namespace stance
