@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include <signal.h>
+#include <stdlib.h>
 
 #include <algorithm>
 #include <atomic>
@@ -315,7 +316,15 @@ int bvh_retarget_command(const BvhRetargetCommand& cmd) {
   });
 }
 
-std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
+namespace {
+
+// bvh track's scenario text and, without --map, the clip's character (MJCF text)
+struct BvhTrackFiles {
+  std::string scenario;
+  std::string character;
+};
+
+BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   namespace fs = std::filesystem;
   if (cmd.map.empty() != cmd.model.empty())
     throw InputError("bvh track: --map and --model go together");
@@ -334,8 +343,7 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
   // without --first-frame, after leading frames that jump to the motion (a T-pose)
   const int first = cmd.first_frame > 0 ? cmd.first_frame
                                         : std::min(detect_bvh_first_motion_frame(clip), last - 1);
-  fs::create_directories(cmd.out_dir);
-  const fs::path dir = fs::absolute(cmd.out_dir);
+  BvhTrackFiles files;
   YAML::Node doc;
   doc["name"] = "bvh_track_" + fs::path(cmd.bvh).stem().string();
   doc["engine"] = cmd.engine;
@@ -355,8 +363,7 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
     // the clip's own character, starting on the range's first frame
     BvhCharacterOptions o;
     o.reference.first_frame = first;
-    BvhCharacter ch = make_bvh_character(clip, o);
-    write_file_atomically(dir / "character.xml", ch.mjcf);
+    files.character = make_bvh_character(clip, o).mjcf;
     doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
     doc["model"][0]["file"] = "character.xml";
   } else {
@@ -372,9 +379,66 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
   doc["planner"]["threads"] = cmd.threads;
   YAML::Emitter out;
   out << doc;
-  const fs::path path = dir / "track.yaml";
-  write_file_atomically(path, std::string("# written by stance bvh track\n") + out.c_str() + "\n");
-  return path.string();
+  files.scenario = std::string("# written by stance bvh track\n") + out.c_str() + "\n";
+  return files;
+}
+
+// writes the files into `dir`; returns the scenario's path
+std::string write_bvh_track_files(const BvhTrackFiles& files, const std::filesystem::path& dir) {
+  if (!files.character.empty()) write_file_atomically(dir / "character.xml", files.character);
+  write_file_atomically(dir / "track.yaml", files.scenario);
+  return (dir / "track.yaml").string();
+}
+
+// a fresh folder under the system's temporary folder, removed with its files when it goes
+class ScratchFolder {
+ public:
+  ScratchFolder() {
+    std::string pattern = (std::filesystem::temp_directory_path() / "stance-XXXXXX").string();
+    if (!mkdtemp(pattern.data()))
+      throw EnvironmentError(fmt::format("cannot make a scratch folder {}", pattern));
+    path_ = pattern;
+  }
+  ~ScratchFolder() {
+    std::error_code ec;
+    std::filesystem::remove_all(path_, ec);
+  }
+  ScratchFolder(const ScratchFolder&) = delete;
+  ScratchFolder& operator=(const ScratchFolder&) = delete;
+  const std::filesystem::path& path() const { return path_; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// everything the run loads (the scenario with --set, the character, the joint map, the engine
+// and the controllers), loaded from a scratch copy before --out is touched: bad input leaves
+// --out as it was. Messages name the files where they will be, in --out.
+void check_bvh_track_files(const BvhTrackFiles& files, const BvhTrackCommand& cmd) {
+  ScratchFolder scratch;
+  const std::string scenario = write_bvh_track_files(files, scratch.path());
+  try {
+    RunOptions opt;
+    opt.engine = cmd.engine;
+    opt.quiet = true;
+    make_simulation_model(load_scenario(scenario, cmd.sets), opt);
+  } catch (const InputError& e) {
+    std::string message = e.what();
+    const std::string from = scratch.path().string();
+    const std::string to = std::filesystem::path(cmd.out_dir).lexically_normal().string();
+    for (size_t at; (at = message.find(from)) != std::string::npos;)
+      message.replace(at, from.size(), to);
+    throw InputError(message);
+  }
+}
+
+}  // namespace
+
+std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
+  const BvhTrackFiles files = make_bvh_track_files(cmd);
+  check_bvh_track_files(files, cmd);
+  std::filesystem::create_directories(cmd.out_dir);
+  return write_bvh_track_files(files, std::filesystem::absolute(cmd.out_dir));
 }
 
 RunCommand bvh_track_run(const BvhTrackCommand& cmd, const std::string& scenario) {

@@ -111,7 +111,9 @@ struct BvhTrackCommand {
   std::vector<std::string> sets;  // overrides on the generated scenario
   bool quiet = false;
 };
-// writes the scenario (and the character) into cmd.out_dir; returns the scenario's path
+// writes the scenario (and the character) into cmd.out_dir once all of it has loaded (the clip,
+// --set, the model, the engine and the controllers): bad input leaves cmd.out_dir untouched.
+// Returns the scenario's path.
 std::string write_bvh_track_scenario(const BvhTrackCommand& cmd);
 // the run options bvh track uses on that scenario (for the recorder too)
 RunCommand bvh_track_run(const BvhTrackCommand& cmd, const std::string& scenario);
