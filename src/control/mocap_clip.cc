@@ -90,7 +90,11 @@ std::string mocap_base_dir(const ControllerContext& ctx) {
 }
 
 size_t mocap_record_frames(double duration_s, double frame_time_s) {
-  return static_cast<size_t>(std::max(120.0, duration_s) / frame_time_s) + 1;
+  // counted in double and bounded before the cast: a tiny or non-finite step must not turn into
+  // an undefined size (the BVH reader bounds the frame time; this is the backstop)
+  constexpr double kMaxFrames = double(1 << 20);
+  const double frames = std::max(120.0, duration_s) / frame_time_s;
+  return static_cast<size_t>(frames >= 0 && frames < kMaxFrames ? frames : kMaxFrames) + 1;
 }
 
 bool same_mocap_clip(const MocapClipParams& a, const MocapClipParams& b) {

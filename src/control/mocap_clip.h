@@ -153,7 +153,7 @@ bool same_mocap_clip(const MocapClipParams& a, const MocapClipParams& b);
 // the folder relative clip and map paths start at: the scenario file's
 std::string mocap_base_dir(const ControllerContext& ctx);
 // the recorded frames a run reserves, at the clip's frame rate: the run's length (at least
-// two minutes, as a viewer runs on), plus a frame
+// two minutes, as a viewer runs on), plus a frame; at most 2^20 + 1 (more grow on demand)
 size_t mocap_record_frames(double duration_s, double frame_time_s);
 
 enum class MocapRootMode { kKinematic, kAssisted, kFree };

@@ -325,7 +325,9 @@ void MocapRetargetTracker::reset_state(State& s, const Engine& engine) const {
   s.recorded_roots.clear();
   s.next_record_t = 0;
   if (!params_.export_bvh.empty()) {
-    const size_t frames = mocap_record_frames(duration_s_, clip_.reference->frame_time_s());
+    // a frame is recorded at most once a step
+    const size_t frames = mocap_record_frames(
+        duration_s_, std::max(clip_.reference->frame_time_s(), engine.timestep()));
     s.recorded_rotations.reserve(frames * motion_->bodies().size());
     s.recorded_roots.reserve(frames);
   }

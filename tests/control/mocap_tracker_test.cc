@@ -271,6 +271,18 @@ TEST(MocapTracker, RejectsBadInput) {
 }
 
 // per-joint gains by joint name set the joint's three dofs
+// the recording a run reserves is bounded whatever the frame time: 1e-300 s cast 1.2e302
+// frames to a size (a crash)
+TEST(MocapTracker, RecordedFramesAreBounded) {
+  EXPECT_EQ(mocap_record_frames(10, 0.01), 12001u);
+  EXPECT_EQ(mocap_record_frames(200, 0.1), 2001u);
+  const size_t cap = (size_t{1} << 20) + 1;
+  EXPECT_EQ(mocap_record_frames(120, 1e-300), cap);
+  EXPECT_EQ(mocap_record_frames(120, 0.0), cap);
+  EXPECT_EQ(mocap_record_frames(std::nan(""), 0.01), 12001u);
+  EXPECT_EQ(mocap_record_frames(120, std::nan("")), cap);
+}
+
 TEST(MocapTracker, JointGainsByJointName) {
   ClipFiles s = make_files(make_synthetic_walk_clip(), "track_gains");
   MocapRetargetParams p = params_for(s.bvh, "assisted");
