@@ -244,6 +244,7 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
     write_file_atomically(cmd.mjcf, ch.mjcf);
     std::cout << fmt::format("wrote {}: {} bodies, {:.6g} kg, {:.6g} m per file unit\n", cmd.mjcf,
                              ch.skeleton.segment_count(), cmd.mass_kg, ch.skeleton.scale_to_meters);
+    for (const std::string& w : ch.skeleton.warnings) std::cerr << "warning: " << w << "\n";
     return kExitOk;
   });
 }

@@ -5,6 +5,9 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <iostream>
+#include <mutex>
+#include <set>
 
 #include <fmt/format.h>
 
@@ -18,6 +21,14 @@ namespace {
 std::string lower(std::string s) {
   for (char& c : s) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   return s;
+}
+
+// a warning on stderr, once per process (a batch or a planner loads the same clip many times)
+void warn_once(const std::string& message) {
+  static std::mutex mutex;
+  static std::set<std::string> printed;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (printed.insert(message).second) std::cerr << "warning: " << message << "\n";
 }
 
 }  // namespace
@@ -137,6 +148,7 @@ MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base
                         : ro.first_frame;
   out.reference = std::make_shared<ReferenceMotion>(*clip, make_motion_skeleton(*clip, so), ro);
   out.clip = clip;
+  for (const std::string& w : out.reference->skeleton().warnings) warn_once(w);
   return out;
 }
 

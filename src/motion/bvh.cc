@@ -16,6 +16,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "motion/bvh_measure.h"
 
 namespace stance {
 
@@ -727,9 +728,9 @@ Eigen::Vector2d leaf_drop(const BvhClip& clip, bool posed) {
 
 UnitGuess guess_units(const BvhClip& clip) {
   if (clip.joints.empty()) return {1.0, "unknown"};
-  const Eigen::Vector2d drop = leaf_drop(clip, false);
-  // the legs are the longest drop below the root: along y (the BVH norm) or z
-  const double leg = drop.maxCoeff();
+  // the legs: the longest drop below the root, at rest or, where the rest pose does not stand,
+  // in the posed frames (bvh_measure.h)
+  const double leg = bvh_leg_drop(clip);
   if (!(leg > 0.0)) return {1.0, "unknown"};
 
   struct Unit {
@@ -949,6 +950,7 @@ nlohmann::json bvh_info_json(const BvhClip& clip) {
       {"scale_to_meters", units.scale_to_meters},
       {"up_axis", std::string(1, detect_bvh_up_axis(clip))},
       {"first_motion_frame", detect_bvh_first_motion_frame(clip)},
+      {"character", bvh_measures_json(clip)},
   };
 }
 
@@ -974,6 +976,7 @@ std::string bvh_info_text(const BvhClip& clip) {
   if (int first = detect_bvh_first_motion_frame(clip); first > 0)
     out += fmt::format(
         "motion from: frame {} (the frames before jump to it: a T-pose or rest pose)\n", first);
+  out += bvh_measures_text(clip);
   std::string orders;
   for (const auto& [name, count] : order_counts) {
     orders += fmt::format("{}{} x{}", orders.empty() ? "" : ", ", name, count);

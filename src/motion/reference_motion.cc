@@ -9,6 +9,7 @@
 #include <fmt/format.h>
 
 #include "core/error.h"
+#include "motion/bvh_measure.h"
 
 namespace stance {
 
@@ -209,6 +210,9 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
   MotionSkeleton sk;
   sk.scale_to_meters =
       options.scale_to_meters > 0 ? options.scale_to_meters : detect_bvh_scale_to_meters(clip);
+  // a detected size is checked against a person's; a given scale_to_meters is the user's word
+  if (options.scale_to_meters <= 0)
+    sk.warnings = bvh_character_warnings(clip, measure_bvh_character(clip, sk.scale_to_meters));
   auto lower = [](char axis) {
     return static_cast<char>(std::tolower(static_cast<unsigned char>(axis)));
   };

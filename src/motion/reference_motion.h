@@ -70,6 +70,9 @@ struct MotionSkeleton {
   char world_up_axis = 'y';  // the world's, in which the frames pose the skeleton
   Eigen::Quaterniond to_z_up = Eigen::Quaterniond::Identity();        // C: rest frames
   Eigen::Quaterniond world_to_z_up = Eigen::Quaterniond::Identity();  // the root's world
+  // where a detected scale makes no person (bvh_character_warnings): one line each, for the
+  // commands to print; empty when scale_to_meters was given
+  std::vector<std::string> warnings;
 
   int segment_count() const { return static_cast<int>(segments.size()); }
   // index of the segment called `name`, or -1

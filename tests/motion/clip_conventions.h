@@ -5,9 +5,13 @@
 //  - other joint names (Bandai Namco's Foot_L, 3ds Max's "Bip01 L Foot", DAZ's lFoot);
 //  - a carrier ROOT above the old root, which gets position channels of its own (Bandai Namco's
 //    joint_Root on the floor above a floating Hips);
-//  - leading T-pose frames (cgspeed's CMU release begins with one).
+//  - leading T-pose frames (cgspeed's CMU release begins with one);
+//  - other units (every length scaled), a namespace prefix on every name (Mixamo's);
+//  - a rest pose that is no standing pose (Bandai Namco's bones all lie along X), and a carrier
+//    root on the ground under the hips that holds the clip's translation or none of it.
 #pragma once
 
+#include <functional>
 #include <map>
 #include <numbers>
 #include <string>
@@ -63,10 +67,66 @@ inline const std::map<std::string, std::string>& bandai_names() {
   return names;
 }
 
-// a new ROOT `name` that carries the old root, which must have position channels: the carrier
-// moves (half the root's path, and a rocking turn) and the old root's channels are what is
-// left, so that every joint's world pose is the clip's
-inline BvhClip with_carrier_root(const BvhClip& in, const std::string& name) {
+// every name with `prefix` in front ("mixamorig:")
+inline BvhClip prefixed(BvhClip clip, const std::string& prefix) {
+  for (BvhJoint& j : clip.joints) j.name = prefix + j.name;
+  return clip;
+}
+
+// every length (OFFSETs, End Sites, position channels) times `factor`: the clip in other units
+inline BvhClip rescaled(BvhClip clip, double factor) {
+  for (BvhJoint& j : clip.joints) {
+    j.offset *= factor;
+    j.end_site_offset *= factor;
+  }
+  for (Eigen::Vector3d& p : clip.positions) p *= factor;
+  return clip;
+}
+
+// every joint's frame turned so that its bone (to its first child, else its End Site) lies along
+// its +X, the rotations and translations turned to match: the rest pose lies along X, as Bandai
+// Namco's does, and every frame poses every joint where the clip does
+inline BvhClip with_bones_along_x(const BvhClip& in) {
+  BvhClip out = in;
+  const int n = in.joint_count();
+  std::vector<Eigen::Quaterniond> turn(n, Eigen::Quaterniond::Identity());
+  for (int j = n - 1; j >= 0; --j) {
+    Eigen::Vector3d bone = in.joints[j].has_end_site ? in.joints[j].end_site_offset
+                                                     : Eigen::Vector3d::Zero();
+    for (int c = n - 1; c > j; --c)
+      if (in.joints[c].parent == j) bone = bvh_rest_translation(in, c);  // the first child
+    if (bone.norm() > 0)
+      turn[j] = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitX(), bone);
+  }
+  auto parent_turn = [&](int j) {
+    const int p = in.joints[j].parent;
+    return p < 0 ? Eigen::Quaterniond::Identity() : turn[p];
+  };
+  for (int j = 0; j < n; ++j) {
+    out.joints[j].offset = parent_turn(j).conjugate() * in.joints[j].offset;
+    out.joints[j].end_site_offset = turn[j].conjugate() * in.joints[j].end_site_offset;
+  }
+  for (int f = 0; f < in.frame_count; ++f)
+    for (int j = 0; j < n; ++j) {
+      out.rotation(f, j) = parent_turn(j).conjugate() * in.rotation(f, j) * turn[j];
+      if (in.joints[j].position_slot >= 0)
+        out.positions[static_cast<size_t>(f) * in.position_joint_count +
+                      in.joints[j].position_slot] = parent_turn(j).conjugate() *
+                                                    in.translation(f, j);
+    }
+  out.raw.resize(0, 0);
+  return out;
+}
+
+// the carrier's translation and rotation at a frame, given the old root's translation there
+using CarrierPose = std::function<void(int frame, const Eigen::Vector3d& root,
+                                       Eigen::Vector3d& translation, Eigen::Quaterniond& rotation)>;
+
+// a new ROOT `name` with 6 channels that carries the old root, which must have position
+// channels: the carrier is posed by `pose` and the old root's channels are what is left, so that
+// every joint's world pose is the clip's
+inline BvhClip with_carrier_root(const BvhClip& in, const std::string& name,
+                                 const CarrierPose& pose) {
   BvhClip out = in;
   BvhJoint carrier;
   carrier.name = name;
@@ -92,9 +152,9 @@ inline BvhClip with_carrier_root(const BvhClip& in, const std::string& name) {
   out.positions.assign(static_cast<size_t>(slots) * in.frame_count, Eigen::Vector3d::Zero());
   for (int f = 0; f < in.frame_count; ++f) {
     const Eigen::Vector3d t = in.translation(f, 0);
-    const Eigen::Vector3d carried = 0.5 * t;
-    const Eigen::Quaterniond turn(
-        Eigen::AngleAxisd(0.3 * std::sin(0.1 * f), Eigen::Vector3d(0.2, 1, 0.1).normalized()));
+    Eigen::Vector3d carried = Eigen::Vector3d::Zero();
+    Eigen::Quaterniond turn = Eigen::Quaterniond::Identity();
+    pose(f, t, carried, turn);
     out.rotation(f, 0) = turn;
     out.positions[static_cast<size_t>(f) * slots] = carried;
     out.rotation(f, 1) = turn.conjugate() * in.rotation(f, 0);
@@ -108,6 +168,29 @@ inline BvhClip with_carrier_root(const BvhClip& in, const std::string& name) {
   }
   out.joints[1].offset = out.translation(0, 1);
   return out;
+}
+
+// the carrier moves (half the root's path, and a rocking turn)
+inline BvhClip with_carrier_root(const BvhClip& in, const std::string& name) {
+  return with_carrier_root(in, name,
+                           [](int f, const Eigen::Vector3d& root, Eigen::Vector3d& translation,
+                              Eigen::Quaterniond& rotation) {
+                             translation = 0.5 * root;
+                             rotation = Eigen::AngleAxisd(
+                                 0.3 * std::sin(0.1 * f), Eigen::Vector3d(0.2, 1, 0.1).normalized());
+                           });
+}
+
+// Bandai Namco's carrier: on the ground under the root (Y up), holding the clip's horizontal
+// translation, or, `holds_translation` false, standing still at the origin
+inline BvhClip with_ground_carrier_root(const BvhClip& in, const std::string& name,
+                                        bool holds_translation) {
+  return with_carrier_root(in, name,
+                           [holds_translation](int, const Eigen::Vector3d& root,
+                                               Eigen::Vector3d& translation, Eigen::Quaterniond&) {
+                             translation = Eigen::Vector3d(root.x(), 0, root.z());
+                             if (!holds_translation) translation.setZero();
+                           });
 }
 
 // every joint keyed with position channels that carry its bone, and the hierarchy's OFFSETs
