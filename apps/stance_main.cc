@@ -154,6 +154,9 @@ int main(int argc, char** argv) {
       ->allow_extra_args(false);
   bvh_track_cmd->add_option("--record", track_record, "also render the run as an MP4");
   bvh_track_cmd->add_flag("--quiet", track.quiet, "no summary on stdout");
+  bvh_track_cmd->add_flag("--origin-centred", track.origin_centred,
+                          "tracked.bvh starts above the origin, on the ground (the default: "
+                          "where the clip starts, to overlay it)");
 
   stance::Bvh2MjcfCommand bvh2mjcf;
   auto* bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");

@@ -356,6 +356,7 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   tracker["first_frame"] = first;
   tracker["last_frame"] = last;
   tracker["export_bvh"] = "tracked.bvh";
+  if (cmd.origin_centred) tracker["export_origin_centred"] = true;
   // the shared defaults, spelled out so that the scenario shows what it runs
   const MocapRetargetParams defaults;
   tracker["kp"] = defaults.kp;

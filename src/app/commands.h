@@ -110,6 +110,7 @@ struct BvhTrackCommand {
   int threads = 0;                // rollout threads, 0: every core
   std::vector<std::string> sets;  // overrides on the generated scenario
   bool quiet = false;
+  bool origin_centred = false;  // tracked.bvh above the origin, not in the clip's own frame
 };
 // writes the scenario (and the character) into cmd.out_dir once all of it has loaded (the clip,
 // --set, the model, the engine and the controllers): bad input leaves cmd.out_dir untouched.

@@ -113,7 +113,8 @@ bool same_mocap_clip(const MocapClipParams& a, const MocapClipParams& b) {
          a.first_frame == b.first_frame && a.skip_leading_pose == b.skip_leading_pose &&
          a.last_frame == b.last_frame && a.start_s == b.start_s && a.end_s == b.end_s &&
          a.loop == b.loop && a.loop_blend_s == b.loop_blend_s && a.align_ground == b.align_ground &&
-         a.ground == b.ground && a.export_bvh == b.export_bvh;
+         a.ground == b.ground && a.export_bvh == b.export_bvh &&
+         a.export_origin_centred == b.export_origin_centred;
 }
 
 MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base_dir) {
@@ -243,7 +244,7 @@ JointMap bvh_character_joint_map(const MotionSkeleton& skeleton, const Engine& e
 
 BvhClip clip_from_segment_poses(const MocapClip& mocap,
                                 const std::vector<Eigen::Quaterniond>& locals,
-                                const std::vector<Eigen::Vector3d>& roots) {
+                                const std::vector<Eigen::Vector3d>& roots, bool origin_centred) {
   const BvhClip& src = *mocap.clip;
   const MotionSkeleton& sk = mocap.reference->skeleton();
   const int n = sk.segment_count();
@@ -261,6 +262,8 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
   const Eigen::Quaterniond c = sk.to_z_up, ct = c.conjugate();
   const Eigen::Quaterniond wt = sk.world_to_z_up.conjugate();
   const int range = mocap.reference->frame_count();
+  const Eigen::Vector3d shift =
+      origin_centred ? Eigen::Vector3d::Zero() : mocap.reference->alignment_shift_m();
   for (int f = 0; f < frames; ++f) {
     // joints that are no segment keep the clip's own values at the matching frame
     int sf = mocap.first_frame + (f % range);
@@ -284,7 +287,7 @@ BvhClip clip_from_segment_poses(const MocapClip& mocap,
     if (root.position_slot >= 0)
       out.positions[static_cast<size_t>(f) * src.position_joint_count + root.position_slot] =
           carriers.rotation.conjugate() *
-          ((wt * roots[f]) / sk.scale_to_meters - carriers.translation);
+          ((wt * (roots[f] - shift)) / sk.scale_to_meters - carriers.translation);
   }
   return out;
 }

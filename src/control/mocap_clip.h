@@ -35,6 +35,9 @@ struct MocapClipParams {
   bool align_ground = true;
   std::string ground = "start";  // align at the start, or the lowest point of the whole clip
   std::string export_bvh;        // write the simulated motion here (relative: to the output)
+  // the export where the reference is (started above the origin, on the ground), not where the
+  // clip is
+  bool export_origin_centred = false;
 
   template <class V>
   void visit(V& v) {
@@ -54,6 +57,8 @@ struct MocapClipParams {
     v("ground", ground,
       {.help = "start: lowest point at the start on the floor; clip: over the clip"});
     v("export_bvh", export_bvh, {.help = "write the simulated motion as BVH"});
+    v("export_origin_centred", export_origin_centred,
+      {.help = "export_bvh: start above the origin, on the ground (not in the clip's own frame)"});
   }
 };
 
@@ -140,10 +145,13 @@ MocapClip load_mocap_clip(const MocapClipParams& params, const std::string& base
 
 // a clip on the source's skeleton from per-frame segment poses: local rotations (Z-up, as in
 // ReferencePose::rotations; frame-major, segment_count per frame) and root positions (m, Z-up
-// world). Joints that are no segment keep the clip's values at the matching frame of the range.
+// world of the reference). Joints that are no segment keep the clip's values at the matching
+// frame of the range. The root is put back in the clip's own frame (the reference's alignment
+// shift taken off), so that the clip overlays its source, unless `origin_centred`.
 BvhClip clip_from_segment_poses(const MocapClip& mocap,
                                 const std::vector<Eigen::Quaterniond>& locals,
-                                const std::vector<Eigen::Vector3d>& roots);
+                                const std::vector<Eigen::Vector3d>& roots,
+                                bool origin_centred = false);
 // writes clip to export_path (relative: to out_dir)
 void write_exported_bvh(const BvhClip& clip, const std::string& export_path,
                         const std::string& out_dir);

@@ -648,7 +648,7 @@ BvhClip MocapRetargetTracker::recorded_clip(const State& s) const {
     }
     roots[f] = motion_->clip_root_position(s.recorded_roots[f]);
   }
-  return clip_from_segment_poses(clip_, locals, roots);
+  return clip_from_segment_poses(clip_, locals, roots, params_.export_origin_centred);
 }
 
 void MocapRetargetTracker::state_outputs(const State& s, const std::string& out_dir) const {

@@ -369,6 +369,7 @@ ReferenceMotion::ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton,
     shift.z() = options.ground_height_m - lowest;
   }
   for (auto& p : root_positions_) p += shift;
+  alignment_shift_ = shift;
   // the loop transform: yaw and horizontal shift from the first frame's root to the last's
   Eigen::Quaterniond yaw0 = yaw_of(rotations_[0]);
   Eigen::Quaterniond yaw1 = yaw_of(rotations_[static_cast<size_t>(frame_count_ - 1) * segments_]);

@@ -151,6 +151,10 @@ class ReferenceMotion {
   // the pose at a stored frame of the range (no interpolation)
   void frame_pose(int frame, ReferencePose& out) const;
 
+  // what the ground alignment and the start above the origin added to every root position (m,
+  // Z-up world): the clip's own frame is the reference's minus this
+  const Eigen::Vector3d& alignment_shift_m() const { return alignment_shift_; }
+
  private:
   MotionSkeleton skeleton_;
   ReferenceOptions options_;
@@ -159,6 +163,7 @@ class ReferenceMotion {
   int segments_ = 0;
   std::vector<Eigen::Quaterniond> rotations_;    // frame-major, converted and chained
   std::vector<Eigen::Vector3d> root_positions_;  // m, world (aligned)
+  Eigen::Vector3d alignment_shift_ = Eigen::Vector3d::Zero();
   // one loop: the yaw and horizontal translation taking the first frame's root onto the last's
   Eigen::Quaterniond cycle_yaw_ = Eigen::Quaterniond::Identity();
   Eigen::Vector3d cycle_shift_ = Eigen::Vector3d::Zero();
