@@ -85,6 +85,15 @@ class ControllerState {
   virtual void read(const std::string& in, size_t& offset) = 0;
 };
 
+// what a controller's planner rollouts need at each step of a planning horizon that depends on
+// the time only (a tracked reference's samples): made by the controller, filled once per
+// planning step by the planner and read by every rollout of that step, instead of being
+// recomputed in each rollout. Read-only while the rollouts run.
+class ReferenceHorizon {
+ public:
+  virtual ~ReferenceHorizon() = default;
+};
+
 // A controller is its immutable Model: parameters and what was resolved from them once (indices,
 // gains, LQR K, tables). It is const after construction and can be shared by many runs on many
 // threads; each run holds its own ControllerState.
@@ -135,6 +144,18 @@ class Controller {
   // when ControlOutput::correction is set (appended); none by default, and the planner then
   // corrects with residual joint torques
   virtual void correction_dims(std::vector<CorrectionDim>& dims) const {}
+  // the planner's per-step work (control/controller.h, ReferenceHorizon): null when nothing a
+  // rollout computes depends on the time only
+  virtual std::unique_ptr<ReferenceHorizon> make_reference_horizon() const { return nullptr; }
+  // fill `horizon` for `steps` steps of the engine's timestep from its time `t0` (the engine
+  // gives the position arithmetic; its state is not read)
+  virtual void sample_reference_horizon(ReferenceHorizon& horizon, const Engine& engine,
+                                        double t0, int steps) const {}
+  // a rollout's `state` reads `horizon` (null: none) at the times it holds, and computes other
+  // times as a run does, so its outputs are the same to the bit either way. The horizon must
+  // outlive the rollout.
+  virtual void use_reference_horizon(ControllerState& state,
+                                     const ReferenceHorizon* horizon) const {}
   // the error against what the controller tracks now; false when it tracks nothing
   virtual bool tracking_error(const ControllerState& state, const Engine& engine,
                               TrackingError& error) const {

@@ -197,15 +197,78 @@ void MocapRetargetTracker::correction_dims(std::vector<CorrectionDim>& dims) con
   dims.push_back({"stance_ankle_roll", 0.1, "rad"});
 }
 
-bool MocapRetargetTracker::state_tracking_error(const State&, const Engine& engine,
+std::unique_ptr<ReferenceHorizon> MocapRetargetTracker::make_reference_horizon() const {
+  return std::make_unique<MocapReferenceHorizon>();
+}
+
+// the same calls a rollout's step makes, once per planning step (the results are the same to
+// the bit: the same functions at the same times)
+void MocapRetargetTracker::sample_reference_horizon(ReferenceHorizon& horizon,
+                                                    const Engine& engine, double t0,
+                                                    int steps) const {
+  auto& h = static_cast<MocapReferenceHorizon&>(horizon);
+  const int n = static_cast<int>(motion_->bodies().size());
+  const size_t all = static_cast<size_t>(steps) * n;
+  h.dt = engine.timestep();
+  h.bodies = n;
+  h.time.resize(steps);
+  h.q.resize(engine.nq(), steps);
+  h.v.resize(engine.nv(), steps);
+  h.scratch.resize(engine.nv());
+  h.world.resize(all);
+  h.local.resize(all);
+  h.position.resize(all);
+  h.pose.resize(all);
+  h.body_local.resize(all);
+  h.root_ahead.resize(steps);
+  h.root_acceleration.resize(steps);
+  h.com_height.resize(steps);
+  // per body, as sample_world() and sample_bodies() write them
+  std::vector<Eigen::Quaterniond>&world = h.work_world, &local = h.work_local;
+  std::vector<Eigen::Vector3d>&position = h.work_position, &ahead = h.work_ahead;
+  for (auto* x : {&world, &local}) x->resize(n);
+  for (auto* x : {&position, &ahead}) x->resize(n);
+  double t = t0;
+  for (int k = 0; k < steps; ++k) {
+    t += h.dt;  // the engine's clock: each step adds its timestep
+    h.time[k] = t;
+    motion_->sample(engine, t, h.q.col(k), h.v.col(k), h.scratch);
+    if (mode_ == MocapRootMode::kFree && params_.balance) {
+      motion_->sample_world(t, world);
+      motion_->sample_bodies(t + kRootVelocityStep, local, ahead);
+      motion_->sample_bodies(t, local, position);
+      const size_t at = static_cast<size_t>(k) * n;
+      std::copy(world.begin(), world.end(), h.world.begin() + at);
+      std::copy(local.begin(), local.end(), h.local.begin() + at);
+      std::copy(position.begin(), position.end(), h.position.begin() + at);
+      h.root_ahead[k] = ahead[root_mapped_];
+      h.root_acceleration[k] = motion_->sample_body_acceleration(t, root_mapped_);
+    }
+    for (int i = 0; i < n; ++i) {
+      h.pose[static_cast<size_t>(k) * n + i] = motion_->sample_body_pose(t, i);
+      h.body_local[static_cast<size_t>(k) * n + i] = motion_->sample_body_local(t, i);
+    }
+    h.com_height[k] = reference_com_height(engine, t);
+  }
+}
+
+void MocapRetargetTracker::use_reference_horizon(ControllerState& state,
+                                                 const ReferenceHorizon* horizon) const {
+  cast(state).horizon = static_cast<const MocapReferenceHorizon*>(horizon);
+}
+
+bool MocapRetargetTracker::state_tracking_error(const State& s, const Engine& engine,
                                                 TrackingError& error) const {
   const double t = engine.time();
   const auto& bodies = motion_->bodies();
+  const int k = s.horizon ? s.horizon->find(t) : -1;
+  const size_t at = k >= 0 ? static_cast<size_t>(k) * bodies.size() : 0;
   double joints = 0, positions = 0;
   for (size_t i = 0; i < bodies.size(); ++i) {
     const int b = bodies[i].body;
     const BodyPose pose = engine.body_pose(b);
-    const BodyPose ref = motion_->sample_body_pose(t, static_cast<int>(i));
+    const BodyPose ref =
+        k >= 0 ? s.horizon->pose[at + i] : motion_->sample_body_pose(t, static_cast<int>(i));
     const double e = (pose.pos - ref.pos).norm();
     positions += e;
     if (static_cast<int>(i) == root_mapped_) {
@@ -218,16 +281,15 @@ bool MocapRetargetTracker::state_tracking_error(const State&, const Engine& engi
     const int p = engine.body_parent(b);
     const Eigen::Quaterniond local =
         p >= 0 ? Eigen::Quaterniond(engine.body_pose(p).quat.conjugate() * pose.quat) : pose.quat;
-    joints += geodesic_angle(local, motion_->sample_body_local(t, static_cast<int>(i)));
+    joints += geodesic_angle(local, k >= 0 ? s.horizon->body_local[at + i]
+                                           : motion_->sample_body_local(t, static_cast<int>(i)));
   }
   error.joint_rad = bodies.size() > 1 ? joints / (bodies.size() - 1) : 0.0;
   error.body_m = positions / bodies.size();
   return true;
 }
 
-MocapFallCause MocapRetargetTracker::judge_fall(const Engine& engine, int& body, double& com_height,
-                                                double& ref_height) const {
-  const double t = engine.time();
+double MocapRetargetTracker::reference_com_height(const Engine& engine, double t) const {
   // the reference's COM from its body poses and the model's masses
   Eigen::Vector3d com = Eigen::Vector3d::Zero();
   for (int b = 0; b < engine.nbody(); ++b) {
@@ -235,7 +297,19 @@ MocapFallCause MocapRetargetTracker::judge_fall(const Engine& engine, int& body,
     const BodyPose ref = motion_->sample_body_pose(t, anchor_[b]);
     com += engine.body_mass(b) * (ref.pos + ref.quat * anchor_com_[b]);
   }
-  ref_height = up_.dot(com) / anchored_mass_ - sole_level_;
+  return up_.dot(com) / anchored_mass_ - sole_level_;
+}
+
+MocapFallCause MocapRetargetTracker::judge_fall(const Engine& engine,
+                                                const MocapReferenceHorizon* horizon, int& body,
+                                                double& com_height, double& ref_height) const {
+  const double t = engine.time();
+  const int k = horizon ? horizon->find(t) : -1;
+  const size_t at = k >= 0 ? static_cast<size_t>(k) * horizon->bodies : 0;
+  auto reference_pose = [&](int i) {
+    return k >= 0 ? horizon->pose[at + i] : motion_->sample_body_pose(t, i);
+  };
+  ref_height = k >= 0 ? horizon->com_height[k] : reference_com_height(engine, t);
   com_height = up_.dot(engine.com()) - sole_level_;
   if (com_height < kComFraction * ref_height) return MocapFallCause::kComLow;
   // a body outside the feet on the ground, where the reference's is not
@@ -244,11 +318,11 @@ MocapFallCause MocapRetargetTracker::judge_fall(const Engine& engine, int& body,
     const int b = c.body1 < 0 ? c.body2 : (c.body2 < 0 ? c.body1 : -1);
     if (b < 0 || is_foot_[b] || anchor_[b] < 0) continue;
     // the lowest point of the body's bone in the reference: its origin or a child's
-    const BodyPose ref = motion_->sample_body_pose(t, anchor_[b]);
+    const BodyPose ref = reference_pose(anchor_[b]);
     double low = up_.dot(ref.pos + ref.quat * anchor_origin_[b]);
-    for (int k = child_first_[b]; k < child_first_[b + 1]; ++k) {
-      const int c = children_[k];
-      const BodyPose rc = motion_->sample_body_pose(t, anchor_[c]);
+    for (int j = child_first_[b]; j < child_first_[b + 1]; ++j) {
+      const int c = children_[j];
+      const BodyPose rc = reference_pose(anchor_[c]);
       low = std::min(low, up_.dot(rc.pos + rc.quat * anchor_origin_[c]));
     }
     if (low - sole_level_ > kTouchHeight) {
@@ -259,11 +333,11 @@ MocapFallCause MocapRetargetTracker::judge_fall(const Engine& engine, int& body,
   return MocapFallCause::kNone;
 }
 
-FallVerdict MocapRetargetTracker::state_fall_verdict(const State&, const Engine& engine,
+FallVerdict MocapRetargetTracker::state_fall_verdict(const State& s, const Engine& engine,
                                                      std::string& reason) const {
   int body = -1;
   double h = 0, h_ref = 0;
-  switch (judge_fall(engine, body, h, h_ref)) {
+  switch (judge_fall(engine, s.horizon, body, h, h_ref)) {
     case MocapFallCause::kNone:
       return FallVerdict::kUp;
     case MocapFallCause::kComLow:
@@ -342,6 +416,7 @@ void MocapRetargetTracker::reset_state(State& s, const Engine& engine) const {
   s.jac_b.setZero(3, engine.nv());
   s.stance = 0;
   s.stance_share = {1, 0};
+  s.horizon = nullptr;
 }
 
 void MocapRetargetTracker::accumulate_metrics(State& s, const Engine& engine) const {
@@ -403,7 +478,7 @@ void MocapRetargetTracker::accumulate_metrics(State& s, const Engine& engine) co
   if (s.ref_fall_time < 0) {
     int body = -1;
     double h = 0, h_ref = 0;
-    const MocapFallCause cause = judge_fall(engine, body, h, h_ref);
+    const MocapFallCause cause = judge_fall(engine, s.horizon, body, h, h_ref);
     if (cause != MocapFallCause::kNone) {
       s.ref_fall_time = t;
       s.fall_cause = static_cast<int>(cause);
@@ -423,13 +498,20 @@ void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlO
     s.recorded_roots.push_back(engine.body_pose(motion_->bodies()[root_mapped_].body).pos);
     s.next_record_t = s.recorded_roots.size() * clip_.reference->frame_time_s();
   }
-  motion_->sample(engine, engine.time() + dt, s.q_ref, s.v_ref, s.scratch);
+  const double t_ref = engine.time() + dt;
+  const int k = s.horizon ? s.horizon->find(t_ref) : -1;
+  if (k >= 0) {
+    s.q_ref = s.horizon->q.col(k);
+    s.v_ref = s.horizon->v.col(k);
+  } else {
+    motion_->sample(engine, t_ref, s.q_ref, s.v_ref, s.scratch);
+  }
   s.tau.setZero();
   if (mode_ == MocapRootMode::kKinematic) {
     add_deadbeat_torques(engine, s.q, s.v, s.q_ref, s.work, s.tau);
   } else {
     if (mode_ == MocapRootMode::kFree && params_.balance)
-      balance(s, engine, engine.time() + dt, out.correction);
+      balance(s, engine, t_ref, out.correction);
     add_stable_pd_torques(engine, s.q, s.v, s.q_ref, s.v_ref, kp_, kd_, params_.max_torque,
                           root_dof_, root_dof_ + 6, s.work, s.tau);
     if (mode_ == MocapRootMode::kFree) s.tau.segment<6>(root_dof_).setZero();
@@ -456,10 +538,19 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
   const double* c = correction ? correction : kNoCorrection;
   const auto& bodies = motion_->bodies();
   const MocapRetargetParams& p = params_;
-  const double h = 0.01;  // s: the reference root velocity by a forward difference
-  motion_->sample_world(t, s.bal_world);
-  motion_->sample_bodies(t + h, s.bal_local, s.bal_pos_ahead);
-  motion_->sample_bodies(t, s.bal_local, s.bal_pos);
+  const double h = kRootVelocityStep;  // the reference root velocity by a forward difference
+  const int k = s.horizon ? s.horizon->find(t) : -1;
+  if (k >= 0) {  // a planner rollout: sampled once for every rollout
+    const size_t n = bodies.size(), at = static_cast<size_t>(k) * n;
+    std::copy_n(s.horizon->world.begin() + at, n, s.bal_world.begin());
+    std::copy_n(s.horizon->local.begin() + at, n, s.bal_local.begin());
+    std::copy_n(s.horizon->position.begin() + at, n, s.bal_pos.begin());
+    s.bal_pos_ahead[root_mapped_] = s.horizon->root_ahead[k];
+  } else {
+    motion_->sample_world(t, s.bal_world);
+    motion_->sample_bodies(t + h, s.bal_local, s.bal_pos_ahead);
+    motion_->sample_bodies(t, s.bal_local, s.bal_pos);
+  }
   auto height = [&](const Eigen::Vector3d& x) { return s.up.dot(x); };
   auto horizontal = [&](const Eigen::Vector3d& x) {
     return Eigen::Vector3d(x - s.up.dot(x) * s.up);
@@ -552,7 +643,8 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
   if (p.reference_support > 0) {
     // the vertical force the clip's root motion needs, m (g + a): a run's stance asks for over
     // twice the weight, its flight for none
-    const Eigen::Vector3d a_ref = motion_->sample_body_acceleration(t, root_mapped_);
+    const Eigen::Vector3d a_ref = k >= 0 ? s.horizon->root_acceleration[k]
+                                         : motion_->sample_body_acceleration(t, root_mapped_);
     const double need = s.up.dot(a_ref) - s.up.dot(engine.gravity());
     force += p.reference_support * engine.total_mass() * std::max(need, 0.0) * s.up;
   }

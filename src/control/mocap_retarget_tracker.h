@@ -27,6 +27,7 @@
 #pragma once
 
 #include <array>
+#include <cmath>
 #include <memory>
 #include <optional>
 #include <string>
@@ -65,6 +66,33 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
   }
 };
 
+// the reference over a planning horizon (Controller::make_reference_horizon): per step k, the
+// samples a rollout's step takes at time[k], the engine's time at step k plus its timestep
+struct MocapReferenceHorizon final : ReferenceHorizon {
+  double dt = 0;
+  int bodies = 0;                                // mapped bodies per step
+  std::vector<double> time;                      // s, per step
+  Eigen::MatrixXd q, v;                          // sample(): nq x steps, nv x steps
+  std::vector<Eigen::Quaterniond> world, local;  // sample_world(), sample_bodies(): steps x bodies
+  std::vector<Eigen::Vector3d> position;         // sample_bodies()
+  std::vector<Eigen::Vector3d> root_ahead;       // the root's position 10 ms later, per step
+  std::vector<Eigen::Vector3d> root_acceleration;  // sample_body_acceleration() of the root
+  std::vector<BodyPose> pose;                      // sample_body_pose(): steps x bodies
+  std::vector<Eigen::Quaterniond> body_local;      // sample_body_local(): steps x bodies
+  std::vector<double> com_height;  // the fall rule's reference COM height, per step
+  // work vectors of the sampling
+  Eigen::VectorXd scratch;
+  std::vector<Eigen::Quaterniond> work_world, work_local;
+  std::vector<Eigen::Vector3d> work_position, work_ahead;
+
+  // the step whose time is exactly t; -1: none
+  int find(double t) const {
+    if (time.empty() || dt <= 0) return -1;
+    const long k = std::lround((t - time[0]) / dt);
+    return k >= 0 && k < static_cast<long>(time.size()) && time[k] == t ? static_cast<int>(k) : -1;
+  }
+};
+
 // one run's tracking state: work vectors, the reference sample, the accumulated errors and
 // helper impulses, the recorded frames (with export_bvh) and the balance layer's stance
 struct MocapRetargetState {
@@ -97,6 +125,8 @@ struct MocapRetargetState {
   int stance = 0;
   std::array<double, 2> stance_share = {1, 0};
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  // a planner rollout's reference over its horizon (null: the run's own state); not saved
+  const MocapReferenceHorizon* horizon = nullptr;
 
   double mean_joint_error_deg() const {
     return error_samples ? error_sum_deg / error_samples : 0.0;
@@ -142,6 +172,13 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
   // free mode with the balance layer: offsets of its targets (docs/mocap.md, "The planner's
   // hook"); none in the other modes
   void correction_dims(std::vector<CorrectionDim>& dims) const override;
+  // the planner's rollouts read the reference's samples over the horizon from one
+  // MocapReferenceHorizon per planning step
+  std::unique_ptr<ReferenceHorizon> make_reference_horizon() const override;
+  void sample_reference_horizon(ReferenceHorizon& horizon, const Engine& engine, double t0,
+                                int steps) const override;
+  void use_reference_horizon(ControllerState& state,
+                             const ReferenceHorizon* horizon) const override;
 
   // the fall rule of fall_verdict(): the COM below this fraction of the reference's COM height,
   // or a body outside the feet on the ground where the reference's origin is higher than
@@ -150,6 +187,8 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
   static constexpr double kComFraction = 0.6;
   static constexpr double kTouchHeight = 0.15;      // m
   static constexpr double kSuccessBodyError = 0.5;  // m: PHC's bound on the per-frame mean
+  // s: the balance layer's reference root velocity is a forward difference over this step
+  static constexpr double kRootVelocityStep = 0.01;
 
   const MocapRetargetParams& params() const { return params_; }
   const RetargetedMotion& motion() const { return *motion_; }
@@ -174,9 +213,12 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
  private:
   void accumulate_metrics(State& s, const Engine& engine) const;
   void balance(State& s, const Engine& engine, double t, const double* correction) const;
-  // the fall rule at the engine's time: the cause and the body that touched (allocates nothing)
-  MocapFallCause judge_fall(const Engine& engine, int& body, double& com_height,
-                            double& ref_height) const;
+  // the fall rule at the engine's time: the cause and the body that touched (allocates nothing);
+  // `horizon` (null: none) holds the reference's samples at some times
+  MocapFallCause judge_fall(const Engine& engine, const MocapReferenceHorizon* horizon, int& body,
+                            double& com_height, double& ref_height) const;
+  // the reference COM's height over the sole level at time t, from the model's masses
+  double reference_com_height(const Engine& engine, double t) const;
 
   // the model: fixed after construction
   std::string type_name_;

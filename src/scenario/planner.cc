@@ -295,6 +295,8 @@ double Planner::rollout(Simulation& sim, Candidate& c) const {
   const PlannerParams& p = model_->params;
   const PlannerCostWeights& w = p.cost;
   sim.restore(*start_);
+  for (size_t i = 0; i < horizons_.size(); ++i)
+    sim.controllers()[i]->use_reference_horizon(sim.controller_state(i), horizons_[i].get());
   CorrectionPlan& plan = sim.progress_.plan;
   const double t0 = plan.t0, t_end = t0 + p.horizon_s;
   plan.knots = c.knots;
@@ -353,6 +355,19 @@ double Planner::rollout(Simulation& sim, Candidate& c) const {
   return (samples ? stage / samples : 0.0) + penalty + w.effort * effort + w.change * change;
 }
 
+void Planner::sample_horizons() {
+  const Simulation& sim = *workers_[0];
+  const auto& controllers = sim.controllers();
+  if (horizons_.empty())
+    for (const auto& c : controllers) horizons_.push_back(c->make_reference_horizon());
+  // every step a rollout may take, and one more for the rounding of its clock
+  const Engine& e = sim.engine();
+  const int steps = static_cast<int>(std::ceil(model_->params.horizon_s / e.timestep())) + 2;
+  for (size_t i = 0; i < controllers.size(); ++i)
+    if (horizons_[i])
+      controllers[i]->sample_reference_horizon(*horizons_[i], e, start_->engine.time, steps);
+}
+
 void Planner::plan(Simulation& sim) {
   const PlannerParams& p = model_->params;
   CorrectionPlan& plan = sim.progress_.plan;
@@ -380,6 +395,7 @@ void Planner::plan(Simulation& sim) {
       workers_.push_back(std::make_unique<Simulation>(model_->rollout));
   if (!start_) start_ = std::make_unique<SimulationState>();
   sim.save(*start_);
+  sample_horizons();
 
   const int k = p.samples;
   const int rounds = p.method == "cem" ? p.iterations : 1;

@@ -20,6 +20,7 @@
 #include <thread>
 #include <vector>
 
+#include "control/controller.h"
 #include "scenario/planner_params.h"
 
 namespace stance {
@@ -120,6 +121,8 @@ class Planner {
   void draw(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& deviation, long plan, int round,
             int index, Eigen::MatrixXd& knots) const;
   double rollout(Simulation& sim, Candidate& c) const;
+  // the controllers' references over the horizon from the current start, once per planning step
+  void sample_horizons();
   // how far off the run is: a tracked reference's mean body error, or with nothing tracked, the
   // capture point's horizontal offset from where it started over the feet (m)
   double balance_error(const Simulation& sim) const;
@@ -128,6 +131,9 @@ class Planner {
   std::shared_ptr<const PlannerModel> model_;
   std::unique_ptr<WorkerPool> pool_;
   std::vector<std::unique_ptr<Simulation>> workers_;
+  // per rollout controller: its reference over the horizon, sampled once per planning step for
+  // every rollout of the step (null: the controller has none)
+  std::vector<std::unique_ptr<ReferenceHorizon>> horizons_;
   std::unique_ptr<SimulationState> start_;
   std::vector<Candidate> candidates_;
   std::vector<int> order_;

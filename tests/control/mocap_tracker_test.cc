@@ -630,6 +630,81 @@ TEST(MocapTracker, CorrectionMovesTheBalanceTargets) {
   EXPECT_GT((torques(ankle) - none).norm(), 1.0);
 }
 
+// the planner's rollouts: a tracker built for them keeps no metrics, and one that reads its
+// reference from a horizon sampled once (then, past its end, samples as a run does) computes the
+// run's torques, tracking errors and fall verdicts to the bit
+TEST(MocapTracker, RolloutsReadTheirReferenceFromTheHorizonToTheBit) {
+  ClipFiles s = make_files(make_synthetic_walk_clip(), "track_horizon");
+  const MocapRetargetParams p = params_for(s.bvh, "free");
+  Tracked run = make_tracked(p, s.xml, 1);
+  Tracked rollout;
+  rollout.engine = engine_of(s.xml);
+  ControllerContext ctx;
+  ctx.duration_s = 1;
+  ctx.rollout = true;
+  ctx.scratch_engine = [xml = s.xml] { return engine_of(xml); };
+  rollout.tracker = std::make_unique<MocapRetargetTracker>(p, ctx, *rollout.engine);
+  EngineState start;
+  run.engine->save_state(start);
+  rollout.engine->restore_state(start);
+  rollout.engine->forward();
+  rollout.state = rollout.tracker->make_state(*rollout.engine);
+  const int steps = 150, sampled = 100;
+  std::unique_ptr<ReferenceHorizon> horizon = rollout.tracker->make_reference_horizon();
+  ASSERT_NE(horizon, nullptr);
+  rollout.tracker->sample_reference_horizon(*horizon, *rollout.engine, start.time, sampled);
+  rollout.tracker->use_reference_horizon(*rollout.state, horizon.get());
+  const auto& h = static_cast<const MocapReferenceHorizon&>(*horizon);
+  ControlOutput out_run, out_rollout;
+  out_run.resize(run.engine->nv(), 0);
+  out_rollout.resize(run.engine->nv(), 0);
+  int read = 0;
+  for (int k = 0; k < steps; ++k) {
+    const double correction[6] = {0.3 * std::sin(0.1 * k), 0.1, -0.05, 0.02, 0.1, -0.1};
+    for (Tracked* t : {&run, &rollout}) {
+      ControlOutput& out = t == &run ? out_run : out_rollout;
+      t->engine->forward();
+      out.clear();
+      out.correction = correction;
+      t->tracker->compute(*t->state, *t->engine, out);
+      t->engine->set_generalized_forces(out.tau);
+      t->engine->step();
+      t->engine->forward();
+    }
+    ASSERT_EQ(run.engine->time(), rollout.engine->time());
+    if (h.find(rollout.engine->time()) >= 0) ++read;
+    ASSERT_EQ(out_run.tau, out_rollout.tau) << "step " << k;
+    TrackingError a, b;
+    ASSERT_TRUE(run.tracker->tracking_error(*run.state, *run.engine, a));
+    ASSERT_TRUE(rollout.tracker->tracking_error(*rollout.state, *rollout.engine, b));
+    EXPECT_EQ(a.body_m, b.body_m);
+    EXPECT_EQ(a.joint_rad, b.joint_rad);
+    EXPECT_EQ(a.root_tilt_rad, b.root_tilt_rad);
+    std::string why_a, why_b;
+    EXPECT_EQ(run.tracker->fall_verdict(*run.state, *run.engine, why_a),
+              rollout.tracker->fall_verdict(*rollout.state, *rollout.engine, why_b));
+  }
+  EXPECT_EQ(read, sampled);  // the horizon served every step it holds
+  nlohmann::json m_run, m_rollout;
+  run.tracker->add_metrics(*run.state, m_run);
+  rollout.tracker->add_metrics(*rollout.state, m_rollout);
+  EXPECT_GT(m_run["mocap"]["mean_body_position_error_m"].get<double>(), 0.0);
+  EXPECT_EQ(m_rollout["mocap"]["mean_body_position_error_m"].get<double>(), 0.0);
+  // the rollout read its targets from the horizon: another pose there gives other torques
+  auto first_torques = [&](const ReferenceHorizon& from) {
+    rollout.engine->restore_state(start);
+    rollout.engine->forward();
+    rollout.tracker->reset(*rollout.state, *rollout.engine);
+    rollout.tracker->use_reference_horizon(*rollout.state, &from);
+    out_rollout.clear();
+    rollout.tracker->compute(*rollout.state, *rollout.engine, out_rollout);
+    return Eigen::VectorXd(out_rollout.tau);
+  };
+  MocapReferenceHorizon bent = h;
+  bent.v.col(0).array() += 1.0;
+  EXPECT_GT((first_torques(bent) - first_torques(h)).norm(), 1.0);
+}
+
 // old scenarios: mocap_tracker loads as the one tracker, and its removed free-mode keys are
 // ignored with one warning
 TEST(MocapTracker, AliasLoadsOldScenarios) {
