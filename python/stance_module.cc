@@ -862,6 +862,14 @@ the loop; their own attributes are not saved, restored or cloned with the state.
       .def(
           "run",
           [](Simulation& s, std::optional<double> duration) {
+            if (duration) {
+              const double dt = s.engine().timestep();
+              if (!(*duration >= 0))
+                throw InputError(
+                    fmt::format("run: duration is {}: expected seconds >= 0", *duration));
+              if (const std::string problem = step_count_problem(*duration, dt); !problem.empty())
+                throw InputError("run: " + problem);
+            }
             long steps = duration ? std::lround(*duration / s.engine().timestep()) : -1;
             return run_simulation(s, steps);
           },

@@ -184,3 +184,14 @@ def test_step_reports_divergence(engine):
         for _ in range(3):
             engine.step()
     assert e.value.result is None
+
+
+# a run length no run can take is refused before it starts (it once ran for days or to the end)
+def test_simulation_run_refuses_a_duration_no_run_can_take():
+    sim = stance.load(str(SCENARIOS / "pd_hold.yaml"))
+    for duration in (float("nan"), -1.0):
+        with pytest.raises(ValueError, match="run: duration is"):
+            sim.run(duration)
+    with pytest.raises(ValueError, match=r"run: duration 1e\+09 s at timestep 0.001 s is 1e\+12"):
+        sim.run(1e9)
+    assert sim.time == 0
