@@ -22,9 +22,12 @@ void check_timesteps(const Scenario& s, const YAML::Node& doc, const std::string
   for (const auto& [name, dt, node, zero] : steps) {
     if (dt == 0) continue;
     const std::string problem = timestep_problem(dt);
-    if (!problem.empty())
-      throw InputError(located(source, node ? node.Mark().line + 1 : 0,
-                               fmt::format("parameter '{}': {}; 0 takes {}", name, problem, zero)));
+    if (problem.empty()) continue;
+    // a value from --set has no line
+    const int line = node ? node.Mark().line + 1 : 0;
+    throw InputError(located(source, line,
+                             fmt::format("{}parameter '{}': {}; 0 takes {}",
+                                         line > 0 ? "" : "(from --set) ", name, problem, zero)));
   }
 }
 }  // namespace
