@@ -23,6 +23,7 @@
 #include "control/retarget.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/text_check.h"
 #include "core/timestep.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
@@ -84,6 +85,17 @@ ParamMeta threads_range() {
 constexpr ParamMeta kFirstFrameRange{.min = 0};
 constexpr ParamMeta kLastFrameRange{.min = -1};  // -1: the clip's end
 constexpr ParamMeta kTimeRange{.min = 0};        // s from the start of a run
+
+// a file name that goes into JSON (a resume file's options, a name made from it) must be UTF-8,
+// as JSON is
+void check_utf8_file_name(const std::string& path) {
+  const size_t bad = invalid_utf8_offset(path);
+  if (bad == std::string::npos) return;
+  throw InputError(
+      fmt::format("{}: the file name is not UTF-8 (byte 0x{:02X} at character {}): "
+                  "rename the file",
+                  printable_text(path), static_cast<unsigned char>(path[bad]), bad + 1));
+}
 }  // namespace
 
 void check_run_command(const RunCommand& cmd) {
@@ -335,6 +347,7 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   check_option_number("--first-frame", cmd.first_frame, kFirstFrameRange);
   check_option_number("--last-frame", cmd.last_frame, kLastFrameRange);
   check_option_number("--threads", cmd.threads, threads_range());
+  check_utf8_file_name(cmd.bvh);
   const BvhClip clip = read_bvh(cmd.bvh);
   const int last = cmd.last_frame < 0 ? clip.frame_count - 1 : cmd.last_frame;
   if (cmd.first_frame < 0 || cmd.first_frame >= clip.frame_count || last <= cmd.first_frame ||
@@ -541,6 +554,7 @@ int sweep_command(const SweepCommand& command) {
     o.interrupt = &g_interrupt;
     check_option_number("--duration", cmd.duration, duration_range());
     check_option_number("--threads", cmd.threads, threads_range());
+    check_utf8_file_name(cmd.scenario);
     if (!cmd.values.empty()) {
       o.values = parse_value_list(cmd.values);
     } else {
@@ -710,6 +724,7 @@ int robustness_command(const RobustnessCommand& command) {
     if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
     check_option_number("--duration", cmd.duration, duration_range());
     check_option_number("--threads", cmd.threads, threads_range());
+    check_utf8_file_name(cmd.scenario);
     RobustnessOptions o;
     o.body = cmd.body;
     o.directions = cmd.directions;
@@ -805,6 +820,7 @@ int tune_command(const TuneCommand& command) {
     check_option_number("--duration", cmd.duration, duration_range());
     check_option_number("--threads", cmd.threads, threads_range());
     check_option_number("--seed", static_cast<double>(cmd.seed), {.min = 0});
+    check_utf8_file_name(cmd.scenario);
     TuneOptions o;
     o.scenario = cmd.scenario;
     o.sets = cmd.sets;

@@ -139,6 +139,11 @@ sys.exit(0 if d['scenario'] == 'walk\ufffd' else 1)" || {
   echo "FAIL: summary.json of a scenario file whose name is not UTF-8"
   fails=$((fails + 1))
 }
+# sweep and tune keep the file's name in JSON (their resume files): one line, exit 2, not a bug's 70
+expect 2 "walk\xFF.yaml: the file name is not UTF-8 (byte 0xFF at character" -- \
+  "$stance" sweep "$tmp/"$'walk\xff.yaml' --param duration --values 0.1 --out "$tmp/sw" --quiet
+expect 2 "walk\xFF.yaml: the file name is not UTF-8 (byte 0xFF at character" -- \
+  "$stance" tune "$tmp/"$'walk\xff.yaml' --param controllers.0.kp=1:10 --out "$tmp/tu" --quiet
 
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]
