@@ -1,7 +1,7 @@
 // The planner over the one tracker in free mode, on the shared defaults (no per-clip gains):
 // each clip of the evaluation (scripts/eval_track.sh) tracked for 3 s without a fall and with
 // PHC's success, at the defaults and at one nearby setting; the same walk falls without the
-// planner; the plan is the same for any thread count.
+// planner; the plan is the same for any thread count, on both engines.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -165,6 +165,20 @@ TEST(PlannerTracking, SamePlanForAnyThreadCount) {
   EXPECT_EQ(run(2).dump(), one.dump());
   EXPECT_EQ(run(3).dump(), one.dump());
   EXPECT_EQ(one["planner"]["rescues"].get<long>(), one["planner"]["plans"].get<long>() - 1);
+}
+
+// on DART too: its restores are bit-exact (the broad phase's history and the last step's
+// constraint forces no longer leak into them), so no rollout depends on the worker that ran it
+TEST(PlannerTracking, SamePlanForAnyThreadCountOnDart) {
+  const std::string s = track_scenario(synthetic_walk(), "track_walk_threads_dart");
+  auto run = [&](int threads) {
+    RunResult r = track(s, {"engine=dart", "duration=0.1", "planner.samples=8",
+                            "planner.threads=" + std::to_string(threads)});
+    return without_wall_clock(r.metrics);
+  };
+  const nlohmann::json one = run(1);
+  EXPECT_GE(one["planner"]["plans"].get<long>(), 3);
+  EXPECT_EQ(run(2).dump(), one.dump());
 }
 
 // rescue rounds add candidates around the best: the plan they choose costs no more than the
