@@ -738,8 +738,12 @@ RunResult Simulation::result() const {
     r.fall_reason = s.fall_reason;
   }
   // a body lying on the floor may tangle its joints until the state blows up: that run fell, and
-  // its divergence is a footnote to the fall, not an error of the run
-  const bool diverged_after_fall = s.diverged && s.fell && s.diverged_at >= s.fall_time;
+  // its divergence is a footnote to the fall, not an error of the run. A fall found less than
+  // kBlowUpAfterFallS before the blow-up is the blow-up's own start (the COM flung off in a few
+  // steps; a falling body takes longer to come down and tangle): that run diverged.
+  constexpr double kBlowUpAfterFallS = 0.1;
+  const bool diverged_after_fall =
+      s.diverged && s.fell && s.diverged_at >= s.fall_time + kBlowUpAfterFallS;
   r.diverged = s.diverged && !diverged_after_fall;
   r.divergence = s.divergence;
   if (diverged_after_fall)

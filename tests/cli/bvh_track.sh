@@ -61,6 +61,21 @@ assert d['legs']['right'] == {'thigh': 'RightUpLeg', 'foot': 'RightFoot'}, d['le
   fail "track of the T-posed clip exited $?: $(cat "$tmp/out")"
 grep -q "first_frame: 1$" "$tmp/tp/track.yaml" || fail "track.yaml: $(cat "$tmp/tp/track.yaml")"
 
+# a clip at the highest frame rate the reader takes (10 kHz) that is the walk played 167 times
+# too fast: the character is flung off within milliseconds. That blow-up is the run's divergence
+# (exit 3, "diverged": true), not a fall with a footnote
+sed 's/^Frame Time: .*/Frame Time: 0.0001/' models/synthetic_walk.bvh >"$tmp/fast.bvh"
+"$stance" bvh track "$tmp/fast.bvh" --duration 0.5 --threads 2 --out "$tmp/fast" \
+  --set planner.samples=4 --set planner.horizon_s=0.1 --quiet >"$tmp/out" 2>&1
+code=$?
+[ "$code" -eq 3 ] || fail "the flung character exited $code, want 3: $(cat "$tmp/out")"
+grep -q "error: simulation diverged" "$tmp/out" || fail "no divergence message: $(cat "$tmp/out")"
+python3 -c "
+import json, sys
+s = json.load(open(sys.argv[1]))
+assert s['diverged'] is True and s['divergence'], s" "$tmp/fast/summary.json" ||
+  fail "summary.json of the flung character"
+
 # bad input: exit 2, one line naming the problem, the folder untouched
 sum_before=$(cat "$tmp/t"/* | md5sum)
 "$stance" bvh track "$tmp/missing.bvh" --out "$tmp/t" >"$tmp/err" 2>&1

@@ -338,6 +338,26 @@ TEST_P(NanController, ADivergenceAfterAFallIsReportedAsTheFall) {
     if (!value.is_object()) EXPECT_TRUE(value.is_number()) << key << ": " << value;
 }
 
+// a blow-up within a few steps of the fall it caused (a clip played far too fast flings the
+// character off, and that reads as a fall first) is the run's divergence: exit 3, not a fall
+TEST_P(NanController, ABlowUpRightAfterAFallIsADivergence) {
+  RunOptions o = test::quiet(GetParam());
+  o.duration = 4;
+  const std::vector<std::string> unpowered = {"controllers=[{type: stable_pd, kp: 0, kd: 0}]"};
+  Simulation collapse(load_scenario(test::scenario_path("biped_stand.yaml"), unpowered), o);
+  collapse.replace_controller(0, std::make_shared<NanAfter>(1e9));
+  const RunResult fall = collapse.run();
+  ASSERT_TRUE(fall.fell);
+  Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml"), unpowered), o);
+  sim.replace_controller(0, std::make_shared<NanAfter>(*fall.fall_time + 0.02));
+  const RunResult r = sim.run();
+  EXPECT_TRUE(r.fell);
+  EXPECT_TRUE(r.diverged);
+  EXPECT_NE(r.divergence.find("output a non-finite torque"), std::string::npos) << r.divergence;
+  EXPECT_EQ(r.fall_reason.find("then diverged"), std::string::npos) << r.fall_reason;
+  EXPECT_TRUE(r.to_json()["diverged"].get<bool>());
+}
+
 // a walker whose state blows up on the floor after its fall: its distance and speed are those
 // it had when it fell, not those of the blown-up state
 TEST(SimulationLoop, AWalkerThatBlowsUpAfterItsFallKeepsTheMetricsOfItsFall) {
