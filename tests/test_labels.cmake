@@ -31,7 +31,8 @@ set(stance_label_patterns
   physics "^SimulationLoop\\.StopsOneSecondAfterAFall"
   physics "^PlannerStanding\\."
   physics "^PlannerTracking\\."
-  physics "^RobustnessMap\\.")
+  physics "^RobustnessMap\\."
+  physics "^ShippedScenario/ScenarioExpectation\\.")
 
 foreach(target IN LISTS STANCE_GTEST_TARGETS)
   foreach(test IN LISTS ${target}_TESTS)
