@@ -150,6 +150,8 @@ int main(int argc, char** argv) {
   bvh_track_cmd->add_option("--model", track.model, "model file (MJCF, URDF, SKEL)");
   bvh_track_cmd->add_option("--engine", track.engine, "mujoco or dart");
   bvh_track_cmd->add_option("--threads", track.threads, "rollout threads (default: all cores)");
+  bvh_track_cmd->add_option("--scale-to-meters", track.scale_to_meters,
+                            "metres per file unit (default: detected from the legs)");
   bvh_track_cmd->add_option("--set", track.sets, "override: key.path=value")
       ->allow_extra_args(false);
   bvh_track_cmd->add_option("--record", track_record, "also render the run as an MP4");
@@ -166,6 +168,8 @@ int main(int argc, char** argv) {
   bvh2mjcf_cmd->add_option("--first-frame", bvh2mjcf.first_frame,
                            "frame of the start keyframe (default: after a leading T-pose)");
   bvh2mjcf_cmd->add_option("--timestep", bvh2mjcf.timestep_s, "simulation timestep, s");
+  bvh2mjcf_cmd->add_option("--scale-to-meters", bvh2mjcf.scale_to_meters,
+                           "metres per file unit (default: detected from the legs)");
   // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion
   std::string export_bvh;
   run_cmd->add_option("--export-bvh", export_bvh,

@@ -85,6 +85,7 @@ ParamMeta threads_range() {
 constexpr ParamMeta kFirstFrameRange{.min = 0};
 constexpr ParamMeta kLastFrameRange{.min = -1};  // -1: the clip's end
 constexpr ParamMeta kTimeRange{.min = 0};        // s from the start of a run
+constexpr ParamMeta kScaleRange{.min = 0};       // m per file unit; 0: detected from the legs
 
 // a file name that goes into JSON (a resume file's options, a name made from it) must be UTF-8,
 // as JSON is
@@ -249,6 +250,8 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
     BvhCharacterOptions o;
     o.total_mass_kg = cmd.mass_kg;
     o.timestep_s = cmd.timestep_s;
+    check_option_number("--scale-to-meters", cmd.scale_to_meters, kScaleRange);
+    o.skeleton.scale_to_meters = cmd.scale_to_meters;
     BvhClip clip = read_bvh(cmd.bvh);
     o.reference.first_frame =
         cmd.first_frame > 0 ? cmd.first_frame : detect_bvh_first_motion_frame(clip);
@@ -347,6 +350,7 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   check_option_number("--first-frame", cmd.first_frame, kFirstFrameRange);
   check_option_number("--last-frame", cmd.last_frame, kLastFrameRange);
   check_option_number("--threads", cmd.threads, threads_range());
+  check_option_number("--scale-to-meters", cmd.scale_to_meters, kScaleRange);
   check_utf8_file_name(cmd.bvh);
   const BvhClip clip = read_bvh(cmd.bvh);
   const int last = cmd.last_frame < 0 ? clip.frame_count - 1 : cmd.last_frame;
@@ -370,6 +374,7 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   tracker["last_frame"] = last;
   tracker["export_bvh"] = "tracked.bvh";
   if (cmd.origin_centred) tracker["export_origin_centred"] = true;
+  if (cmd.scale_to_meters > 0) tracker["scale_to_meters"] = cmd.scale_to_meters;
   // the shared defaults, spelled out so that the scenario shows what it runs
   const MocapRetargetParams defaults;
   tracker["kp"] = defaults.kp;
@@ -378,6 +383,7 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
     // the clip's own character, starting on the range's first frame
     BvhCharacterOptions o;
     o.reference.first_frame = first;
+    o.skeleton.scale_to_meters = cmd.scale_to_meters;
     files.character = make_bvh_character(clip, o).mjcf;
     doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
     doc["model"][0]["file"] = "character.xml";

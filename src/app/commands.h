@@ -75,6 +75,7 @@ struct Bvh2MjcfCommand {
   double mass_kg = 70;
   int first_frame = 0;  // 0: the first frame of the motion (detect_bvh_first_motion_frame)
   double timestep_s = 0.002;
+  double scale_to_meters = 0;  // metres per file unit; 0: detect from the legs
 };
 int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
 
@@ -111,6 +112,7 @@ struct BvhTrackCommand {
   std::vector<std::string> sets;  // overrides on the generated scenario
   bool quiet = false;
   bool origin_centred = false;  // tracked.bvh above the origin, not in the clip's own frame
+  double scale_to_meters = 0;   // m per file unit, for the character and the tracker; 0: detect
 };
 // writes the scenario (and the character) into cmd.out_dir once all of it has loaded (the clip,
 // --set, the model, the engine and the controllers): bad input leaves cmd.out_dir untouched.

@@ -62,8 +62,8 @@ void count_joints(const BvhClip& clip, double leg_drop, Tree& t) {
     for (const std::string& pattern : skeleton_defaults.skip_name_patterns)
       helper = helper || joint.name.find(pattern) != std::string::npos;
     t.counted[j] = t.in_body[j] && !helper && (j == t.body_root || (p >= 0 && t.counted[p]));
-    t.end_counted[j] = t.counted[j] && joint.has_end_site &&
-                       joint.end_site_offset.norm() <= 0.5 * leg_drop;
+    t.end_counted[j] =
+        t.counted[j] && joint.has_end_site && joint.end_site_offset.norm() <= 0.5 * leg_drop;
     if (t.counted[j] && p >= 0) counted_child[p] = true;
   }
   for (int j = 0; j < n; ++j)
@@ -91,7 +91,9 @@ void pose_points(const BvhClip& clip, int frame, PosePoints& out) {
   }
 }
 
-int axis_index(char up) { return up == 'z' ? 2 : 1; }
+int axis_index(char up) {
+  return up == 'z' ? 2 : 1;
+}
 
 // the lowest leaf's drop below the body root along `axis`
 double drop_along(const Tree& t, const PosePoints& p, int axis) {
@@ -118,9 +120,10 @@ std::vector<int> measured_frames(const BvhClip& clip) {
   std::vector<int> frames;
   const int count = std::min(clip.frame_count, kMaxMeasuredFrames);
   for (int i = 0; i < count; ++i)
-    frames.push_back(count == 1 ? 0
-                                : static_cast<int>(std::lround(static_cast<double>(i) *
-                                                               (clip.frame_count - 1) / (count - 1))));
+    frames.push_back(count == 1
+                         ? 0
+                         : static_cast<int>(std::lround(static_cast<double>(i) *
+                                                        (clip.frame_count - 1) / (count - 1))));
   return frames;
 }
 
@@ -305,14 +308,14 @@ std::vector<std::string> bvh_character_warnings(const BvhClip& clip,
     out.push_back(fmt::format(
         "{}: the character stands {:.3g} m tall (legs {:.3g} m) at {:.6g} m per file unit, "
         "not a person's {}-{} m; if the units are wrong, set scale_to_meters (metres per file "
-        "unit; {:.4g} makes it 1.7 m tall)",
+        "unit; {:.4g} makes it 1.7 m tall; bvh track and bvh2mjcf: --scale-to-meters)",
         clip.source, h, m.leg_m, m.scale_to_meters, kMinPersonHeightM, kMaxPersonHeightM,
         m.scale_to_meters * 1.7 / h));
   if (m.peak_speed_mps > kMaxPersonSpeedMps)
     out.push_back(fmt::format(
         "{}: the root moves at up to {:.3g} m/s (mean {:.3g} m/s) at {:.6g} m per file unit, "
         "faster than a person's {} m/s; if the units are wrong, set scale_to_meters (metres per "
-        "file unit)",
+        "file unit; bvh track and bvh2mjcf: --scale-to-meters)",
         clip.source, m.peak_speed_mps, m.mean_speed_mps, m.scale_to_meters, kMaxPersonSpeedMps));
   return out;
 }

@@ -57,8 +57,7 @@ constexpr double kMaxPersonSpeedMps = 15;
 
 // one line per measure outside a person's range, naming the clip, the numbers and the setting
 // that overrides the units (scale_to_meters); empty when the character is a person's size
-std::vector<std::string> bvh_character_warnings(const BvhClip& clip,
-                                                const BvhCharacterMeasures& m);
+std::vector<std::string> bvh_character_warnings(const BvhClip& clip, const BvhCharacterMeasures& m);
 
 // the measures and warnings for `stance bvh info` ("character" in --json; lines of text)
 nlohmann::json bvh_measures_json(const BvhClip& clip);

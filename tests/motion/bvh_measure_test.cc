@@ -30,7 +30,7 @@ std::vector<Convention> exporter_conventions() {
   const BvhClip bandai_bones =
       test::with_bones_along_x(test::with_bones_in_position_channels(cm, 1.0));
   const std::map<std::string, std::string> asf_names = {
-      {"LeftUpLeg", "lfemur"}, {"LeftLeg", "ltibia"},  {"LeftFoot", "lfoot"},
+      {"LeftUpLeg", "lfemur"},  {"LeftLeg", "ltibia"},  {"LeftFoot", "lfoot"},
       {"RightUpLeg", "rfemur"}, {"RightLeg", "rtibia"}, {"RightFoot", "rfoot"}};
   std::vector<Convention> all = {
       {"centimetres", cm},
@@ -52,9 +52,8 @@ std::vector<Convention> exporter_conventions() {
       {"Bandai: bones along X, 6 channels, the translation in the ground carrier",
        test::renamed(test::with_ground_carrier_root(bandai_bones, "joint_Root", true),
                      test::bandai_names())},
-      {"Bandai in metres", test::rescaled(test::with_ground_carrier_root(bandai_bones, "joint_Root",
-                                                                         true),
-                                          0.01)},
+      {"Bandai in metres",
+       test::rescaled(test::with_ground_carrier_root(bandai_bones, "joint_Root", true), 0.01)},
   };
   for (Convention& c : all) c.clip = parse_bvh(format_bvh(c.clip), c.name);
   return all;

@@ -91,8 +91,8 @@ inline BvhClip with_bones_along_x(const BvhClip& in) {
   const int n = in.joint_count();
   std::vector<Eigen::Quaterniond> turn(n, Eigen::Quaterniond::Identity());
   for (int j = n - 1; j >= 0; --j) {
-    Eigen::Vector3d bone = in.joints[j].has_end_site ? in.joints[j].end_site_offset
-                                                     : Eigen::Vector3d::Zero();
+    Eigen::Vector3d bone =
+        in.joints[j].has_end_site ? in.joints[j].end_site_offset : Eigen::Vector3d::Zero();
     for (int c = n - 1; c > j; --c)
       if (in.joints[c].parent == j) bone = bvh_rest_translation(in, c);  // the first child
     if (bone.norm() > 0)
@@ -111,8 +111,8 @@ inline BvhClip with_bones_along_x(const BvhClip& in) {
       out.rotation(f, j) = parent_turn(j).conjugate() * in.rotation(f, j) * turn[j];
       if (in.joints[j].position_slot >= 0)
         out.positions[static_cast<size_t>(f) * in.position_joint_count +
-                      in.joints[j].position_slot] = parent_turn(j).conjugate() *
-                                                    in.translation(f, j);
+                      in.joints[j].position_slot] =
+            parent_turn(j).conjugate() * in.translation(f, j);
     }
   out.raw.resize(0, 0);
   return out;
@@ -176,8 +176,9 @@ inline BvhClip with_carrier_root(const BvhClip& in, const std::string& name) {
                            [](int f, const Eigen::Vector3d& root, Eigen::Vector3d& translation,
                               Eigen::Quaterniond& rotation) {
                              translation = 0.5 * root;
-                             rotation = Eigen::AngleAxisd(
-                                 0.3 * std::sin(0.1 * f), Eigen::Vector3d(0.2, 1, 0.1).normalized());
+                             rotation =
+                                 Eigen::AngleAxisd(0.3 * std::sin(0.1 * f),
+                                                   Eigen::Vector3d(0.2, 1, 0.1).normalized());
                            });
 }
 
