@@ -3,9 +3,15 @@
 // spline, the cost, the base policy inside the rollout). One iteration is 0.2 s simulated from
 // the scenario's start. Counters:
 //   compute_s_per_sim_s    wall seconds per simulated second (the goal: <= 10 on 2 threads)
+//   model_steps_per_sim_s  rollout steps the planner took per simulated second
 //   rollout_us             wall time of plan() per rollout step, per thread (us)
-//   step_us, controlled_us a bare / base-policy step of the rollout model, at the rollouts'
-//                          timestep (us)
+//   step_us                a bare engine step (mj_step, no control) of the rollout model, at the
+//                          rollouts' timestep, from each state the planned run passed through:
+//                          the character as it moves, in its contacts, not lying or collapsing
+//   controlled_us          a base-policy step of the rollout model from the start (us)
+//   limit_s_per_sim_s      the physical limit: model_steps_per_sim_s bare steps, spread over the
+//                          threads (s per simulated second)
+//   over_limit             compute_s_per_sim_s / limit_s_per_sim_s: the distance to that limit
 //   overhead_vs_step       rollout_us / step_us - 1
 //   overhead_vs_controlled rollout_us / controlled_us - 1
 #include <benchmark/benchmark.h>
@@ -32,20 +38,25 @@ void measure_planner(benchmark::State& state, const std::string& file,
   options.quiet = true;
   double sim_s = 0, wall_s = 0, plan_s = 0;
   long rollout_steps = 0;
+  std::vector<EngineState> track;  // the planned run's states, for the bare steps
   for (auto _ : state) {
     state.PauseTiming();
     Simulation sim(loaded, options);
+    track.clear();
     state.ResumeTiming();
     const auto t0 = bench::Clock::now();
     const double t_end = sim.time() + 0.2;
-    while (sim.time() < t_end - 1e-9 && sim.step()) {
-    }
+    while (sim.time() < t_end - 1e-9 && sim.step())
+      sim.engine().save_state(track.emplace_back());  // ~1 us against a planning step's ms
     wall_s += bench::seconds_since(t0);
     sim_s += 0.2;
     plan_s += sim.planner()->plan_seconds();
     rollout_steps += sim.planner()->rollout_steps();
   }
-  state.counters["compute_s_per_sim_s"] = sim_s > 0 ? wall_s / sim_s : 0.0;
+  const double compute = sim_s > 0 ? wall_s / sim_s : 0.0;
+  const double model_steps = sim_s > 0 ? rollout_steps / sim_s : 0.0;
+  state.counters["compute_s_per_sim_s"] = compute;
+  state.counters["model_steps_per_sim_s"] = model_steps;
   const double rollout_us = rollout_steps ? 1e6 * plan_s * threads / rollout_steps : 0.0;
   state.counters["rollout_us"] = rollout_us;
   // the bare and the base-policy step of the same model at the rollouts' timestep, measured now
@@ -58,23 +69,32 @@ void measure_planner(benchmark::State& state, const std::string& file,
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(bare.engine().nv());
   SimulationState start;
   controlled.save(start);
+  // one bare step from each state of the planned run: a walking character's contacts and
+  // constraints, not a collapse from the start
+  Engine& e = bare.engine();
   double bare_s = 0, controlled_s = 0;
-  for (int rep = 0; rep < 5; ++rep) {
-    bare.engine().restore_state(start.engine);
-    auto t0 = bench::Clock::now();
-    for (int k = 0; k < bench::kBlock; ++k) {
-      bare.engine().forward();
-      bare.engine().set_generalized_forces(zero);
-      bare.engine().step();
+  long bare_steps = 0;
+  for (int rep = 0; rep < 5; ++rep)
+    for (const EngineState& at : track) {
+      e.restore_state(at);
+      const auto t0 = bench::Clock::now();
+      e.forward();
+      e.set_generalized_forces(zero);
+      e.step();
+      bare_s += bench::seconds_since(t0);
+      ++bare_steps;
     }
-    bare_s += bench::seconds_since(t0);
+  for (int rep = 0; rep < 5; ++rep) {
     controlled.restore(start);
-    t0 = bench::Clock::now();
+    const auto t0 = bench::Clock::now();
     for (int k = 0; k < bench::kBlock; ++k) controlled.step();
     controlled_s += bench::seconds_since(t0);
   }
-  const double steps = 5.0 * bench::kBlock;
-  const double step_us = 1e6 * bare_s / steps, controlled_us = 1e6 * controlled_s / steps;
+  const double step_us = bare_steps ? 1e6 * bare_s / bare_steps : 0.0;
+  const double controlled_us = 1e6 * controlled_s / (5.0 * bench::kBlock);
+  const double limit = model_steps * step_us * 1e-6 / threads;
+  state.counters["limit_s_per_sim_s"] = limit;
+  state.counters["over_limit"] = limit > 0 ? compute / limit : 0.0;
   state.counters["step_us"] = step_us;
   state.counters["controlled_us"] = controlled_us;
   state.counters["overhead_vs_step"] = step_us > 0 ? rollout_us / step_us - 1 : 0.0;

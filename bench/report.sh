@@ -195,13 +195,15 @@ for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 m
     if "1" in p and "2" in p:
         one, two = p["1"], p["2"]
         rows.append((f"Sampling planner ({label}): compute per simulated second, 1 / 2 threads; "
-                     "a rollout step vs the bare and the base-policy step",
+                     "the model steps it took; the bare `mj_step` of the same character from the "
+                     "states of the planned run; the physical limit (those steps as bare steps over "
+                     "the threads) and the distance to it",
                      f"{fmt(get(one, 'compute_s_per_sim_s'))} / {fmt(get(two, 'compute_s_per_sim_s'))} s/s; "
-                     f"1 thread: {fmt(get(one, 'rollout_us'))} µs vs {fmt(get(one, 'step_us'))} / "
-                     f"{fmt(get(one, 'controlled_us'))} µs: overhead {pct(get(one, 'overhead_vs_step'))} "
-                     f"over the bare step, {pct(get(one, 'overhead_vs_controlled'))} over the base policy's; "
-                     f"2 threads: {pct(get(two, 'overhead_vs_step'))} / {pct(get(two, 'overhead_vs_controlled'))} "
-                     "(a rollout step's time there includes waiting for the other thread's rollouts)"))
+                     f"{fmt(get(one, 'model_steps_per_sim_s'))} steps/s; bare step "
+                     f"{fmt(get(one, 'step_us'))} µs (a rollout step {fmt(get(one, 'rollout_us'))} µs, "
+                     f"the base policy's {fmt(get(one, 'controlled_us'))} µs); limit "
+                     f"{fmt(get(one, 'limit_s_per_sim_s'))} / {fmt(get(two, 'limit_s_per_sim_s'))} s/s: "
+                     f"{fmt(get(one, 'over_limit'))}x / {fmt(get(two, 'over_limit'))}x the limit"))
 
 if "BM_BatchLoopOverhead" in runs:
     name = "BM_BatchLoopOverhead"
