@@ -230,8 +230,10 @@ Eigen::VectorXd to_vector(const nlohmann::json& j, int size) {
 
 void check_tune_resume(const TuneOptions& o, const nlohmann::json& checkpoint,
                        const std::string& where) {
-  if (!checkpoint.is_object() || checkpoint.value("format", "") != kCheckpointFormat ||
-      !checkpoint.contains("options") || !checkpoint["options"].is_object())
+  // compared as JSON: value("format", "") throws on a format that is not a string
+  if (!checkpoint.is_object() || !checkpoint.contains("format") ||
+      checkpoint.at("format") != kCheckpointFormat || !checkpoint.contains("options") ||
+      !checkpoint["options"].is_object())
     throw InputError(fmt::format("{}: not a stance tune resume file", where));
   const nlohmann::json now = tune_fingerprint(o);
   const nlohmann::json& saved = checkpoint["options"];

@@ -336,6 +336,10 @@ TEST(Tune, ResumeRefusesOtherOptions) {
   EXPECT_EQ(error_of([&] { check_tune_resume(other, r.checkpoint, "x"); }), "");
   e = error_of([&] { check_tune_resume(o, nlohmann::json{{"cells", 1}}, "--resume d"); });
   EXPECT_EQ(e, "--resume d: not a stance tune resume file");
+  // a format that is not a string was an internal error (nlohmann's type_error.302)
+  const nlohmann::json numbered = {{"format", 1}, {"options", nlohmann::json::object()}};
+  e = error_of([&] { check_tune_resume(o, numbered, "--resume d"); });
+  EXPECT_EQ(e, "--resume d: not a stance tune resume file");
   // a damaged checkpoint is named, not a crash
   nlohmann::json broken = r.checkpoint;
   broken["search"].erase("rng");
