@@ -145,7 +145,7 @@ void check_expectation_metrics(const Expectation& e, const nlohmann::json& metri
               fmt::format("{}: unknown metric '{}'{}", where, name, did_you_mean(name, known)));
     if (found->is_object())
       fail_at(source, at,
-              fmt::format("{}: '{}' is a group of metrics: name one of it (e.g. '{}.{}')", where,
+              fmt::format("{}: '{}' is a group of metrics: name one in it (e.g. '{}.{}')", where,
                           name, name, found->empty() ? "?" : found->begin().key()));
     if (!found->is_number() && !found->is_boolean() && !found->is_null())
       fail_at(source, at, fmt::format("{}: '{}' is not a number ({})", where, name, found->dump()));
