@@ -356,8 +356,12 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   const int last = cmd.last_frame < 0 ? clip.frame_count - 1 : cmd.last_frame;
   if (cmd.first_frame < 0 || cmd.first_frame >= clip.frame_count || last <= cmd.first_frame ||
       last >= clip.frame_count)
-    throw InputError(fmt::format("{}: frames {}..{} are not a range of its {} frames", cmd.bvh,
-                                 cmd.first_frame, cmd.last_frame, clip.frame_count));
+    throw InputError(
+        clip.frame_count < 2
+            ? located(cmd.bvh, clip.frames_line,
+                      fmt::format("'Frames: {}': bvh track needs at least two", clip.frame_count))
+            : fmt::format("{}: frames {}..{} are not a range of its {} frames", cmd.bvh,
+                          cmd.first_frame, last, clip.frame_count));
   // without --first-frame, after leading frames that jump to the motion (a T-pose)
   const int first = cmd.first_frame > 0 ? cmd.first_frame
                                         : std::min(detect_bvh_first_motion_frame(clip), last - 1);

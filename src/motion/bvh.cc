@@ -457,6 +457,7 @@ void parse_motion(Scanner& in, BvhClip& clip) {
                         1 / kMaxBvhFrameTimeS));
   }
   clip.frame_count = frames;
+  clip.frames_line = frames_line;
   clip.frame_time_s = dt;
 
   // the frame count is a claim: the buffer grows with the rows actually read, and the poses

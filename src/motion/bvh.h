@@ -45,6 +45,7 @@ struct BvhClip {
   std::string source;  // file name used in messages
   std::vector<BvhJoint> joints;
   int frame_count = 0;
+  int frames_line = 0;  // of "Frames:" (0: not read from a file), for messages
   double frame_time_s = 0.0;
   int channel_count = 0;  // values per motion row
 

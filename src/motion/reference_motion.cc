@@ -317,7 +317,8 @@ MotionSkeleton make_motion_skeleton(const BvhClip& clip, const MotionSkeletonOpt
 ReferenceMotion::ReferenceMotion(const BvhClip& clip, MotionSkeleton skeleton,
                                  const ReferenceOptions& options)
     : skeleton_(std::move(skeleton)), options_(options) {
-  if (clip.frame_count < 1) throw InputError(clip.source + ": no frames");
+  if (clip.frame_count < 1)
+    throw InputError(located(clip.source, clip.frames_line, "'Frames: 0': the clip has no frames"));
   frame_time_ = clip.frame_time_s;
   if (!(frame_time_ > 0)) throw InputError(clip.source + ": frame time must be > 0");
   int first = options.first_frame, last = options.last_frame;

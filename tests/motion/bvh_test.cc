@@ -663,6 +663,8 @@ TEST(BvhErrors, FrameTimeOutsideCaptureRatesNamesTheLine) {
     EXPECT_EQ(parse_error(synthetic_bvh("ZXY", kRows, fine)), "") << fine;
   }
   EXPECT_EQ(parse_bvh(good, "test.bvh").frame_time_s, 0.0333333);
+  // the "Frames:" line, for later messages about the frames
+  EXPECT_EQ(parse_bvh(good, "test.bvh").frames_line, 22);
 }
 
 // two joints of one name made an MJCF that stance then refused, naming the generated file
