@@ -17,6 +17,7 @@
 #include <limits>
 #include <numbers>
 
+#include "control/auto_joint_map.h"
 #include "control/controller.h"
 #include "control/mocap_clip.h"
 #include "control/mocap_retarget_tracker.h"
@@ -338,12 +339,13 @@ namespace {
 struct BvhTrackFiles {
   std::string scenario;
   std::string character;
+  std::string map, map_report;  // --model without --map: the map found (auto_joint_map.h)
 };
 
 BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   namespace fs = std::filesystem;
-  if (cmd.map.empty() != cmd.model.empty())
-    throw InputError("bvh track: --map and --model go together");
+  if (!cmd.map.empty() && cmd.model.empty())
+    throw InputError("bvh track: --map needs --model (the model it maps the clip onto)");
   check_option_number("--duration", cmd.duration, duration_range());
   if (cmd.duration && !(*cmd.duration > 0))
     throw InputError("--duration: expected a positive number of seconds");
@@ -383,7 +385,7 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   const MocapRetargetParams defaults;
   tracker["kp"] = defaults.kp;
   tracker["kd"] = defaults.kd;
-  if (cmd.map.empty()) {
+  if (cmd.model.empty()) {
     // the clip's own character, starting on the range's first frame
     BvhCharacterOptions o;
     o.reference.first_frame = first;
@@ -396,7 +398,16 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
     const std::string model =
         cmd.model.find("://") != std::string::npos ? cmd.model : fs::absolute(cmd.model).string();
     doc["model"][0]["file"] = model;
-    tracker["joint_map"] = fs::absolute(cmd.map).string();
+    if (cmd.map.empty()) {
+      // no --map: found from the model's tree, written beside the scenario to edit and pass back
+      const AutoJointMap found = find_joint_map_of_files(cmd.bvh, cmd.model, cmd.engine,
+                                                         cmd.scale_to_meters);
+      files.map = joint_map_yaml(found, cmd.bvh, cmd.model);
+      files.map_report = joint_map_report(found);
+      tracker["joint_map"] = "map.yaml";
+    } else {
+      tracker["joint_map"] = fs::absolute(cmd.map).string();
+    }
   }
   doc["duration"] = cmd.duration ? *cmd.duration : (last - first) * clip.frame_time_s;
   doc["controllers"].push_back(tracker);
@@ -411,6 +422,7 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
 // writes the files into `dir`; returns the scenario's path
 std::string write_bvh_track_files(const BvhTrackFiles& files, const std::filesystem::path& dir) {
   if (!files.character.empty()) write_file_atomically(dir / "character.xml", files.character);
+  if (!files.map.empty()) write_file_atomically(dir / "map.yaml", files.map);
   write_file_atomically(dir / "track.yaml", files.scenario);
   return (dir / "track.yaml").string();
 }
@@ -461,6 +473,10 @@ void check_bvh_track_files(const BvhTrackFiles& files, const BvhTrackCommand& cm
 
 std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
   const BvhTrackFiles files = make_bvh_track_files(cmd);
+  if (!files.map_report.empty())
+    std::cout << files.map_report << "the map: "
+              << (std::filesystem::path(cmd.out_dir) / "map.yaml").string()
+              << " (edit it and pass it back with --map)\n";
   check_bvh_track_files(files, cmd);
   std::filesystem::create_directories(cmd.out_dir);
   return write_bvh_track_files(files, std::filesystem::absolute(cmd.out_dir));

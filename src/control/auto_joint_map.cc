@@ -11,6 +11,8 @@
 
 #include "control/mocap_clip.h"
 #include "core/error.h"
+#include "engine/world_spec.h"
+#include "motion/bvh.h"
 
 namespace stance {
 
@@ -367,6 +369,18 @@ AutoJointMap find_joint_map(const MotionSkeleton& clip, const std::string& clip_
     add(side + "lower arm", cr.lower_arm[s], mr.lower_arm[s]);
   }
   return out;
+}
+
+AutoJointMap find_joint_map_of_files(const std::string& bvh_path, const std::string& model_path,
+                                     const std::string& engine, double scale_to_meters) {
+  MotionSkeletonOptions options;
+  options.scale_to_meters = scale_to_meters;
+  const MotionSkeleton skeleton = make_motion_skeleton(read_bvh(bvh_path), options);
+  WorldSpec spec;
+  spec.models.push_back({model_path});
+  std::unique_ptr<Engine> model = make_engine(engine, spec);
+  model->forward();
+  return find_joint_map(skeleton, bvh_path, *model, model_path);
 }
 
 std::string joint_map_report(const AutoJointMap& found) {

@@ -42,6 +42,11 @@ struct AutoJointMap {
 AutoJointMap find_joint_map(const MotionSkeleton& clip, const std::string& clip_name,
                             const Engine& model, const std::string& model_name);
 
+// bvh track without --map: the map of the clip file (read as a tracker reads it) onto the model
+// file, loaded on `engine`; scale_to_meters 0: detected, as the tracker does
+AutoJointMap find_joint_map_of_files(const std::string& bvh_path, const std::string& model_path,
+                                     const std::string& engine, double scale_to_meters = 0);
+
 // what was matched and what was not, one line per role, for the terminal
 std::string joint_map_report(const AutoJointMap& found);
 
