@@ -16,8 +16,12 @@
 //   overhead_vs_controlled rollout_us / controlled_us - 1
 #include <benchmark/benchmark.h>
 
+#include <filesystem>
 #include <string>
 
+#include "app/commands.h"
+#include "motion/bvh.h"
+#include "motion/reference_motion.h"
 #include "step_share.h"
 
 namespace {
@@ -118,5 +122,30 @@ void BM_PlannerMocap(benchmark::State& state) {
   state.SetLabel("mocap_track_planner, MuJoCo, 2 ms step");
 }
 BENCHMARK(BM_PlannerMocap)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(2);
+
+// the synthetic run (a flight phase) as `stance bvh track` runs it: its character and scenario
+void BM_PlannerMocapRun(benchmark::State& state) {
+  using namespace stance;
+  static const std::string file = [] {
+    const auto dir = std::filesystem::temp_directory_path() / "stance_bench_run";
+    std::filesystem::create_directories(dir);
+    const std::string bvh = (dir / "synthetic_run.bvh").string();
+    write_bvh(make_synthetic_walk_clip(synthetic_run_options()), bvh);
+    BvhTrackCommand cmd;
+    cmd.bvh = bvh;
+    cmd.loop = true;
+    cmd.duration = 3.0;
+    cmd.out_dir = (dir / "track").string();
+    return write_bvh_track_scenario(cmd);
+  }();
+  measure_planner(state, file, {});
+  state.SetLabel("bvh track of the synthetic run, MuJoCo");
+}
+BENCHMARK(BM_PlannerMocapRun)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(2);
 
 }  // namespace

@@ -190,7 +190,8 @@ def planner(prefix):
             found[key.split("/")[1]] = key
     return found
 for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 ms step, 2 ms rollouts"),
-                      ("BM_PlannerMocap", "planner tracking the synthetic walk, MuJoCo")):
+                      ("BM_PlannerMocap", "planner tracking the synthetic walk, MuJoCo"),
+                      ("BM_PlannerMocapRun", "planner tracking the synthetic run, MuJoCo")):
     p = planner(prefix)
     if "1" in p and "2" in p:
         one, two = p["1"], p["2"]
