@@ -88,6 +88,18 @@ constexpr ParamMeta kLastFrameRange{.min = -1};  // -1: the clip's end
 constexpr ParamMeta kTimeRange{.min = 0};        // s from the start of a run
 constexpr ParamMeta kScaleRange{.min = 0};       // m per file unit; 0: detected from the legs
 
+// a resume file's JSON, its nesting bounded while it is parsed: nlohmann's dump and comparisons
+// recurse once per level, so a file nested 100,000 deep would overflow the stack
+nlohmann::json parse_resume_json(std::istream& in, const std::string& path) {
+  constexpr int kMaxDepth = 64;
+  return nlohmann::json::parse(in, [&](int depth, nlohmann::json::parse_event_t, nlohmann::json&) {
+    if (depth > kMaxDepth)
+      throw InputError(fmt::format("{}: nested more than {} deep: not a resume file of stance",
+                                   path, kMaxDepth));
+    return true;
+  });
+}
+
 // a file name that goes into JSON (a resume file's options, a name made from it) must be UTF-8,
 // as JSON is
 void check_utf8_file_name(const std::string& path) {
@@ -551,7 +563,7 @@ nlohmann::json read_partial(const std::string& dir, const char* partial_name,
         fmt::format("--resume {}: no {} there (nothing to resume)", dir, partial_name));
   nlohmann::json saved;
   try {
-    saved = nlohmann::json::parse(in);
+    saved = parse_resume_json(in, partial.string());
     for (auto it = fingerprint.begin(); it != fingerprint.end(); ++it)
       if (saved.at("options").at(it.key()) != it.value())
         throw InputError(
@@ -872,7 +884,7 @@ int tune_command(const TuneCommand& command) {
         throw InputError(
             fmt::format("--resume {}: no {} there (nothing to resume)", cmd.resume, kTunePartial));
       try {
-        saved = nlohmann::json::parse(in);
+        saved = parse_resume_json(in, partial.string());
       } catch (const nlohmann::json::exception& e) {
         throw InputError(
             fmt::format("{}: not a stance tune resume file ({})", partial.string(), e.what()));

@@ -145,5 +145,16 @@ expect 2 "walk\xFF.yaml: the file name is not UTF-8 (byte 0xFF at character" -- 
 expect 2 "walk\xFF.yaml: the file name is not UTF-8 (byte 0xFF at character" -- \
   "$stance" tune "$tmp/"$'walk\xff.yaml' --param controllers.0.kp=1:10 --out "$tmp/tu" --quiet
 
+# a resume file nested 100,000 deep is refused while it is read (printing it overflowed the stack)
+mkdir -p "$tmp/deep_resume"
+python3 -c "
+d = 100000
+open('$tmp/deep_resume/sweep.partial.json', 'w').write('{\"options\": {\"duration\": null, \"engine\": \"\", \"param\": \"duration\", \"values\": [0.1], \"sets\": [], \"scenario\": ' + '[' * d + ']' * d + '}, \"done\": {}}')
+open('$tmp/deep_resume/tune.partial.json', 'w').write('[' * d + ']' * d)"
+expect 2 "deep_resume/sweep.partial.json: nested more than 64 deep" -- \
+  "$stance" sweep "$tmp/ok.yaml" --param duration --values 0.1 --resume "$tmp/deep_resume" --quiet
+expect 2 "deep_resume/tune.partial.json: nested more than 64 deep" -- \
+  "$stance" tune "$tmp/ok.yaml" --param controllers.0.kp=1:10 --resume "$tmp/deep_resume" --quiet
+
 echo "$passes passed, $fails failed"
 [ "$fails" -eq 0 ]
