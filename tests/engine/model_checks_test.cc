@@ -180,6 +180,26 @@ TEST(ModelChecks, ModelPathThatIsNoFileSaysWhatItIs) {
   std::filesystem::remove_all(folder);
 }
 
+TEST(ModelChecks, DartRefusesAnMjcfBodyLeftWithoutMass) {
+  // DART 6.12's MJCF reader takes a body's mass from its first geom: a massless visual geom first
+  // left the free body with none, and DART asserted mTotalMass != 0 in the first step
+  const std::string path = test::write_temp_file("checks_first_geom.xml", R"(<mujoco>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <freejoint/>
+      <geom type="sphere" size="0.05" mass="0" contype="0" conaffinity="0"/>
+      <geom type="box" size="0.1 0.1 0.1" mass="2"/>
+    </body>
+  </worldbody>
+</mujoco>
+)");
+  EXPECT_NEAR(load("mujoco", path)->total_mass(), 2, 1e-12);
+  EXPECT_EQ(error_of("dart", path),
+            path + ":3: body 'a': joint 'joint0' moves no mass on DART (DART 6.12's MJCF reader "
+                   "takes a body's mass from its first geom): give the body an <inertial> (or a "
+                   "first geom with mass)");
+}
+
 // what DART prints to std::cout (its dtmsg) and std::cerr (dtwarn, dterr) while `body` runs
 template <class F>
 std::string printed_by(F body) {

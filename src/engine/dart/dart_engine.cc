@@ -636,6 +636,7 @@ class DartEngine final : public Engine {
   explicit DartEngine(const BackendWorld& spec) {
     load(spec);
     index_model();
+    check_moving_masses(spec);
   }
 
   std::string_view engine_name() const override { return "dart"; }
@@ -1276,6 +1277,68 @@ class DartEngine final : public Engine {
     group->removeAllShapeFrames();
     for (size_t i = 0; i < world_->getNumSkeletons(); ++i)
       group->addShapeFramesOf(world_->getSkeleton(i).get());
+  }
+
+  // every mobile skeleton must move mass along each dof, or DART aborts in its first step
+  // (mTotalMass != 0, !isNan(PI)). The readers check URDF, SDF and SKEL files and MuJoCo's
+  // compiler an MJCF file, but DART 6.12's MJCF reader takes a body's mass from its first geom
+  // only: a massless visual geom first left the body with none. A Cholesky factorisation of
+  // the mass matrix at the initial state finds the first dof (parents come first) without.
+  void check_moving_masses(const BackendWorld& spec) const {
+    for (const SkeletonBlock& b : blocks_) {
+      if (b.ndof == 0) continue;
+      const Eigen::MatrixXd m = b.skeleton->getMassMatrix();
+      const int dof = first_massless_dof(m);
+      if (b.skeleton->getMass() > 0 && dof < 0) continue;
+      const Joint* joint = b.skeleton->getDof(std::max(dof, 0))->getJoint();
+      const std::string body = joint->getChildBodyNode()->getName();
+      const auto [file, line] = body_line(spec, body);
+      throw InputError(located(
+          file, line,
+          fmt::format("body '{}': joint '{}' moves no mass on DART{}: give the body an "
+                      "<inertial> (or a first geom with mass)",
+                      body, joint->getName(),
+                      spec.models.size() == 1 && spec.models[0].format == ModelFormat::kMjcf
+                          ? " (DART 6.12's MJCF reader takes a body's mass from its first geom)"
+                          : "")));
+    }
+  }
+
+  // the first dof whose pivot in M = L L^T vanishes, or -1 when M is positive definite
+  static int first_massless_dof(Eigen::MatrixXd m) {
+    const Eigen::Index n = m.rows();
+    for (Eigen::Index j = 0; j < n; ++j) {
+      const double diagonal = m(j, j);
+      const double pivot = diagonal - m.row(j).head(j).squaredNorm();
+      if (!(pivot > 1e-15 && pivot > 1e-10 * diagonal)) return static_cast<int>(j);
+      m(j, j) = std::sqrt(pivot);
+      for (Eigen::Index i = j + 1; i < n; ++i)
+        m(i, j) = (m(i, j) - m.row(i).head(j).dot(m.row(j).head(j))) / m(j, j);
+      for (Eigen::Index i = j + 1; i < n; ++i) m(j, i) = 0;
+    }
+    return -1;
+  }
+
+  // the file and line of an MJCF <body> of that name (line 0 when not found)
+  static std::pair<std::string, int> body_line(const BackendWorld& spec, const std::string& body) {
+    for (const BackendModel& model : spec.models) {
+      if (model.format != ModelFormat::kMjcf) continue;
+      tinyxml2::XMLDocument doc;
+      if (doc.LoadFile(model.file.c_str()) != tinyxml2::XML_SUCCESS) continue;
+      std::function<int(const tinyxml2::XMLElement*)> find = [&](const tinyxml2::XMLElement* e) {
+        for (const tinyxml2::XMLElement* c = e->FirstChildElement(); c;
+             c = c->NextSiblingElement()) {
+          const char* name = c->Attribute("name");
+          if (std::strcmp(c->Name(), "body") == 0 && name != nullptr && body == name)
+            return c->GetLineNum();
+          if (const int line = find(c)) return line;
+        }
+        return 0;
+      };
+      if (doc.RootElement() != nullptr)
+        if (const int line = find(doc.RootElement())) return {model.name, line};
+    }
+    return {spec.models.front().name, 0};
   }
 
   // true when DART's own (deterministic) detector handles every collision shape
