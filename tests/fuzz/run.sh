@@ -13,7 +13,7 @@ build=$(cd "$1" && pwd)
 seconds=$2
 shift 2
 targets=("$@")
-[ ${#targets[@]} -eq 0 ] && targets=(bvh scenario skel joint_map model)
+[ ${#targets[@]} -eq 0 ] && targets=(bvh scenario skel joint_map model bvh_track robot_step)
 src=$(cd "$(dirname "$0")/../.." && pwd)
 dart_skel=/usr/share/doc/dart/data/skel
 
@@ -52,6 +52,20 @@ make_seeds() {
         { printf '\1\1'; cat "$dart_skel/$f"; } >"$out/dart_$f"
       done
       ;;
+    bvh_track) cp "$src"/tests/cli/bad_inputs/*.bvh "$out/" ;;
+    robot_step)
+      # byte 0: format (even URDF, odd SDF), the rest the file; the target's own .urdf and .sdf
+      # seeds are kept as plain files and prefixed here like the others
+      rm -f "$out"/*.urdf "$out"/*.sdf
+      for f in "$src"/tests/fuzz/corpus/robot_step/*.urdf "$src"/models/*.urdf \
+        "$src"/tests/cli/bad_inputs/*.urdf; do
+        [ -f "$f" ] && { printf '\0'; cat "$f"; } >"$out/urdf_$(basename "$f")"
+      done
+      for f in "$src"/tests/fuzz/corpus/robot_step/*.sdf "$src"/tests/fuzz/corpus/robots/*.sdf \
+        "$src"/tests/cli/bad_inputs/*.sdf; do
+        [ -f "$f" ] && { printf '\1'; cat "$f"; } >"$out/sdf_$(basename "$f")"
+      done
+      ;;
   esac
   return 0
 }
@@ -81,6 +95,8 @@ fuzz_one() {
       skel) runs=18000 ;;
       joint_map) runs=28000 ;;
       model) runs=5000 ;;  # both engines, as the input's first byte picks
+      bvh_track) runs=2000 ;;  # a character built and a few steps run (most inputs stop early)
+      robot_step) runs=3300 ;;  # both engines, a step each
     esac
     budget=(-runs=$runs -seed=1)
     slow=120  # a slow machine must not turn a slow input into a failure
