@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <fstream>
+#include <iterator>
 #include <map>
 
 #include "core/error.h"
@@ -43,6 +45,23 @@ TEST(AutoJointMap, HumanoidMatchesTheHandWrittenMap) {
   // the humanoid's legs are longer than the synthetic walker's
   EXPECT_GT(*found.map.scale, 0.5);
   EXPECT_LT(*found.map.scale, 2.0);
+}
+
+// sides from the rest pose where names give none: humanoid.xml with left_/right_ renamed a_/b_
+TEST(AutoJointMap, SidesWithoutSideNamesComeFromTheRestPose) {
+  std::ifstream in(test::kHumanoidXml);
+  std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (auto [from, to] : {std::pair<std::string, std::string>{"left_", "a_"}, {"right_", "b_"}})
+    for (size_t at; (at = xml.find(from)) != std::string::npos;) xml.replace(at, from.size(), to);
+  auto model = load("mujoco", test::write_temp_file("humanoid_unsided.xml", xml));
+  AutoJointMap found = find_joint_map(synthetic_walk_skeleton(), "walk", *model, "unsided");
+  auto pairs = pairs_of(found.map);
+  // the humanoid faces +x: its left (+y) side is the one once named left_
+  EXPECT_EQ(pairs["LeftUpLeg"], "a_thigh");
+  EXPECT_EQ(pairs["RightFoot"], "b_foot");
+  EXPECT_EQ(pairs["LeftForeArm"], "a_lower_arm");
+  EXPECT_EQ(pairs["RightArm"], "b_upper_arm");
+  EXPECT_EQ(found.map.joints.size(), 14u);
 }
 
 TEST(AutoJointMap, TheWrittenFileReadsBackAsTheSameMap) {
