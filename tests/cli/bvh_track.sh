@@ -86,7 +86,7 @@ grep -q "missing.bvh" "$tmp/err" || fail "the message does not name the file: $(
   --out "$tmp/t" >"$tmp/err" 2>&1
 code=$?
 [ "$code" -eq 2 ] || fail "--map without --model exited $code"
-grep -q -- "--map and --model go together" "$tmp/err" || fail "message: $(cat "$tmp/err")"
+grep -q -- "--map needs --model" "$tmp/err" || fail "message: $(cat "$tmp/err")"
 "$stance" bvh track models/synthetic_walk.bvh --last-frame 100000 --out "$tmp/t" >"$tmp/err" 2>&1
 [ $? -eq 2 ] || fail "a frame range past the clip was accepted"
 [ "$(cat "$tmp/t"/* | md5sum)" = "$sum_before" ] || fail "bad input changed the output folder"
