@@ -146,7 +146,9 @@ int main(int argc, char** argv) {
   bvh_track_cmd->add_option("--first-frame", track.first_frame,
                             "first frame of the range (default: after a leading T-pose)");
   bvh_track_cmd->add_option("--last-frame", track.last_frame, "last frame (-1: the end)");
-  bvh_track_cmd->add_option("--map", track.map, "YAML joint map onto --model");
+  bvh_track_cmd->add_option(
+      "--map", track.map,
+      "YAML joint map onto --model (default: found from its tree, written to --out/map.yaml)");
   bvh_track_cmd->add_option("--model", track.model, "model file (MJCF, URDF, SKEL)");
   bvh_track_cmd->add_option("--engine", track.engine, "mujoco or dart");
   bvh_track_cmd->add_option("--threads", track.threads, "rollout threads (default: all cores)");
