@@ -133,7 +133,7 @@ int check_screenshots_options(const std::string& scenario_dir, double at) {
   });
 }
 
-int run_command(const RunCommand& cmd) {
+int run_command(const RunCommand& cmd, const RunObserverMaker& observe) {
   return guarded([&] {
     check_run_command(cmd);
     LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
@@ -151,6 +151,8 @@ int run_command(const RunCommand& cmd) {
     if (cmd.check && !loaded.scenario.expect.given)
       throw InputError(cmd.scenario + ": --check: the scenario has no 'expect' block to check");
     Simulation run(loaded, opt);
+    std::unique_ptr<StepObserver> observer = observe ? observe(run) : nullptr;
+    if (observer) run.add_observer(observer.get());
     InterruptHandler interrupt_handler;
     RunResult r = run.run();
     if (!cmd.quiet) {
@@ -504,14 +506,14 @@ RunCommand bvh_track_run(const BvhTrackCommand& cmd, const std::string& scenario
   return run;
 }
 
-int bvh_track_command(const BvhTrackCommand& cmd) {
+int bvh_track_command(const BvhTrackCommand& cmd, const RunObserverMaker& observe) {
   std::string scenario;
   int code = guarded([&] {
     scenario = write_bvh_track_scenario(cmd);
     return kExitOk;
   });
   if (code != kExitOk) return code;
-  return run_command(bvh_track_run(cmd, scenario));
+  return run_command(bvh_track_run(cmd, scenario), observe);
 }
 
 int bvh_synth_command(const std::string& out_path, bool run) {

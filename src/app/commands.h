@@ -4,11 +4,20 @@
 // 71 the machine lacks something (memory, display, ffmpeg).
 #pragma once
 
+#include <functional>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace stance {
+
+class Simulation;
+class StepObserver;
+
+// makes an observer of a command's one run once its Simulation exists (the recorder:
+// viz/viz_commands.h); it watches every step and is gone before the command returns
+using RunObserverMaker = std::function<std::unique_ptr<StepObserver>(Simulation&)>;
 
 inline constexpr int kExitOk = 0;
 inline constexpr int kExitBadInput = 2;
@@ -37,7 +46,7 @@ struct RunCommand {
   std::string size = "1280x720";
   std::string camera;  // follow or free (fixed); empty: the scenario's (camera.mode)
 };
-int run_command(const RunCommand& cmd);
+int run_command(const RunCommand& cmd, const RunObserverMaker& observe = {});
 // the options' values checked as the parameters they set (--duration as the scenario's
 // duration); throws InputError. run_command checks them; the recorder's callers call this first
 void check_run_command(const RunCommand& cmd);
@@ -120,7 +129,7 @@ struct BvhTrackCommand {
 std::string write_bvh_track_scenario(const BvhTrackCommand& cmd);
 // the run options bvh track uses on that scenario (for the recorder too)
 RunCommand bvh_track_run(const BvhTrackCommand& cmd, const std::string& scenario);
-int bvh_track_command(const BvhTrackCommand& cmd);
+int bvh_track_command(const BvhTrackCommand& cmd, const RunObserverMaker& observe = {});
 
 // list scenarios in a folder and the registered controllers
 int list_command(const std::string& scenario_dir);
