@@ -105,14 +105,65 @@ void VideoWriter::close() {
   rename_into_place(tmp_, path_);
 }
 
-RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run_options,
-                             const RecordOptions& o) {
-  if (o.video.empty() && o.screenshot.empty())
-    throw InputError("recording: give --record FILE.mp4 and/or --screenshot FILE.png");
+void check_video_options(const RecordOptions& o) {
   if (!(o.fps > 0 && o.fps <= 1000))
     throw InputError(fmt::format("--fps {}: expected 0..1000", o.fps));
   if (!o.video.empty() && (o.width % 2 || o.height % 2))
     throw InputError(fmt::format("--size {}x{}: video sizes must be even", o.width, o.height));
+}
+
+VideoRecorder::VideoRecorder(Simulation& run, const RecordOptions& o) : run_(run), options_(o) {
+  check_video_options(o);
+  const double duration = run.scenario().duration;
+  if (!(o.video_start >= 0 && o.video_start < duration))
+    throw InputError(
+        fmt::format("video start {} s: expected a time in 0..{} s", o.video_start, duration));
+  gl_ = std::make_unique<OffscreenGlContext>();
+  gl_backend_ = gl_->backend();
+  view_ = std::make_unique<SceneView>(run, o.width, o.height, o.scene_look);
+  if (o.camera) view_->options.camera = *o.camera;
+  video_ = std::make_unique<VideoWriter>(o.video, o.width, o.height,
+                                         o.playback_fps > 0 ? o.playback_fps : o.fps);
+  // frames at k / fps for video_start <= k / fps < duration
+  next_frame_ = std::lround(std::ceil(o.video_start * o.fps - 1e-9));
+  end_frame_ = std::lround(std::floor(duration * o.fps + 1e-9));
+}
+
+VideoRecorder::~VideoRecorder() = default;
+
+void VideoRecorder::on_start(const Simulation&) { render_due_frames(); }
+
+void VideoRecorder::on_step(const Simulation&) { render_due_frames(); }
+
+void VideoRecorder::render_due_frames() {
+  const Engine& engine = run_.engine();
+  // half a step of tolerance: times are sums of the timestep
+  const double now = engine.time() + 0.5 * engine.timestep();
+  while (next_frame_ < end_frame_ && now >= next_frame_ / options_.fps) {
+    view_->update(run_);
+    view_->render_offscreen(options_.width, options_.height, rgb_,
+                            fmt::format("t = {:.2f} s", engine.time()));
+    video_->write(rgb_.data());
+    ++next_frame_;
+  }
+}
+
+void VideoRecorder::on_finish(const Simulation&, const RunResult& result) {
+  try {
+    if (result.diverged && !rgb_.empty())
+      for (; next_frame_ < end_frame_; ++next_frame_) video_->write(rgb_.data());
+    video_->close();
+    written_ = video_->frames();
+  } catch (const std::exception& e) {
+    error_ = e.what();
+  }
+}
+
+RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run_options,
+                             const RecordOptions& o) {
+  if (o.video.empty() && o.screenshot.empty())
+    throw InputError("recording: give --record FILE.mp4 and/or --screenshot FILE.png");
+  check_video_options(o);
 
   RecordResult result;
   OffscreenGlContext gl;

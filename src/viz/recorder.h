@@ -6,8 +6,10 @@
 
 #include <cstdio>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
@@ -42,6 +44,44 @@ struct RecordResult {
 // Throws InputError on bad options, EnvironmentError when ffmpeg or OpenGL fail.
 RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run_options,
                              const RecordOptions& options);
+
+class OffscreenGlContext;
+class VideoWriter;
+
+// the video of the run it observes, rendered as the run goes: a frame at each k / fps of
+// simulated time from video_start (RecordOptions' video, fps, size, camera, look; no screenshot).
+// Rendering reads the state only, so the run's outputs are those of the run without it. Make it
+// after the run's Simulation (it needs one for the scene) and add it as an observer.
+class VideoRecorder final : public StepObserver {
+ public:
+  // throws InputError on bad options, EnvironmentError when ffmpeg or OpenGL fail
+  VideoRecorder(Simulation& run, const RecordOptions& options);
+  ~VideoRecorder() override;
+  void on_start(const Simulation& sim) override;
+  void on_step(const Simulation& sim) override;
+  // a diverged run's video keeps its full length (the last frame repeated); closes the file.
+  // Does not throw (the run's own files are still to be written): see error()
+  void on_finish(const Simulation& sim, const RunResult& result) override;
+  long frames() const { return written_; }
+  const std::string& gl_backend() const { return gl_backend_; }
+  // why the video could not be finished; empty when it was written
+  const std::string& error() const { return error_; }
+
+ private:
+  void render_due_frames();
+
+  Simulation& run_;
+  RecordOptions options_;
+  std::unique_ptr<OffscreenGlContext> gl_;  // made first, outlives the view
+  std::unique_ptr<SceneView> view_;
+  std::unique_ptr<VideoWriter> video_;
+  std::vector<unsigned char> rgb_;
+  long next_frame_ = 0, end_frame_ = 0, written_ = 0;
+  std::string gl_backend_, error_;
+};
+
+// fps and size as a video needs them; throws InputError naming the option
+void check_video_options(const RecordOptions& options);
 
 // an ffmpeg process that turns raw rgb frames into a video: H.264 MP4 (yuv420p, bitexact), or
 // for a .gif a looping GIF with a palette made from all its frames
