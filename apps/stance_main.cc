@@ -341,14 +341,9 @@ int main(int argc, char** argv) {
   if (*bvh_synth_run_cmd) return stance::bvh_synth_command(synth_out, true);
   if (*bvh_retarget_cmd) return stance::bvh_retarget_command(retarget);
   if (*bvh_track_cmd) {
-    int code = stance::bvh_track_command(track);
-    if (code != stance::kExitOk || track_record.empty()) return code;
+    if (track_record.empty()) return stance::bvh_track_command(track);
 #ifdef STANCE_HAVE_VIEWER
-    // the recorder runs the same deterministic scenario again, rendering it
-    stance::RunCommand rec = stance::bvh_track_run(
-        track, (std::filesystem::path(track.out_dir) / "track.yaml").string());
-    rec.record = track_record;
-    return stance::record_command(rec);
+    return stance::record_track_command(track, track_record);
 #else
     std::cerr << "error: --record needs the viewer build (STANCE_WITH_VIEWER)\n";
     return stance::kExitBadInput;

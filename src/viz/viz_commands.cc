@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <filesystem>
+#include <functional>
 #include <iostream>
 #include <optional>
 
@@ -31,9 +32,63 @@ std::optional<CameraMode> parse_camera(const std::string& text) {
   if (text == "free" || text == "fixed") return CameraMode::kFree;
   throw InputError(fmt::format("--camera '{}': expected follow or free", text));
 }
-}  // namespace
 
-int record_command(const RunCommand& cmd) {
+// the recording options of `run --record`: throws InputError
+RecordOptions record_options(const RunCommand& cmd) {
+  RecordOptions ro;
+  ro.video = cmd.record;
+  ro.screenshot = cmd.screenshot;
+  ro.screenshot_time = cmd.screenshot_at;
+  ro.fps = cmd.fps;
+  parse_frame_size(cmd.size, ro.width, ro.height);
+  ro.camera = parse_camera(cmd.camera);
+  check_video_options(ro);
+  return ro;
+}
+
+// runs `run` (run_command or bvh_track_command) with the video rendered as it goes
+int run_recorded(const RecordOptions& ro, bool quiet,
+                 const std::function<int(const RunObserverMaker&)>& run) {
+  std::string error;
+  long frames = 0;
+  std::string backend;
+  // the recorder lives inside the run; what the report needs is copied out as it ends
+  struct Reporting final : public StepObserver {
+    std::unique_ptr<VideoRecorder> recorder;
+    std::string *error, *backend;
+    long* frames;
+    void on_start(const Simulation& sim) override { recorder->on_start(sim); }
+    void on_step(const Simulation& sim) override { recorder->on_step(sim); }
+    void on_finish(const Simulation& sim, const RunResult& r) override {
+      recorder->on_finish(sim, r);
+      *error = recorder->error();
+      *frames = recorder->frames();
+      *backend = recorder->gl_backend();
+    }
+  };
+  bool finished = false;
+  int code = run([&](Simulation& sim) -> std::unique_ptr<StepObserver> {
+    auto reporting = std::make_unique<Reporting>();
+    reporting->recorder = std::make_unique<VideoRecorder>(sim, ro);
+    reporting->error = &error;
+    reporting->backend = &backend;
+    reporting->frames = &frames;
+    finished = true;
+    return reporting;
+  });
+  if (!finished) return code;  // the run never started: its message is out
+  if (!error.empty()) {
+    std::cerr << "error: " << error << "\n";
+    return kExitEnvironment;
+  }
+  if (!quiet && frames > 0)
+    std::cout << fmt::format("wrote {}: {} frames at {} fps, {}x{} ({})\n", ro.video, frames,
+                             ro.fps, ro.width, ro.height, backend);
+  return code;
+}
+
+// the screenshot of `run --screenshot` (a run of its own that stops at --at)
+int screenshot_command(const RunCommand& cmd, RecordOptions ro) {
   return guarded([&] {
     LoadedScenario loaded = load_named(cmd.scenario, cmd.sets);
     RunOptions opt;
@@ -42,31 +97,48 @@ int record_command(const RunCommand& cmd) {
     opt.quiet = true;
     if (cmd.past_fall) opt.stop_after_fall_s = -1;
     for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
-    RecordOptions ro;
-    ro.video = cmd.record;
-    ro.screenshot = cmd.screenshot;
-    ro.screenshot_time = cmd.screenshot_at;
-    ro.fps = cmd.fps;
-    parse_frame_size(cmd.size, ro.width, ro.height);
-    ro.camera = parse_camera(cmd.camera);
+    ro.video.clear();
     RecordResult r = record_scenario(loaded, opt, ro);
-    if (!cmd.quiet) {
-      if (!ro.video.empty())
-        std::cout << fmt::format("wrote {}: {} frames at {} fps, {}x{} ({})\n", ro.video, r.frames,
-                                 ro.fps, ro.width, ro.height, r.gl_backend);
-      if (!ro.screenshot.empty())
-        std::cout << fmt::format("wrote {} at t={:.3f} s\n", ro.screenshot, ro.screenshot_time);
-      if (r.stopped_after_fall)
-        std::cout << fmt::format(
-            "fell at t={:.3f} s: the recording ends at {:.3f} s (--past-fall "
-            "records to the end)\n",
-            *r.fall_time, r.sim_time);
-    }
+    if (!cmd.quiet)
+      std::cout << fmt::format("wrote {} at t={:.3f} s\n", ro.screenshot, ro.screenshot_time);
     if (r.diverged) {
       std::cerr << "error: simulation diverged: " << r.divergence << "\n";
       return kExitDiverged;
     }
     return kExitOk;
+  });
+}
+}  // namespace
+
+int record_command(const RunCommand& cmd) {
+  RecordOptions ro;
+  if (int code = guarded([&] {
+        ro = record_options(cmd);
+        return kExitOk;
+      });
+      code != kExitOk)
+    return code;
+  if (!ro.video.empty()) {
+    int code = run_recorded(ro, cmd.quiet, [&](const RunObserverMaker& observe) {
+      return run_command(cmd, observe);
+    });
+    if (code != kExitOk || ro.screenshot.empty()) return code;
+  }
+  return screenshot_command(cmd, ro);
+}
+
+int record_track_command(const BvhTrackCommand& cmd, const std::string& video) {
+  RunCommand run;
+  run.record = video;
+  RecordOptions ro;
+  if (int code = guarded([&] {
+        ro = record_options(run);
+        return kExitOk;
+      });
+      code != kExitOk)
+    return code;
+  return run_recorded(ro, cmd.quiet, [&](const RunObserverMaker& observe) {
+    return bvh_track_command(cmd, observe);
   });
 }
 

@@ -10,7 +10,11 @@
 namespace stance {
 
 // `stance run SCENARIO --record out.mp4 / --screenshot out.png --at T`
+// (the video in the run that writes summary.json and log.csv; the screenshot in one of its own)
 int record_command(const RunCommand& cmd);
+
+// `stance bvh track CLIP --record out.mp4`: the tracking run with its video rendered as it goes
+int record_track_command(const BvhTrackCommand& cmd, const std::string& video);
 
 // `stance view SCENARIO [--engine E]` (ViewCommand is in app/commands.h)
 int view_command(const ViewCommand& cmd);
