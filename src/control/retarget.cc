@@ -412,13 +412,22 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
     if (std::find(level_feet.begin(), level_feet.end(), bodies_[i].segment) != level_feet.end())
       flat.push_back(i);
   std::vector<double> planted(static_cast<size_t>(frames_) * flat.size(), 0.0);
+  // each levelled body's sole up, in its own frame: its up at the model's rest
+  std::vector<Eigen::Vector3d> sole_up_local(flat.size());
+  for (size_t k = 0; k < flat.size(); ++k)
+    sole_up_local[k] = model[bodies_[flat[k]].body].rest_world.conjugate() * up;
   if (!flat.empty()) {
     std::vector<Eigen::Vector3d> seen(static_cast<size_t>(frames_) * flat.size());
+    std::vector<Eigen::Quaterniond> seen_rot(seen.size());
     for (int f = 0; f < frames_; ++f) {
       reference.sample(f * frame_time_, pose);
       reference.forward_kinematics(pose, clip_pos, clip_rot);
-      for (size_t k = 0; k < flat.size(); ++k)
-        seen[f * flat.size() + k] = scale_ * clip_pos[bodies_[flat[k]].segment];
+      for (size_t k = 0; k < flat.size(); ++k) {
+        const RetargetBody& rb = bodies_[flat[k]];
+        seen[f * flat.size() + k] = scale_ * clip_pos[rb.segment];
+        seen_rot[f * flat.size() + k] = to_model * clip_rot[rb.segment] * bone_fix[flat[k]] *
+                                        to_model.conjugate() * model[rb.body].rest_world;
+      }
     }
     // a body's planted height: the 20th percentile of its heights (a walk stands more than a
     // fifth of the time; the lowest frame alone is a capture's noise or a crouch)
@@ -437,6 +446,18 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
         planted[f * flat.size() + k] =
             std::clamp((0.05 - rise) / 0.03, 0.0, 1.0) * std::clamp((0.8 - speed) / 0.5, 0.0, 1.0);
       }
+    // where the model's rest pose does not stand (a character built from a clip whose rest pose
+    // lies along X, as Bandai Namco's), the rest up is no sole's: the world's up as the planted
+    // body sees it, on the mean, is, where that is more than 45 deg from the rest up. A standing
+    // rest pose's feet (pitched at most some 30 deg while they stand) keep their rest up.
+    for (size_t k = 0; k < flat.size(); ++k) {
+      Eigen::Vector3d seen_up = Eigen::Vector3d::Zero();
+      for (int f = 0; f < frames_; ++f)
+        seen_up += planted[f * flat.size() + k] * (seen_rot[f * flat.size() + k].conjugate() * up);
+      if (seen_up.norm() > 1e-9 &&
+          seen_up.normalized().dot(sole_up_local[k]) < std::cos(std::numbers::pi / 4))
+        sole_up_local[k] = seen_up.normalized();
+    }
   }
   for (int f = 0; f < frames_; ++f) {
     reference.sample(f * frame_time_, pose);
@@ -451,7 +472,7 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
       const double w = planted[f * flat.size() + k];
       if (w <= 0) continue;
       const int b = bodies_[flat[k]].body;
-      const Eigen::Vector3d sole_up = want[b] * (model[b].rest_world.conjugate() * up);
+      const Eigen::Vector3d sole_up = want[b] * sole_up_local[k];
       const Eigen::Quaterniond level = Eigen::Quaterniond::FromTwoVectors(sole_up, up) * want[b];
       want[b] = want[b].slerp(w, level).normalized();
     }

@@ -3,11 +3,13 @@
 // the source; export_origin_centred keeps the old output, above the origin and on the ground.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <numbers>
 
 #include "control/mocap_clip.h"
 #include "control/mocap_retarget_tracker.h"
+#include "control/retarget.h"
 #include "engine/world_spec.h"
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
@@ -121,6 +123,42 @@ TEST(MocapExport, MassWalkTrackedBvhOverlaysItsSource) {
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no ../shared";
   const BvhClip source = read_bvh(path);
   expect_overlays(source, tracked_bvh(source, "export_mass_walk", false), 0.01);
+}
+
+// a character built from a clip whose rest pose lies along X, each frame rolled 90 deg about its
+// bone (Bandai Namco's feet: their rest up is 90 deg off the sole's): levelling its planted feet
+// turns each foot by about as little as on the plain clip's character, not by those 90 deg
+// (before: the rest up was taken for the sole's)
+TEST(MocapExport, PlantedFeetOfARestPoseAlongXStayNearTheClips) {
+  const BvhClip plain = make_synthetic_walk_clip();
+  const BvhClip along_x =
+      parse_bvh(format_bvh(test::with_bones_along_x(
+                    test::with_bones_in_position_channels(plain, 1.0), std::numbers::pi / 2)),
+                "along_x.bvh");
+  auto largest_turn_deg = [](const BvhClip& clip, const std::string& tag) {
+    const std::string xml = test::write_temp_file(tag + ".xml", make_bvh_character(clip, {}).mjcf);
+    std::unique_ptr<Engine> probe = engine_of(xml);
+    const ReferenceMotion reference(clip, make_motion_skeleton(clip, {}), {});
+    const MotionSkeleton& sk = reference.skeleton();
+    const JointMap map = bvh_character_joint_map(sk, *probe);
+    const std::vector<int> feet = {sk.find_segment("LeftFoot"), sk.find_segment("RightFoot")};
+    const RetargetedMotion as_is(reference, map, *probe, 0);
+    const RetargetedMotion level(reference, map, *probe, 0, feet);
+    double largest = 0;
+    for (int i = 0; i < static_cast<int>(level.bodies().size()); ++i) {
+      if (std::find(feet.begin(), feet.end(), level.bodies()[i].segment) == feet.end()) continue;
+      for (int f = 0; f < level.frame_count(); ++f) {
+        const double t = f * level.frame_time_s();
+        largest = std::max(largest, geodesic_angle(as_is.sample_body_pose(t, i).quat,
+                                                   level.sample_body_pose(t, i).quat));
+      }
+    }
+    return largest * 180 / std::numbers::pi;
+  };
+  const double plain_deg = largest_turn_deg(plain, "level_plain");
+  const double along_x_deg = largest_turn_deg(along_x, "level_along_x");
+  EXPECT_LT(plain_deg, 30);
+  EXPECT_LT(along_x_deg, plain_deg + 10) << "plain " << plain_deg;
 }
 
 }  // namespace

@@ -84,9 +84,10 @@ inline BvhClip rescaled(BvhClip clip, double factor) {
 }
 
 // every joint's frame turned so that its bone (to its first child, else its End Site) lies along
-// its +X, the rotations and translations turned to match: the rest pose lies along X, as Bandai
-// Namco's does, and every frame poses every joint where the clip does
-inline BvhClip with_bones_along_x(const BvhClip& in) {
+// its +X and rolled about it by `roll_rad`, the rotations and translations turned to match: the
+// rest pose lies along X, as Bandai Namco's does, and every frame poses every joint where the clip
+// does
+inline BvhClip with_bones_along_x(const BvhClip& in, double roll_rad = 0) {
   BvhClip out = in;
   const int n = in.joint_count();
   std::vector<Eigen::Quaterniond> turn(n, Eigen::Quaterniond::Identity());
@@ -96,7 +97,8 @@ inline BvhClip with_bones_along_x(const BvhClip& in) {
     for (int c = n - 1; c > j; --c)
       if (in.joints[c].parent == j) bone = bvh_rest_translation(in, c);  // the first child
     if (bone.norm() > 0)
-      turn[j] = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitX(), bone);
+      turn[j] = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitX(), bone) *
+                Eigen::AngleAxisd(roll_rad, Eigen::Vector3d::UnitX());
   }
   auto parent_turn = [&](int j) {
     const int p = in.joints[j].parent;
