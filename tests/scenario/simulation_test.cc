@@ -319,8 +319,10 @@ TEST_P(NanController, AnEngineBlowUpLeavesFiniteMetrics) {
 TEST_P(NanController, ADivergenceAfterAFallIsReportedAsTheFall) {
   RunOptions o = test::quiet(GetParam());
   o.duration = 4;
-  // unpowered, the biped collapses; a NaN 0.3 s later (within the second run on past a fall)
-  const std::vector<std::string> unpowered = {"controllers=[{type: stable_pd, kp: 0, kd: 0}]"};
+  // unpowered, the biped collapses; a NaN 0.3 s later (within the second run on past a fall).
+  // It states its own expectation: the shipped one names the ankle strategy's metrics
+  const std::vector<std::string> unpowered = {"controllers=[{type: stable_pd, kp: 0, kd: 0}]",
+                                              "expect={fell: true}"};
   Simulation collapse(load_scenario(test::scenario_path("biped_stand.yaml"), unpowered), o);
   collapse.replace_controller(0, std::make_shared<NanAfter>(1e9));
   const RunResult fall = collapse.run();
@@ -343,7 +345,9 @@ TEST_P(NanController, ADivergenceAfterAFallIsReportedAsTheFall) {
 TEST_P(NanController, ABlowUpRightAfterAFallIsADivergence) {
   RunOptions o = test::quiet(GetParam());
   o.duration = 4;
-  const std::vector<std::string> unpowered = {"controllers=[{type: stable_pd, kp: 0, kd: 0}]"};
+  // unpowered, with its own expectation (the shipped one names the ankle strategy's metrics)
+  const std::vector<std::string> unpowered = {"controllers=[{type: stable_pd, kp: 0, kd: 0}]",
+                                              "expect={fell: true}"};
   Simulation collapse(load_scenario(test::scenario_path("biped_stand.yaml"), unpowered), o);
   collapse.replace_controller(0, std::make_shared<NanAfter>(1e9));
   const RunResult fall = collapse.run();
