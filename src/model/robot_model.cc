@@ -426,8 +426,12 @@ RobotJoint read_urdf_joint(const Reader& r, const XMLElement* el) {
   j.parent = r.attribute(r.need(el, "parent"), "link");
   j.child = r.attribute(r.need(el, "child"), "link");
   j.parent_to_child = urdf_origin(r, el);
-  if (const XMLElement* axis = el->FirstChildElement("axis"))
+  // an <axis> without xyz: URDF requires it, and DART's reader takes it as zero (then aborts)
+  if (const XMLElement* axis = el->FirstChildElement("axis")) {
+    if (axis->Attribute("xyz") == nullptr)
+      r.fail(axis, fmt::format("joint '{}': <axis> needs its xyz", j.name));
     j.axis = unit_axis(r, axis, r.attribute_numbers(axis, "xyz", 3, {1, 0, 0}));
+  }
   const XMLElement* limit = el->FirstChildElement("limit");
   const bool needs_limit =
       j.type == RobotJointType::kRevolute || j.type == RobotJointType::kPrismatic;
