@@ -24,11 +24,14 @@
 #include "control/retarget.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/model_format.h"
 #include "core/text_check.h"
 #include "core/timestep.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
 #include "model/bvh_to_mjcf.h"
+#include "model/model_path.h"
+#include "model/robot_model.h"
 #include "model/skel_to_mjcf.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
@@ -148,6 +151,7 @@ int run_command(const RunCommand& cmd, const RunObserverMaker& observe) {
     if (cmd.past_fall) opt.stop_after_fall_s = -1;
     for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
     opt.interrupt = &g_interrupt;
+    opt.check_expect_names = true;
     if (cmd.check && !loaded.scenario.expect.given)
       throw InputError(cmd.scenario + ": --check: the scenario has no 'expect' block to check");
     Simulation run(loaded, opt);
@@ -354,7 +358,16 @@ struct BvhTrackFiles {
   std::string scenario;
   std::string character;
   std::string map, map_report;  // --model without --map: the map found (auto_joint_map.h)
+  std::string ground;           // a URDF/SDF robot's floor, which it does not bring
 };
+
+// true for a URDF/SDF robot with a floating base and no floor: alone it falls through at once
+bool model_needs_ground(const std::string& model) {
+  const std::string path = resolve_model_path(model);
+  const ModelFormat format = model_format(path);
+  if (format != ModelFormat::kUrdf && format != ModelFormat::kSdf) return false;
+  return robots_need_ground({read_robot(model, path, {})});
+}
 
 BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   namespace fs = std::filesystem;
@@ -422,6 +435,11 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
     } else {
       tracker["joint_map"] = fs::absolute(cmd.map).string();
     }
+    if (model_needs_ground(cmd.model)) {
+      files.ground = ground_urdf_text();
+      doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
+      doc["model"][1]["file"] = "ground.urdf";
+    }
   }
   doc["duration"] = cmd.duration ? *cmd.duration : (last - first) * clip.frame_time_s;
   doc["controllers"].push_back(tracker);
@@ -437,6 +455,7 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
 std::string write_bvh_track_files(const BvhTrackFiles& files, const std::filesystem::path& dir) {
   if (!files.character.empty()) write_file_atomically(dir / "character.xml", files.character);
   if (!files.map.empty()) write_file_atomically(dir / "map.yaml", files.map);
+  if (!files.ground.empty()) write_file_atomically(dir / "ground.urdf", files.ground);
   write_file_atomically(dir / "track.yaml", files.scenario);
   return (dir / "track.yaml").string();
 }
@@ -491,6 +510,9 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
     std::cout << files.map_report << "the map: "
               << (std::filesystem::path(cmd.out_dir) / "map.yaml").string()
               << " (edit it and pass it back with --map)\n";
+  if (!files.ground.empty())
+    std::cout << cmd.model << " brings no ground: track.yaml adds ground.urdf (a Z-up floor, its "
+              << "top at z = 0)\n";
   check_bvh_track_files(files, cmd);
   std::filesystem::create_directories(cmd.out_dir);
   return write_bvh_track_files(files, std::filesystem::absolute(cmd.out_dir));

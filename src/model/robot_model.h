@@ -107,6 +107,17 @@ RobotModel read_robot(const std::string& shown_name, const std::string& path,
 std::string robot_text_for_dart(const std::string& shown_name, const std::string& path,
                                 const RobotOptions& options);
 
+// true when the robot can serve as a floor: nothing of it moves (welded whole to the world, as
+// models/ground.urdf is; DART makes such a skeleton immobile) and it has a collision shape
+bool robot_is_ground(const RobotModel& robot);
+
+// true when a world of these robots has no floor but a floating base that falls through at once
+bool robots_need_ground(const std::vector<RobotModel>& robots);
+
+// the text of a Z-up ground for URDF/SDF robots, that of models/ground.urdf: a 40 m x 40 m box
+// whose top face is z = 0, welded to the world
+std::string ground_urdf_text();
+
 struct RobotInput {
   std::string shown_name;
   std::string path;

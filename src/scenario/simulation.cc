@@ -7,13 +7,19 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <mutex>
+#include <set>
 #include <sstream>
 #include <typeinfo>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/model_format.h"
 #include "core/timestep.h"
 #include "engine/world_spec.h"
+#include "model/model_path.h"
+#include "model/robot_model.h"
 #include "scenario/observers.h"
 
 namespace stance {
@@ -166,6 +172,32 @@ std::string place_in(const LoadedScenario* loaded, const std::vector<std::string
 }
 }  // namespace
 
+namespace {
+// a world of URDF/SDF robots with a floating base and no floor: the base falls through at once
+// (MJCF and SKEL files bring their own floors); checked and said once per process and model list
+void warn_when_no_ground(const Scenario& s) {
+  static std::mutex mutex;
+  static std::set<std::string> checked;
+  std::string key;
+  for (const auto& m : s.model) key += m.file + (m.fixed_base ? " fixed\n" : "\n");
+  {
+    std::lock_guard<std::mutex> lock(mutex);
+    if (!checked.insert(key).second) return;
+  }
+  std::vector<RobotModel> robots;
+  for (const auto& m : s.model) {
+    const std::string path = resolve_model_path(m.file);
+    const ModelFormat format = model_format(path);
+    if (format != ModelFormat::kUrdf && format != ModelFormat::kSdf) return;
+    robots.push_back(read_robot(m.file, path, {m.fixed_base, m.package_path, m.mesh_collision}));
+  }
+  if (robots_need_ground(robots))
+    std::cerr << "warning: " << s.model.front().file
+              << ": no model is a ground and the base floats: it falls through at once (add "
+                 "models/ground.urdf under model:)\n";
+}
+}  // namespace
+
 std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name,
                                              const LoadedScenario* loaded) {
   WorldSpec spec;
@@ -181,6 +213,7 @@ std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::strin
     spec.gravity = Eigen::Vector3d(g * std::sin(s.slope_rad), 0, -g * std::cos(s.slope_rad));
   }
   std::unique_ptr<Engine> engine = make_engine(engine_name, spec);
+  warn_when_no_ground(s);
   if (!s.keyframe.empty()) {
     try {
       engine->apply_keyframe(s.keyframe);
