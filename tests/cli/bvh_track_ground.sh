@@ -35,7 +35,8 @@ PY
   2>"$tmp/err" || fail "track exited $?: $(cat "$tmp/err")"
 [ "$(grep -c "brings no ground: track.yaml adds ground.urdf" "$tmp/out")" -eq 1 ] ||
   fail "not said once: $(cat "$tmp/out")"
-grep -q -- "- file: ground.urdf" "$tmp/t/track.yaml" || fail "track.yaml: $(cat "$tmp/t/track.yaml")"
+grep -q -- "- file: ground.urdf" "$tmp/t/track.yaml" ||
+  fail "track.yaml: $(cat "$tmp/t/track.yaml")"
 grep -q "ground_weld" "$tmp/t/ground.urdf" || fail "no ground.urdf beside track.yaml"
 ! grep -q "no model is a ground" "$tmp/err" || fail "warned with the ground: $(cat "$tmp/err")"
 com_above "$tmp/t" 1.0 || fail "the root fell with the ground"
