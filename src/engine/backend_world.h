@@ -25,7 +25,8 @@ struct BackendModel {
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // translation of the whole model
   // URDF and SDF on DART: `file` is the path DART resolves against, `text` the checked and
   // patched content (model/robot_model.h); the root welded to the world; the joints' effort
-  // limits (DART's SdfParser does not read them), by joint name
+  // limits (DART's SdfParser does not read them; nor does its MJCF parser read actuators), by
+  // joint name
   bool fixed_base = false;
   std::vector<std::pair<std::string, double>> effort_limits;
 };
@@ -41,8 +42,10 @@ struct BackendWorld {
 // the backends; throw InputError for files they cannot load
 std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world);
 std::unique_ptr<Engine> open_dart_engine(const BackendWorld& world);
-// compiles a model file with MuJoCo's compiler and throws its error, located; MJCF meant for
-// DART goes through it first, as DART's MJCF parser asserts on values MuJoCo rejects
-void check_mujoco_compiles(const BackendModel& model);
+// compiles a model file with MuJoCo's compiler (its error thrown, located: MJCF meant for DART
+// goes through it first, as DART's MJCF parser asserts on values MuJoCo rejects) and returns its
+// torque limits by joint name: its actuators' forcerange, a motor's ctrlrange x gain, times gear,
+// summed per joint (DART's MJCF parser reads no actuators)
+std::vector<std::pair<std::string, double>> mjcf_joint_force_limits(const BackendModel& model);
 
 }  // namespace stance

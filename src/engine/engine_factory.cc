@@ -144,7 +144,7 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
     if (model.format == ModelFormat::kSkel) check_skel_for_dart(path);
     if (model.format == ModelFormat::kMjcf) {
       check_mjcf_root(mf.path, path);
-      check_mujoco_compiles(model);
+      model.effort_limits = mjcf_joint_force_limits(model);  // compiles it: its errors, located
     }
     if (is_robot_format(model.format)) {
       const RobotModel robot = read_robot(mf.path, path, mf.robot);

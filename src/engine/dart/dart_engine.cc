@@ -535,6 +535,24 @@ void apply_inertials(dart::simulation::World& world,
   }
 }
 
+// joints' effort limits, by name, as their dofs' force limits
+void apply_effort_limits(dart::dynamics::Skeleton& skeleton,
+                         const std::vector<std::pair<std::string, double>>& limits) {
+  for (const auto& [name, effort] : limits) {
+    Joint* j = skeleton.getJoint(name);
+    if (j == nullptr) continue;
+    for (size_t k = 0; k < j->getNumDofs(); ++k) {
+      j->setForceLowerLimit(k, -effort);
+      j->setForceUpperLimit(k, effort);
+    }
+  }
+}
+void apply_effort_limits(dart::simulation::World& world,
+                         const std::vector<std::pair<std::string, double>>& limits) {
+  for (size_t s = 0; s < world.getNumSkeletons(); ++s)
+    apply_effort_limits(*world.getSkeleton(s), limits);
+}
+
 // parses one model file into a temporary world of its own
 dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::string& warnings) {
   const std::string& shown_name = model.name;
@@ -566,6 +584,7 @@ dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::stri
           world->setTimeStep(mjcf.timestep);
           world->setGravity(mjcf.gravity);
           apply_inertials(*world, mjcf.inertials);
+          apply_effort_limits(*world, model.effort_limits);
         }
       } else {
         // URDF and SDF: checked and patched by the factory (model/robot_model.h)
@@ -594,14 +613,7 @@ dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::stri
         }
         if (skeleton) {
           // effort limits as joint force limits (DART's SdfParser does not read them)
-          for (const auto& [name, effort] : model.effort_limits) {
-            Joint* j = skeleton->getJoint(name);
-            if (j == nullptr) continue;
-            for (size_t k = 0; k < j->getNumDofs(); ++k) {
-              j->setForceLowerLimit(k, -effort);
-              j->setForceUpperLimit(k, effort);
-            }
-          }
+          apply_effort_limits(*skeleton, model.effort_limits);
           // a robot welded whole to the world (a ground) cannot move: it is part of the world,
           // as MuJoCo's static bodies are
           if (skeleton->getNumDofs() == 0) skeleton->setMobile(false);

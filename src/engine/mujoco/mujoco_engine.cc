@@ -5,7 +5,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <limits>
 #include <memory>
+#include <vector>
 
 #include "core/error.h"
 #include "engine/backend_world.h"
@@ -59,7 +61,58 @@ mjModel* load_from_text(const std::string& text, const std::string& source) {
   return m;
 }
 
+// the largest |torque| actuator i puts on its joint, infinite when the file bounds it not: its
+// forcerange when forcelimited, and for a motor (fixed gain, no bias) gain x its ctrlrange's reach
+double actuator_joint_limit(const mjModel* m, int i) {
+  double force = std::numeric_limits<double>::infinity();
+  if (m->actuator_forcelimited[i])
+    force = std::max(std::abs(m->actuator_forcerange[2 * i]),
+                     std::abs(m->actuator_forcerange[2 * i + 1]));
+  const bool motor =
+      m->actuator_biastype[i] == mjBIAS_NONE && m->actuator_gaintype[i] == mjGAIN_FIXED;
+  if (motor && m->actuator_ctrllimited[i]) {
+    const double reach = std::max(std::abs(m->actuator_ctrlrange[2 * i]),
+                                  std::abs(m->actuator_ctrlrange[2 * i + 1]));
+    force = std::min(force, std::abs(m->actuator_gainprm[mjNGAIN * i]) * reach);
+  }
+  return std::abs(m->actuator_gear[6 * i]) * force;
+}
+
+// per joint index: the sum of its actuators' limits; infinite when one of them is unbounded
+std::vector<double> joint_force_limits(const mjModel* m) {
+  std::vector<double> limits(m->njnt, std::numeric_limits<double>::infinity());
+  std::vector<int> bounded(m->njnt, 0), driven(m->njnt, 0);
+  std::vector<double> sum(m->njnt, 0.0);
+  for (int i = 0; i < m->nu; ++i) {
+    if (m->actuator_trntype[i] != mjTRN_JOINT) continue;
+    const int j = m->actuator_trnid[2 * i];
+    const double limit = actuator_joint_limit(m, i);
+    ++driven[j];
+    if (std::isfinite(limit)) {
+      ++bounded[j];
+      sum[j] += limit;
+    }
+  }
+  for (int j = 0; j < m->njnt; ++j)
+    if (driven[j] > 0 && bounded[j] == driven[j]) limits[j] = sum[j];
+  return limits;
+}
+
 }  // namespace
+
+std::vector<std::pair<std::string, double>> mjcf_joint_force_limits(const BackendModel& model) {
+  BackendWorld world;
+  world.models.push_back(model);
+  world.models.back().offset.setZero();
+  mjModel* m = load_mujoco_model(world);
+  const std::vector<double> limits = joint_force_limits(m);
+  std::vector<std::pair<std::string, double>> out;
+  for (int j = 0; j < m->njnt; ++j)
+    if (std::isfinite(limits[j]))
+      out.emplace_back(name_of(m, mjOBJ_JOINT, j, fmt::format("joint{}", j)), limits[j]);
+  mj_deleteModel(m);
+  return out;
+}
 
 mjModel* load_mujoco_model(const BackendWorld& world) {
   if (world.models.size() != 1)
@@ -88,13 +141,6 @@ mjModel* load_mujoco_model(const BackendWorld& world) {
   if (world.gravity)
     for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*world.gravity)[k];
   return m;
-}
-
-void check_mujoco_compiles(const BackendModel& model) {
-  BackendWorld world;
-  world.models.push_back(model);
-  world.models.back().offset.setZero();
-  mj_deleteModel(load_mujoco_model(world));
 }
 
 std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world) {
@@ -190,18 +236,9 @@ void MujocoEngine::build_tables() {
   }
   for (int i = 0; i < m_->nu; ++i)
     actuator_names_.push_back(name_of(m_, mjOBJ_ACTUATOR, i, fmt::format("actuator{}", i)));
-  // force limits of joints driven by force-limited actuators: |gear| x max |ctrlrange|, summed
-  for (int i = 0; i < m_->nu; ++i) {
-    if (m_->actuator_trntype[i] != mjTRN_JOINT || !m_->actuator_ctrllimited[i]) continue;
-    if (m_->actuator_biastype[i] != mjBIAS_NONE || m_->actuator_gaintype[i] != mjGAIN_FIXED)
-      continue;
-    JointInfo& info = joints_[m_->actuator_trnid[2 * i]];
-    const double reach = std::max(std::abs(m_->actuator_ctrlrange[2 * i]),
-                                  std::abs(m_->actuator_ctrlrange[2 * i + 1]));
-    const double limit =
-        std::abs(m_->actuator_gear[6 * i] * m_->actuator_gainprm[mjNGAIN * i]) * reach;
-    info.force_limit = std::isinf(info.force_limit) ? limit : info.force_limit + limit;
-  }
+  // force limits of joints driven by bounded actuators (forcerange; a motor's ctrlrange x gain)
+  const std::vector<double> limits = joint_force_limits(m_);
+  for (int j = 0; j < m_->njnt; ++j) joints_[j].force_limit = limits[j];
 }
 
 int MujocoEngine::body_index(std::string_view name) const {
