@@ -575,11 +575,12 @@ void Simulation::set_planner_params(const PlannerParams& params) {
 void Simulation::limit_torques() {
   const Eigen::VectorXd& limit = model_->force_limit;
   RunProgress& s = progress_;
-  bool clamped = false;
+  bool clamped = false, at_limit = false;
   for (int i = 0; i < out_.tau.size(); ++i) {
     if (std::isinf(limit[i])) continue;
     const double tau = out_.tau[i];
     const double ratio = std::abs(tau) / std::max(limit[i], 1e-12);
+    at_limit = at_limit || ratio >= 1;
     if (ratio > s.peak_limit_ratio) {
       s.peak_limit_ratio = ratio;
       s.peak_limit_dof = i;
@@ -590,6 +591,7 @@ void Simulation::limit_torques() {
     }
   }
   if (clamped) ++s.clamped_steps;
+  if (at_limit) ++s.steps_at_limit;
 }
 
 // the planner (when it is time), then the controllers with their share of its correction, then
@@ -802,6 +804,8 @@ RunResult Simulation::result() const {
     tl["limit"] = s.peak_limit_dof >= 0 ? model_->force_limit[s.peak_limit_dof] : 0.0;
     tl["clamping"] = model_->clamp_torques;
     tl["clamped_steps"] = s.clamped_steps;
+    tl["steps_at_limit"] = s.steps_at_limit;
+    tl["share_at_limit"] = s.steps > 0 ? static_cast<double>(s.steps_at_limit) / s.steps : 0.0;
   }
   m["pushes_applied"] = static_cast<int>(model_->pushes.size());
   m["pushes_survived"] = survived;

@@ -159,10 +159,12 @@ struct RunProgress {
   Eigen::Vector3d com_last = Eigen::Vector3d::Zero();  // the last finite COM (after divergence)
   double torque_sq_sum = 0, max_abs_torque = 0;
   long torque_samples = 0;
-  // the largest |requested torque| / limit over the run and its dof; steps with a clamped dof
+  // the largest |requested torque| / limit over the run and its dof; steps with a clamped dof;
+  // steps on which some dof asked for at least its limit (clamped or not)
   double peak_limit_ratio = 0;
   int peak_limit_dof = -1;
   long clamped_steps = 0;
+  long steps_at_limit = 0;
   Eigen::VectorXd velocity_sent;  // the velocity commands the engine holds, dim nv; NaN: none
   CorrectionPlan plan;            // the planner's correction being applied
   // the controllers' metrics (JSON) as they were when the run fell: if the state blows up on the
@@ -174,7 +176,7 @@ struct RunProgress {
     a(steps), a(fell), a(fall_time), a(fall_reason), a(diverged), a(divergence), a(diverged_at);
     a(com_height0), a(min_com_height), a(com0), a(torque_sq_sum), a(max_abs_torque);
     a(torque_samples), a(velocity_sent), a(com_last), a(peak_limit_ratio), a(peak_limit_dof);
-    a(clamped_steps);
+    a(clamped_steps), a(steps_at_limit);
     plan.serialize(a);
     a(controller_metrics_at_fall);
   }

@@ -92,6 +92,22 @@ TEST(TorqueLimit, UrdfEffortClampsOnBothEngines) {
   }
 }
 
+// the share of steps at a limit counts requests at or over it, clamped or not: the pendulum
+// starts at rest on its target (no torque asked) and asks for more than 5 N m once it sags
+TEST(TorqueLimit, SummaryReportsTheShareOfStepsAtALimit) {
+  const std::string urdf = test::write_temp_file("pendulum_limit.urdf", kPendulumUrdf);
+  for (const char* limits : {"on", "off"}) {
+    const Held held = hold(urdf, "mujoco", limits);
+    const nlohmann::json& tl = held.result.metrics["torque_limit"];
+    const long at_limit = tl["steps_at_limit"].get<long>();
+    EXPECT_EQ(held.result.steps, 4000) << limits;
+    EXPECT_DOUBLE_EQ(tl["share_at_limit"].get<double>(), at_limit / 4000.0) << limits;
+    EXPECT_GT(at_limit, 3600) << limits;
+    EXPECT_LT(at_limit, 4000) << limits;  // not the first step
+    if (std::string(limits) == "on") EXPECT_EQ(tl["clamped_steps"].get<long>(), at_limit);
+  }
+}
+
 TEST(TorqueLimit, MjcfGearTimesCtrlrange) {
   const std::string xml = test::write_temp_file("pendulum_limit.xml", kPendulumMjcf);
   const double sag = std::acos(5 / (2 * 9.81 * 0.5));
