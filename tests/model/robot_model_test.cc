@@ -320,5 +320,32 @@ TEST(RobotModel, JointsMustMoveInertia) {
             "the links <inertial> masses, or weld the base to the world");
 }
 
+// a ground is a robot nothing of which moves, with a collision shape: models/ground.urdf's text
+// is one; a floating robot, the same welded to the world (a hinge still moves) or a shapeless
+// weld are not, and only a floating robot without a ground needs one
+TEST(RobotModel, GroundIsAShapedRobotWeldedWhole) {
+  const RobotModel ground =
+      read_robot("ground.urdf", write_file("ground.urdf", ground_urdf_text()), {});
+  const RobotModel floating = read_robot("two.urdf", write_robot("two.urdf", two_link_urdf()), {});
+  RobotOptions fixed;
+  fixed.fixed_base = true;
+  const RobotModel arm = read_robot("two.urdf", write_robot("two.urdf", two_link_urdf()), fixed);
+  const RobotModel shapeless = read_robot(
+      "weld.urdf",
+      write_file("weld.urdf", R"(<robot name="weld"><link name="world"/><link name="post"/>
+  <joint name="w" type="fixed"><parent link="world"/><child link="post"/></joint></robot>)"),
+      {});
+  EXPECT_TRUE(robot_is_ground(ground));
+  const std::string shipped = std::string(STANCE_SOURCE_DIR) + "/models/ground.urdf";
+  EXPECT_TRUE(robot_is_ground(read_robot("models/ground.urdf", shipped, {})));
+  EXPECT_FALSE(robot_is_ground(floating));
+  EXPECT_FALSE(robot_is_ground(arm));
+  EXPECT_FALSE(robot_is_ground(shapeless));
+  EXPECT_TRUE(robots_need_ground({floating}));
+  EXPECT_TRUE(robots_need_ground({floating, shapeless}));
+  EXPECT_FALSE(robots_need_ground({floating, ground}));
+  EXPECT_FALSE(robots_need_ground({arm}));
+}
+
 }  // namespace
 }  // namespace stance
