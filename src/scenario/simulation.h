@@ -46,6 +46,10 @@ struct RunOptions {
   // builds the entries of type kExternalControllerType ("python": outside the registry, given
   // by the Python module); empty: such an entry is bad input (the CLI). Never cached.
   ControllerFactory external_controllers;
+  // the scenario's `expect` may name only metrics this run reports (InputError at construction,
+  // before anything is written): on in `stance run`; off where a program swaps the file's
+  // controllers after loading (tests, Python), whose verdict then simply misses the metric
+  bool check_expect_names = false;
 };
 
 struct RunResult {

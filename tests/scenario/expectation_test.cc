@@ -34,7 +34,9 @@ std::string expect_arm_scenario(const std::string& name, const std::string& expe
 std::string expect_load_error(const std::string& path) {
   try {
     LoadedScenario s = load_scenario(path);
-    Simulation run(s, RunOptions{});
+    RunOptions opt;
+    opt.check_expect_names = true;  // as stance run does
+    Simulation run(s, opt);
   } catch (const InputError& e) {
     return e.what();
   }

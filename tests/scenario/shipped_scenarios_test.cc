@@ -43,6 +43,7 @@ TEST_P(ScenarioExpectation, Holds) {
                        << "(docs/scenarios.md)";
   RunOptions opt;
   opt.quiet = true;
+  opt.check_expect_names = true;  // as stance run does
   if (e.test_duration > 0) {
     EXPECT_LT(e.test_duration, s.scenario.duration)
         << "test_duration shortens the run; leave it out to run the whole";
