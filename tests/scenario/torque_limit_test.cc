@@ -111,13 +111,15 @@ TEST(TorqueLimit, SummaryReportsTheShareOfStepsAtALimit) {
 TEST(TorqueLimit, MjcfGearTimesCtrlrange) {
   const std::string xml = test::write_temp_file("pendulum_limit.xml", kPendulumMjcf);
   const double sag = std::acos(5 / (2 * 9.81 * 0.5));
-  // auto: MJCF models are not clamped, but reported
-  const Held reported = hold(xml, "mujoco", "auto");
-  EXPECT_NEAR(reported.angle, 9.81 / 200, 0.005);
-  EXPECT_EQ(reported.result.metrics["torque_limit"]["limit"], 5.0);
-  EXPECT_EQ(reported.result.metrics["torque_limit"]["clamping"], false);
-  const Held clamped = hold(xml, "mujoco", "on");
-  EXPECT_NEAR(clamped.angle, sag, 0.01);
+  // auto: MJCF models are not clamped, but reported, on both engines (DART's from the factory)
+  for (const char* engine : {"mujoco", "dart"}) {
+    const Held reported = hold(xml, engine, "auto");
+    EXPECT_NEAR(reported.angle, 9.81 / 200, 0.005) << engine;
+    EXPECT_EQ(reported.result.metrics["torque_limit"]["limit"], 5.0) << engine;
+    EXPECT_EQ(reported.result.metrics["torque_limit"]["clamping"], false) << engine;
+    const Held clamped = hold(xml, engine, "on");
+    EXPECT_NEAR(clamped.angle, sag, 0.01) << engine;
+  }
 }
 
 }  // namespace
