@@ -365,13 +365,13 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
       }
       if (name.empty()) in.fail(line, fmt::format("{} without a name", t));
       check_joint_name(in, line, name);
-      BvhJoint j;
       // a joint is found by its name (joint maps, the character's bodies)
       if (int first = clip.find_joint(name); first >= 0) {
         in.fail(line, fmt::format("a second joint named '{}' (the first is at line {}): joint "
                                   "names must be unique",
                                   name, clip.joints[first].line));
       }
+      BvhJoint j;
       j.name = std::string(name);
       j.parent = open.empty() ? -1 : open.back().joint;
       j.line = line;
@@ -401,7 +401,6 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
       if (open.empty()) in.fail(line, "OFFSET outside a joint block");
       Eigen::Vector3d v;
       for (int i = 0; i < 3; ++i) v[i] = in.number("an OFFSET value");
-      BvhJoint& j = clip.joints[open.back().joint];
       for (int i = 0; i < 3; ++i) {
         if (std::abs(v[i]) > kMaxBvhCoordinate) {
           in.fail(line, fmt::format("OFFSET value {:g} is beyond the {:g} file units a "
@@ -409,6 +408,7 @@ void parse_hierarchy(Scanner& in, BvhClip& clip) {
                                     v[i], kMaxBvhCoordinate));
         }
       }
+      BvhJoint& j = clip.joints[open.back().joint];
       (open.back().end_site ? j.end_site_offset : j.offset) = v;
     } else if (iequals(t, "CHANNELS")) {
       if (open.empty() || open.back().end_site) in.fail(line, "CHANNELS outside a joint block");
@@ -468,11 +468,11 @@ void parse_motion(Scanner& in, BvhClip& clip) {
                                      "stance holds in memory",
                                      frames, clip.joints.size(), kMaxBvhPoses));
   }
-  std::vector<double> rows;
   std::vector<int> position_columns;
   for (const BvhJoint& j : clip.joints)
     for (size_t c = 0; c < j.channels.size(); ++c)
       if (!is_rotation(j.channels[c])) position_columns.push_back(j.first_column + int(c));
+  std::vector<double> rows;
   for (int f = 0; f < frames; ++f) {
     rows.resize(rows.size() + cols);
     in.skip_space();
@@ -631,7 +631,6 @@ struct UnitGuess {
   std::string units;
 };
 
-}  // namespace
 // the text after a UTF-8 byte order mark, if any. UTF-16, with its mark or without (ASCII text
 // in UTF-16 has a NUL in one of its first two bytes), is refused by name rather than read as
 // bytes that stop at the first NUL.
@@ -662,6 +661,7 @@ std::string_view text_without_utf8_bom(std::string_view text, const std::string&
   return text;
 }
 
+}  // namespace
 
 Eigen::Vector3d bvh_rest_translation(const BvhClip& clip, int joint) {
   const BvhJoint& j = clip.joints[joint];
