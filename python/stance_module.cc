@@ -365,9 +365,6 @@ py::object load_simulation(const std::string& path, const py::object& overrides,
                            const std::string& out_dir, const std::vector<std::string>& pushes,
                            bool past_fall) {
   LoadedScenario loaded = load_scenario(path, override_list(overrides));
-  // a script swaps and adds controllers, so the metrics the file's `expect` names may not exist
-  // here: its expectation is `stance run --check`'s, not a Python run's
-  loaded.scenario.expect.given = false;
   // as stance run names it
   if (loaded.scenario.name.empty())
     loaded.scenario.name = std::filesystem::path(path).stem().string();
