@@ -427,8 +427,8 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
     doc["model"][0]["file"] = model;
     if (cmd.map.empty()) {
       // no --map: found from the model's tree, written beside the scenario to edit and pass back
-      const AutoJointMap found = find_joint_map_of_files(cmd.bvh, cmd.model, cmd.engine,
-                                                         cmd.scale_to_meters);
+      const AutoJointMap found =
+          find_joint_map_of_files(cmd.bvh, cmd.model, cmd.engine, cmd.scale_to_meters);
       files.map = joint_map_yaml(found, cmd.bvh, cmd.model);
       files.map_report = joint_map_report(found);
       tracker["joint_map"] = "map.yaml";
@@ -507,8 +507,8 @@ void check_bvh_track_files(const BvhTrackFiles& files, const BvhTrackCommand& cm
 std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
   const BvhTrackFiles files = make_bvh_track_files(cmd);
   if (!files.map_report.empty())
-    std::cout << files.map_report << "the map: "
-              << (std::filesystem::path(cmd.out_dir) / "map.yaml").string()
+    std::cout << files.map_report
+              << "the map: " << (std::filesystem::path(cmd.out_dir) / "map.yaml").string()
               << " (edit it and pass it back with --map)\n";
   if (!files.ground.empty())
     std::cout << cmd.model << " brings no ground: track.yaml adds ground.urdf (a Z-up floor, its "

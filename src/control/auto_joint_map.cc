@@ -92,7 +92,7 @@ RestTree tree_of_clip(const MotionSkeleton& sk) {
     t.names.push_back(s.name);
     t.parent.push_back(s.parent);
     t.pos.push_back(s.parent >= 0 ? Eigen::Vector3d(t.pos[s.parent] + s.offset)
-                                   : Eigen::Vector3d::Zero().eval());
+                                  : Eigen::Vector3d::Zero().eval());
   }
   t.member.assign(t.size(), true);
   t.mass.assign(t.size(), 1.0);
@@ -118,8 +118,8 @@ RestTree tree_of_model(const Engine& e) {
     root[b] = r;
     ++count[r];
   }
-  const int main_root = static_cast<int>(std::max_element(count.begin(), count.end()) -
-                                         count.begin());
+  const int main_root =
+      static_cast<int>(std::max_element(count.begin(), count.end()) - count.begin());
   t.member.resize(t.size());
   for (int b = 0; b < t.size(); ++b) t.member[b] = root[b] == main_root;
   finish_tree(t);
@@ -150,7 +150,7 @@ int side_by_name(const RestTree& t, int b) {
 // the parts a role finder fills in: indices into the tree, -1 when not found
 struct Roles {
   int pelvis = -1, chest = -1, head = -1;
-  std::vector<int> spine;  // pelvis to chest, exclusive
+  std::vector<int> spine;                                        // pelvis to chest, exclusive
   std::array<int, 2> thigh{-1, -1}, shin{-1, -1}, foot{-1, -1};  // left, right
   std::array<int, 2> upper_arm{-1, -1}, lower_arm{-1, -1};
 };
@@ -297,9 +297,8 @@ void find_upper_body(const RestTree& t, Roles& r, bool model) {
   for (int b : t.chain(meet, chest))
     if (b != chest) path.push_back(b);
   for (const auto& joint : joints_of(t, path))
-    r.spine.push_back(*std::max_element(joint.begin(), joint.end(), [&](int a, int b) {
-      return t.depth(a) < t.depth(b);
-    }));
+    r.spine.push_back(*std::max_element(joint.begin(), joint.end(),
+                                        [&](int a, int b) { return t.depth(a) < t.depth(b); }));
 }
 
 // index i of k picks spread over n (k <= n): ends kept, the middle for one
@@ -353,8 +352,7 @@ AutoJointMap find_joint_map(const MotionSkeleton& clip, const std::string& clip_
   for (int i = 0; i < k; ++i)
     add(k == 1 ? "spine" : fmt::format("spine {}", i + 1), cr.spine[spread(i, nc, k)],
         mr.spine[spread(i, nm, k)]);
-  if (nc != nm && (nc == 0 || nm == 0))
-    add("spine", nc ? cr.spine[0] : -1, nm ? mr.spine[0] : -1);
+  if (nc != nm && (nc == 0 || nm == 0)) add("spine", nc ? cr.spine[0] : -1, nm ? mr.spine[0] : -1);
   add("chest", cr.chest, mr.chest);
   add("head", cr.head, mr.head);
   for (int s = 0; s < 2; ++s) {
@@ -414,8 +412,9 @@ std::string joint_map_yaml(const AutoJointMap& found, const std::string& clip_na
       "# Keys are clip joints, values model bodies. Edit it and pass it back with --map.\n",
       clip_name, model_name);
   out += fmt::format("model_up: {}\nyaw_deg: auto\n", found.map.model_up);
-  out += fmt::format("scale: {:.6g}    # leg length: {:.4g} m on the model / {:.4g} m in the clip\n",
-                     *found.map.scale, found.model_leg_length_m, found.clip_leg_length_m);
+  out +=
+      fmt::format("scale: {:.6g}    # leg length: {:.4g} m on the model / {:.4g} m in the clip\n",
+                  *found.map.scale, found.model_leg_length_m, found.clip_leg_length_m);
   out += "height_offset: auto\njoints:\n";
   for (const JointMapEntry& j : found.map.joints) {
     std::string role;

@@ -29,9 +29,9 @@ struct JointMapRole {
 };
 
 struct AutoJointMap {
-  JointMap map;                    // the matched roles; scale from the leg lengths
+  JointMap map;                     // the matched roles; scale from the leg lengths
   std::vector<JointMapRole> roles;  // every role, matched or not, in a fixed order
-  double clip_leg_length_m = 0;    // thigh to ankle, mean of the two legs
+  double clip_leg_length_m = 0;     // thigh to ankle, mean of the two legs
   double model_leg_length_m = 0;
 };
 

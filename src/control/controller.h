@@ -149,8 +149,8 @@ class Controller {
   virtual std::unique_ptr<ReferenceHorizon> make_reference_horizon() const { return nullptr; }
   // fill `horizon` for `steps` steps of the engine's timestep from its time `t0` (the engine
   // gives the position arithmetic; its state is not read)
-  virtual void sample_reference_horizon(ReferenceHorizon& horizon, const Engine& engine,
-                                        double t0, int steps) const {}
+  virtual void sample_reference_horizon(ReferenceHorizon& horizon, const Engine& engine, double t0,
+                                        int steps) const {}
   // a rollout's `state` reads `horizon` (null: none) at the times it holds, and computes other
   // times as a run does, so its outputs are the same to the bit either way. The horizon must
   // outlive the rollout.

@@ -203,9 +203,8 @@ std::unique_ptr<ReferenceHorizon> MocapRetargetTracker::make_reference_horizon()
 
 // the same calls a rollout's step makes, once per planning step (the results are the same to
 // the bit: the same functions at the same times)
-void MocapRetargetTracker::sample_reference_horizon(ReferenceHorizon& horizon,
-                                                    const Engine& engine, double t0,
-                                                    int steps) const {
+void MocapRetargetTracker::sample_reference_horizon(ReferenceHorizon& horizon, const Engine& engine,
+                                                    double t0, int steps) const {
   auto& h = static_cast<MocapReferenceHorizon&>(horizon);
   const int n = static_cast<int>(motion_->bodies().size());
   const size_t all = static_cast<size_t>(steps) * n;
@@ -510,8 +509,7 @@ void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlO
   if (mode_ == MocapRootMode::kKinematic) {
     add_deadbeat_torques(engine, s.q, s.v, s.q_ref, s.work, s.tau);
   } else {
-    if (mode_ == MocapRootMode::kFree && params_.balance)
-      balance(s, engine, t_ref, out.correction);
+    if (mode_ == MocapRootMode::kFree && params_.balance) balance(s, engine, t_ref, out.correction);
     add_stable_pd_torques(engine, s.q, s.v, s.q_ref, s.v_ref, kp_, kd_, params_.max_torque,
                           root_dof_, root_dof_ + 6, s.work, s.tau);
     if (mode_ == MocapRootMode::kFree) s.tau.segment<6>(root_dof_).setZero();

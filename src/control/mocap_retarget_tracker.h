@@ -79,7 +79,7 @@ struct MocapReferenceHorizon final : ReferenceHorizon {
   std::vector<Eigen::Vector3d> root_acceleration;  // sample_body_acceleration() of the root
   std::vector<BodyPose> pose;                      // sample_body_pose(): steps x bodies
   std::vector<Eigen::Quaterniond> body_local;      // sample_body_local(): steps x bodies
-  std::vector<double> com_height;  // the fall rule's reference COM height, per step
+  std::vector<double> com_height;                  // the fall rule's reference COM height, per step
   // work vectors of the sampling
   Eigen::VectorXd scratch;
   std::vector<Eigen::Quaterniond> work_world, work_local;

@@ -313,8 +313,7 @@ void build_controllers(const LoadedScenario& loaded, const RunOptions& options,
       YAML::Emitter out;
       out << node;
       m.controllers.push_back(options.cache->get_or_build(
-          fmt::format("{}|{}|{}|{}", world, i, m.rollout ? "rollout" : "run", out.c_str()),
-          build));
+          fmt::format("{}|{}|{}|{}", world, i, m.rollout ? "rollout" : "run", out.c_str()), build));
     } else {
       m.controllers.push_back(build());
     }

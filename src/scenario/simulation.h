@@ -111,7 +111,7 @@ struct SimulationModel {
   long log_every = 1;
   // the planner's dimensions and rollout model; null: no planner
   std::shared_ptr<const PlannerModel> planner;
-  bool plans = false;  // runs of this model plan (false for the planner's own rollouts)
+  bool plans = false;    // runs of this model plan (false for the planner's own rollouts)
   bool rollout = false;  // the planner's rollouts run this model (its controllers keep no metrics)
   // each dof's torque limit (N m or N; inf: none), from the engine's joints, dim nv; the summed
   // controller torques are clamped to it when clamp_torques

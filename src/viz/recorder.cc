@@ -131,9 +131,13 @@ VideoRecorder::VideoRecorder(Simulation& run, const RecordOptions& o) : run_(run
 
 VideoRecorder::~VideoRecorder() = default;
 
-void VideoRecorder::on_start(const Simulation&) { render_due_frames(); }
+void VideoRecorder::on_start(const Simulation&) {
+  render_due_frames();
+}
 
-void VideoRecorder::on_step(const Simulation&) { render_due_frames(); }
+void VideoRecorder::on_step(const Simulation&) {
+  render_due_frames();
+}
 
 void VideoRecorder::render_due_frames() {
   const Engine& engine = run_.engine();

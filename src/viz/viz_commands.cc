@@ -119,9 +119,8 @@ int record_command(const RunCommand& cmd) {
       code != kExitOk)
     return code;
   if (!ro.video.empty()) {
-    int code = run_recorded(ro, cmd.quiet, [&](const RunObserverMaker& observe) {
-      return run_command(cmd, observe);
-    });
+    int code = run_recorded(
+        ro, cmd.quiet, [&](const RunObserverMaker& observe) { return run_command(cmd, observe); });
     if (code != kExitOk || ro.screenshot.empty()) return code;
   }
   return screenshot_command(cmd, ro);

@@ -67,8 +67,8 @@ TEST(AutoJointMap, SidesWithoutSideNamesComeFromTheRestPose) {
 TEST(AutoJointMap, TheWrittenFileReadsBackAsTheSameMap) {
   auto model = load("mujoco", test::kHumanoidXml);
   AutoJointMap found = find_joint_map(synthetic_walk_skeleton(), "walk", *model, "humanoid");
-  const std::string path = test::write_temp_file(
-      "auto_map.yaml", joint_map_yaml(found, "walk.bvh", "humanoid.xml"));
+  const std::string path =
+      test::write_temp_file("auto_map.yaml", joint_map_yaml(found, "walk.bvh", "humanoid.xml"));
   const JointMap back = read_joint_map(path);
   EXPECT_EQ(pairs_of(back), pairs_of(found.map));
   EXPECT_NEAR(*back.scale, *found.map.scale, 1e-5 * *found.map.scale);

@@ -195,9 +195,10 @@ TEST(ModelChecks, DartRefusesAnMjcfBodyLeftWithoutMass) {
 )");
   EXPECT_NEAR(load("mujoco", path)->total_mass(), 2, 1e-12);
   EXPECT_EQ(error_of("dart", path),
-            path + ":3: body 'a': joint 'joint0' moves no mass on DART (DART 6.12's MJCF reader "
-                   "takes a body's mass from its first geom): give the body an <inertial> (or a "
-                   "first geom with mass)");
+            path +
+                ":3: body 'a': joint 'joint0' moves no mass on DART (DART 6.12's MJCF reader "
+                "takes a body's mass from its first geom): give the body an <inertial> (or a "
+                "first geom with mass)");
 }
 
 // what DART prints to std::cout (its dtmsg) and std::cerr (dtwarn, dterr) while `body` runs
