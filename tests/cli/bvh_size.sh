@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# a clip's size (issue 43): bvh info prints the character's standing height, speed and heading; a
+# a clip's size: bvh info prints the character's standing height, speed and heading; a
 # clip whose detected size is no person's is warned about with its numbers and the setting that
 # overrides it (--scale-to-meters, scale_to_meters), which silences it; tracked.bvh starts where
 # the source does, unless --origin-centred.
@@ -7,11 +7,8 @@ set -u
 stance=$1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-fails=0
-fail() {
-  echo "FAIL: $*"
-  fails=$((fails + 1))
-}
+# shellcheck source=tests/cli/lib.sh
+. "$(dirname "$0")/lib.sh"
 
 "$stance" bvh synth-walk "$tmp/walk.bvh" >/dev/null || fail "synth-walk"
 "$stance" bvh info "$tmp/walk.bvh" >"$tmp/info" 2>&1 || fail "info: $(cat "$tmp/info")"

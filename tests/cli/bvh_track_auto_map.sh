@@ -6,11 +6,8 @@ set -u
 stance=$1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-fails=0
-fail() {
-  echo "FAIL: $*"
-  fails=$((fails + 1))
-}
+# shellcheck source=tests/cli/lib.sh
+. "$(dirname "$0")/lib.sh"
 
 humanoid=/usr/share/mujoco/model/humanoid/humanoid.xml
 if [ ! -f "$humanoid" ]; then

@@ -6,11 +6,8 @@ set -u
 stance=$1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
-fails=0
-fail() {
-  echo "FAIL: $*"
-  fails=$((fails + 1))
-}
+# shellcheck source=tests/cli/lib.sh
+. "$(dirname "$0")/lib.sh"
 
 atlas=dart://sample/sdf/atlas/atlas_v3_no_head.urdf
 if [ ! -f /usr/share/doc/dart/data/sdf/atlas/atlas_v3_no_head.urdf ]; then

@@ -1,5 +1,12 @@
 # shellcheck shell=bash
-# Shared by the CLI tests that interrupt a run: sourced, not run.
+# Shared by the CLI tests: sourced, not run.
+
+# fail MESSAGE: print it and count it in $fails (a test ends with [ "$fails" -eq 0 ])
+fails=0
+fail() {
+  echo "FAIL: $*"
+  fails=$((fails + 1))
+}
 
 # wait_for_file PID FILE: until FILE exists (0), or process PID has ended or a minute has passed
 # (1); the interrupting tests signal the run once its resume file is written
