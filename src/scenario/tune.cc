@@ -13,6 +13,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "math/cem.h"
 #include "math/cmaes.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
@@ -477,10 +478,10 @@ std::vector<std::string> tune_assignments(const TuneOptions& o, const TuneCandid
   return assignments(o, c.values);
 }
 
-TuneResult run_tune(const TuneOptions& o,
-                    const std::function<void(const TuneResult&, int)>& on_generation,
-                    const nlohmann::json* resume_from) {
-  // --- the arguments -------------------------------------------------------------------------
+namespace {
+
+// the arguments, before any file is read; throws InputError naming the option
+void check_tune_options(const TuneOptions& o, const nlohmann::json* resume_from) {
   if (o.params.empty()) throw InputError("tune: no parameter to search (--param key=lo:hi)");
   if (o.method != "cem" && o.method != "cmaes")
     throw InputError(fmt::format("--method '{}': expected cem or cmaes", o.method));
@@ -496,52 +497,61 @@ TuneResult run_tune(const TuneOptions& o,
     throw InputError(fmt::format("--fall-penalty {}: expected a number >= 0", o.fall_penalty));
   if (o.duration && !(*o.duration > 0 && std::isfinite(*o.duration)))
     throw InputError(fmt::format("--duration {}: expected a positive number", *o.duration));
-  {
-    std::set<std::string> seen;
-    for (const auto& p : o.params) {
-      if (!(p.lo < p.hi) || (p.log && p.lo <= 0))
-        throw InputError(fmt::format("--param '{}': bad range", param_text(p)));
-      if (!seen.insert(p.key).second)
-        throw InputError(fmt::format("--param '{}': {} is searched twice", param_text(p), p.key));
-    }
+  std::set<std::string> seen;
+  for (const auto& p : o.params) {
+    if (!(p.lo < p.hi) || (p.log && p.lo <= 0))
+      throw InputError(fmt::format("--param '{}': bad range", param_text(p)));
+    if (!seen.insert(p.key).second)
+      throw InputError(fmt::format("--param '{}': {} is searched twice", param_text(p), p.key));
   }
+}
 
-  // --- the scenario, its defaults and the start point ---------------------------------------
-  YAML::Node base = load_yaml_file(o.scenario);
-  // --engine is the scenario's engine, so that a neighbour "engine=dart" still picks its own
-  if (!o.engine.empty()) base["engine"] = o.engine;
-  for (const auto& s : o.sets) apply_yaml_override(base, s);
-  RunOptions run_options;
-  run_options.duration = o.duration;
-  run_options.quiet = true;
+// what every run of a tune shares; not copied or moved (the run options point at the cache)
+struct TuneSetup {
+  // the scenario after --engine, --set and the defaults of the searched and multiplied keys
+  YAML::Node base;
   // candidates that repeat a controller's parameters on the same world share its model
   ControllerCache cache;
-  run_options.cache = &cache;
+  RunOptions run_options;
+  // run_options stopped by TuneOptions::interrupt: such a run is marked cut
+  RunOptions interruptible;
+  std::vector<double> start;  // one value per searched parameter
+  int runs_per = 1;           // the nominal run, then one per neighbour
+};
 
-  TuneResult result;
-  {
-    LoadedScenario loaded = parse_doc(o, base);
-    Simulation probe(loaded, run_options);
-    result.duration = o.duration ? *o.duration : loaded.scenario.duration;
-    // searched and multiplied keys the YAML leaves at their defaults: write the defaults in,
-    // so that the start point and "k*=f" see the value the run would use
-    auto resolve = [&](const std::string& key, const std::string& arg) {
-      if (yaml_number_at(base, key)) return;
-      std::optional<double> v = default_value(loaded, probe, key);
-      if (!v)
-        throw InputError(fmt::format("{}: no number at key path '{}' in {}{}", arg, key, o.scenario,
-                                     did_you_mean(key, known_keys(base, probe, loaded))));
-      apply_yaml_override(base, key + "=" + format_sweep_value(*v));
-    };
-    for (const auto& p : o.params) resolve(p.key, fmt::format("--param '{}'", param_text(p)));
-    for (const auto& n : o.neighbours)
-      for (const auto& ov : n.overrides)
-        if (ov.multiply) resolve(ov.key, fmt::format("--neighbour '{}'", n.text));
-  }
-  std::vector<double> start(o.params.size());
+// the scenario tree, with the numbers the YAML leaves at their defaults written in, so that the
+// start point and "k*=f" see the value the run would use; fills result.duration
+void load_tune_base(const TuneOptions& o, TuneSetup& s, TuneResult& result) {
+  s.base = load_yaml_file(o.scenario);
+  // --engine is the scenario's engine, so that a neighbour "engine=dart" still picks its own
+  if (!o.engine.empty()) s.base["engine"] = o.engine;
+  for (const auto& set : o.sets) apply_yaml_override(s.base, set);
+  s.run_options.duration = o.duration;
+  s.run_options.quiet = true;
+  s.run_options.cache = &s.cache;
+  LoadedScenario loaded = parse_doc(o, s.base);
+  Simulation probe(loaded, s.run_options);
+  result.duration = o.duration ? *o.duration : loaded.scenario.duration;
+  auto resolve = [&](const std::string& key, const std::string& arg) {
+    if (yaml_number_at(s.base, key)) return;
+    std::optional<double> v = default_value(loaded, probe, key);
+    if (!v)
+      throw InputError(fmt::format("{}: no number at key path '{}' in {}{}", arg, key, o.scenario,
+                                   did_you_mean(key, known_keys(s.base, probe, loaded))));
+    apply_yaml_override(s.base, key + "=" + format_sweep_value(*v));
+  };
+  for (const auto& p : o.params) resolve(p.key, fmt::format("--param '{}'", param_text(p)));
+  for (const auto& n : o.neighbours)
+    for (const auto& ov : n.overrides)
+      if (ov.multiply) resolve(ov.key, fmt::format("--neighbour '{}'", n.text));
+}
+
+// the start: the base's values, clamped into their ranges (with a note)
+void find_start(const TuneOptions& o, TuneSetup& s, TuneResult& result) {
+  s.start.resize(o.params.size());
   for (size_t i = 0; i < o.params.size(); ++i) {
     const TuneParam& p = o.params[i];
-    double v = *yaml_number_at(base, p.key);
+    double v = *yaml_number_at(s.base, p.key);
     if (v < p.lo || v > p.hi) {
       double c = std::clamp(v, p.lo, p.hi);
       result.notes.push_back(fmt::format("{} starts at {}, outside {}..{}: the start uses {}",
@@ -549,15 +559,17 @@ TuneResult run_tune(const TuneOptions& o,
                                          format_sweep_value(p.hi), format_sweep_value(c)));
       v = c;
     }
-    start[i] = v;
+    s.start[i] = v;
   }
+}
 
-  // every neighbour of the start, and each parameter at its bounds, must build: bad keys,
-  // values out of a parameter's range and malformed neighbours fail here, before any run
-  const int runs_per = 1 + static_cast<int>(o.neighbours.size());
+// every neighbour of the start, and each parameter at its bounds, must build: bad keys, values
+// out of a parameter's range and malformed neighbours fail here, before any run
+void check_probe_builds(const TuneOptions& o, TuneSetup& s) {
+  s.runs_per = 1 + static_cast<int>(o.neighbours.size());
   for (int j = 0; j < static_cast<int>(o.neighbours.size()); ++j) {
     try {
-      Simulation probe(parse_doc(o, run_doc(o, base, start, j)), run_options);
+      Simulation probe(parse_doc(o, run_doc(o, s.base, s.start, j)), s.run_options);
     } catch (const InputError& e) {
       std::string msg = e.what();
       if (msg.rfind("--neighbour", 0) == 0) throw;
@@ -566,272 +578,321 @@ TuneResult run_tune(const TuneOptions& o,
   }
   for (size_t i = 0; i < o.params.size(); ++i)
     for (double bound : {o.params[i].lo, o.params[i].hi}) {
-      std::vector<double> v = start;
+      std::vector<double> v = s.start;
       v[i] = bound;
       try {
-        Simulation probe(parse_doc(o, run_doc(o, base, v, -1)), run_options);
+        Simulation probe(parse_doc(o, run_doc(o, s.base, v, -1)), s.run_options);
       } catch (const InputError& e) {
         throw InputError(fmt::format("--param '{}': {} = {} is rejected: {}",
                                      param_text(o.params[i]), o.params[i].key,
                                      format_sweep_value(bound), e.what()));
       }
     }
+}
 
-  // --- the first run: the start's nominal point, which also checks the metric ---------------
-  // runs stop early on an interrupt; such a run is marked cut and its generation abandoned
-  RunOptions interruptible = run_options;
-  interruptible.interrupt = o.interrupt;
-  auto interrupted = [&] { return o.interrupt && o.interrupt->load(); };
-  auto run_one = [&](const std::vector<double>& values, int neighbour, char& cut) -> TuneRun {
-    double duration = result.duration;
-    try {
-      LoadedScenario loaded = parse_doc(o, run_doc(o, base, values, neighbour));
-      duration = o.duration ? *o.duration : loaded.scenario.duration;
-      RunResult r = run_without_timing(loaded, interruptible);
-      cut = r.interrupted;
-      return score_run(r, duration, o.metric, o.fall_penalty);
-    } catch (const InputError& e) {
-      // a candidate its controllers reject scores as failed; anything else is a bug
-      return failed_run(e.what(), duration, o.fall_penalty);
+// one run of a candidate (neighbour -1: nominal); `cut` is set when an interrupt stopped it
+TuneRun run_candidate(const TuneOptions& o, const TuneSetup& s, double nominal_duration,
+                      const std::vector<double>& values, int neighbour, char& cut) {
+  double duration = nominal_duration;
+  try {
+    LoadedScenario loaded = parse_doc(o, run_doc(o, s.base, values, neighbour));
+    duration = o.duration ? *o.duration : loaded.scenario.duration;
+    RunResult r = run_without_timing(loaded, s.interruptible);
+    cut = r.interrupted;
+    return score_run(r, duration, o.metric, o.fall_penalty);
+  } catch (const InputError& e) {
+    // a candidate its controllers reject scores as failed; anything else is a bug
+    return failed_run(e.what(), duration, o.fall_penalty);
+  }
+}
+
+// the start's nominal run, which also checks the metric; nothing when it was interrupted
+std::optional<TuneRun> run_first(const TuneOptions& o, const TuneSetup& s, double duration) {
+  try {
+    LoadedScenario loaded = parse_doc(o, run_doc(o, s.base, s.start, -1));
+    RunResult r = run_without_timing(loaded, s.interruptible);
+    if (r.interrupted) return std::nullopt;
+    if (!o.metric.empty() && !r.diverged && !metric_at(r.metrics, o.metric)) {
+      std::vector<std::string> paths;
+      metric_paths(r.metrics, "", paths);
+      std::string list;
+      for (const auto& p : paths) list += (list.empty() ? "" : ", ") + p;
+      throw InputError(fmt::format("--metric '{}': not a number in the run's metrics{} (there: {})",
+                                   o.metric, did_you_mean(o.metric, paths), list));
     }
-  };
+    return score_run(r, duration, o.metric, o.fall_penalty);
+  } catch (const InputError& e) {
+    if (std::string(e.what()).rfind("--metric", 0) == 0) throw;
+    return failed_run(e.what(), duration, o.fall_penalty);
+  } catch (const std::exception& e) {
+    return failed_run(e.what(), duration, o.fall_penalty);
+  }
+}
+
+std::vector<double> to_std(const Eigen::VectorXd& v) {
+  return std::vector<double>(v.data(), v.data() + v.size());
+}
+
+// the search in the unit box: CEM or CMA-ES, and the one generator both draw from
+class TuneSearch {
+ public:
+  TuneSearch(const TuneOptions& o, const Eigen::VectorXd& start_unit)
+      : o_(o), start_unit_(start_unit), rng_(o.seed) {
+    const int d = static_cast<int>(start_unit.size());
+    const Eigen::VectorXd lower = Eigen::VectorXd::Zero(d), upper = Eigen::VectorXd::Ones(d);
+    if (o.method == "cmaes") {
+      // lambda is the population (at least 2, checked)
+      cmaes_.emplace(start_unit, 0.3, o.population, lower, upper);
+    } else {
+      // spread 0.3 of the box, floor 0.02, half the old spread kept; elites among all so far
+      CemParams p;
+      p.elites = std::max(2, (o.population + 3) / 4);
+      cem_.emplace(start_unit, lower, upper, p);
+    }
+  }
+
+  // generation g's points, `count` columns: the start is the first point of generation 0;
+  // cem's generation 0 is then a Latin-hypercube sample of the box
+  Eigen::MatrixXd draw(int g, int count) {
+    if (cmaes_) {
+      drawn_ = cmaes_->ask(rng_);
+      if (g == 0) drawn_.col(0) = start_unit_;
+      return drawn_.leftCols(count);
+    }
+    Eigen::MatrixXd unit(start_unit_.size(), count);
+    if (g == 0) {
+      unit.col(0) = start_unit_;
+      cem_->ask_latin_hypercube(rng_, unit.rightCols(count - 1));
+    } else {
+      cem_->ask(rng_, unit);
+    }
+    return unit;
+  }
+
+  // tells the optimiser the robust scores of the points of draw()
+  void learn(const Eigen::MatrixXd& unit, const std::vector<TuneCandidate>& gen) {
+    const int count = static_cast<int>(gen.size());
+    std::vector<double> scores(count);
+    for (int c = 0; c < count; ++c) scores[c] = gen[c].robust_score;
+    if (cem_) {
+      cem_->tell(unit, scores);
+      return;
+    }
+    // CMA-ES learns from full generations only; a short last one ends the search
+    if (count == o_.population) cmaes_->tell(drawn_, scores);
+  }
+
+  // the state after a finished generation, as the resume file holds it
+  nlohmann::json to_json() const {
+    nlohmann::json search = {{"rng", stream_text(rng_)}};
+    if (cmaes_) {
+      const CmaesState& s = cmaes_->state();
+      search["mean"] = to_std(s.mean);
+      search["sigma"] = s.sigma;
+      search["C"] = std::vector<double>(s.C.data(), s.C.data() + s.C.size());
+      search["p_sigma"] = to_std(s.p_sigma);
+      search["p_c"] = to_std(s.p_c);
+      search["generation"] = s.generation;
+    } else {
+      const CemState& s = cem_->state();
+      std::vector<std::vector<double>> units;
+      for (const auto& u : s.told) units.push_back(to_std(u));
+      search["normal"] = stream_text(s.normal);
+      search["mean"] = to_std(s.mean);
+      search["sigma"] = to_std(s.spread);
+      search["units"] = units;
+    }
+    return search;
+  }
+
+  // restores to_json()'s state; the candidates' scores are the CEM's told values
+  void from_json(const nlohmann::json& search, const std::vector<TuneCandidate>& candidates) {
+    const int d = static_cast<int>(start_unit_.size());
+    from_text(search.at("rng").get<std::string>(), rng_);
+    if (cmaes_) {
+      CmaesState s;
+      s.mean = to_vector(search.at("mean"), d);
+      s.sigma = search.at("sigma").get<double>();
+      Eigen::VectorXd c = to_vector(search.at("C"), d * d);
+      s.C = Eigen::Map<Eigen::MatrixXd>(c.data(), d, d);
+      s.p_sigma = to_vector(search.at("p_sigma"), d);
+      s.p_c = to_vector(search.at("p_c"), d);
+      s.generation = search.at("generation").get<int>();
+      cmaes_->set_state(s);
+      return;
+    }
+    CemState s;
+    from_text(search.at("normal").get<std::string>(), s.normal);
+    const auto mean = search.at("mean").get<std::vector<double>>();
+    const auto sigma = search.at("sigma").get<std::vector<double>>();
+    const auto units = search.at("units").get<std::vector<std::vector<double>>>();
+    if (static_cast<int>(mean.size()) != d || static_cast<int>(sigma.size()) != d ||
+        units.size() != candidates.size())
+      throw std::runtime_error("a search state of another size");
+    s.mean = to_vector(search.at("mean"), d);
+    s.spread = to_vector(search.at("sigma"), d);
+    for (size_t i = 0; i < units.size(); ++i) {
+      s.told.push_back(to_vector(search.at("units").at(i), d));
+      s.told_values.push_back(candidates[i].robust_score);
+    }
+    cem_->set_state(s);
+  }
+
+ private:
+  const TuneOptions& o_;
+  Eigen::VectorXd start_unit_;
+  std::mt19937_64 rng_;
+  std::optional<Cmaes> cmaes_;
+  std::optional<Cem> cem_;
+  Eigen::MatrixXd drawn_;  // cmaes: the last ask, the start in place of its first point
+};
+
+nlohmann::json tune_checkpoint(const TuneOptions& o, const TuneResult& result,
+                               const TuneSearch& search) {
+  nlohmann::json candidates = nlohmann::json::array();
+  for (const auto& c : result.candidates) candidates.push_back(candidate_to_json(c));
+  return nlohmann::json{{"format", kCheckpointFormat},
+                        {"options", tune_fingerprint(o)},
+                        {"finished_generations", result.finished_generations},
+                        {"best", result.best},
+                        {"candidates", candidates},
+                        {"search", search.to_json()}};
+}
+
+std::string best_scenario_yaml(const TuneOptions& o, const YAML::Node& base,
+                               const TuneResult& result) {
+  YAML::Node best_doc = run_doc(o, base, result.candidates[result.best].values, -1);
+  YAML::Emitter out;
+  out << best_doc;
+  return std::string(out.c_str());
+}
+
+// a resumed search: the finished generations and the state after them, exactly as saved
+void resume_tune(const TuneOptions& o, const TuneSetup& s, const nlohmann::json& cp,
+                 TuneSearch& search, TuneResult& result) {
+  try {
+    for (const auto& c : cp.at("candidates")) result.candidates.push_back(candidate_from_json(c));
+    result.best = cp.at("best").get<int>();
+    result.finished_generations = cp.at("finished_generations").get<int>();
+    if (result.candidates.empty() || result.best < 0 ||
+        result.best >= static_cast<int>(result.candidates.size()) ||
+        result.finished_generations > result.generations)
+      throw std::runtime_error("inconsistent candidates");
+    search.from_json(cp.at("search"), result.candidates);
+  } catch (const std::exception& e) {
+    throw InputError(fmt::format("--resume: not a stance tune resume file ({})", e.what()));
+  }
+  result.checkpoint = cp;
+  result.scenario_yaml = best_scenario_yaml(o, s.base, result);
+}
+
+// the candidates of generation g at the unit points `unit`
+std::vector<TuneCandidate> generation_candidates(const TuneOptions& o, const TuneSetup& s, int g,
+                                                 const Eigen::MatrixXd& unit) {
+  const int d = static_cast<int>(o.params.size());
+  std::vector<TuneCandidate> gen(unit.cols());
+  for (int c = 0; c < static_cast<int>(gen.size()); ++c) {
+    gen[c].generation = g;
+    gen[c].index = c;
+    gen[c].values.resize(d);
+    for (int k = 0; k < d; ++k)
+      gen[c].values[k] = (g == 0 && c == 0) ? s.start[k] : from_unit(o.params[k], unit(k, c));
+    gen[c].runs.resize(s.runs_per);
+  }
+  return gen;
+}
+
+// every run of a generation; false when one was cut short (the generation is abandoned)
+bool run_generation(const TuneOptions& o, const TuneSetup& s, const TuneRun& first, double duration,
+                    int g, std::vector<TuneCandidate>& gen) {
+  const int count = static_cast<int>(gen.size()), runs_per = s.runs_per;
+  std::vector<char> cut(count * runs_per, 0);
+  // over threads, and over MPI ranks under mpirun: every rank needs every score, since the
+  // next generation is drawn from them (each rank draws the same, from the same seed)
+  BatchRanks::get().distributed_for(
+      count * runs_per, o.threads,
+      [&](int job) {
+        const int c = job / runs_per, j = job % runs_per;
+        if (g == 0 && c == 0 && j == 0)
+          gen[c].runs[j] = first;
+        else
+          gen[c].runs[j] = run_candidate(o, s, duration, gen[c].values, j - 1, cut[job]);
+      },
+      [&](int job) {
+        return nlohmann::json{{"run", run_to_json(gen[job / runs_per].runs[job % runs_per])},
+                              {"cut", cut[job] != 0}}
+            .dump();
+      },
+      [&](int job, const std::string& text) {
+        const nlohmann::json j = nlohmann::json::parse(text);
+        gen[job / runs_per].runs[job % runs_per] = run_from_json(j.at("run"));
+        cut[job] = j.at("cut").get<bool>() ? 1 : 0;
+      },
+      /*every_rank=*/true);
+  return std::find(cut.begin(), cut.end(), 1) == cut.end();
+}
+
+}  // namespace
+
+TuneResult run_tune(const TuneOptions& o,
+                    const std::function<void(const TuneResult&, int)>& on_generation,
+                    const nlohmann::json* resume_from) {
+  check_tune_options(o, resume_from);
+  TuneSetup s;
+  TuneResult result;
+  load_tune_base(o, s, result);
+  find_start(o, s, result);
+  check_probe_builds(o, s);
+  s.interruptible = s.run_options;
+  s.interruptible.interrupt = o.interrupt;
+
   // a checkpoint is made after a finished generation: it holds at least one
-  const bool resuming = resume_from != nullptr;
-  if (resuming) {
+  if (resume_from) {
     auto it = resume_from->find("finished_generations");
     if (it == resume_from->end() || !it->is_number_integer() || it->get<int>() < 1)
       throw InputError("--resume: not a stance tune resume file (no finished generation)");
   }
   TuneRun first;
-  if (!resuming) {
-    double duration = result.duration;
-    try {
-      LoadedScenario loaded = parse_doc(o, run_doc(o, base, start, -1));
-      RunResult r = run_without_timing(loaded, interruptible);
-      if (r.interrupted) {
-        result.interrupted = true;
-        return result;
-      }
-      if (!o.metric.empty() && !r.diverged && !metric_at(r.metrics, o.metric)) {
-        std::vector<std::string> paths;
-        metric_paths(r.metrics, "", paths);
-        std::string list;
-        for (const auto& p : paths) list += (list.empty() ? "" : ", ") + p;
-        throw InputError(
-            fmt::format("--metric '{}': not a number in the run's metrics{} (there: {})", o.metric,
-                        did_you_mean(o.metric, paths), list));
-      }
-      first = score_run(r, duration, o.metric, o.fall_penalty);
-    } catch (const InputError& e) {
-      if (std::string(e.what()).rfind("--metric", 0) == 0) throw;
-      first = failed_run(e.what(), duration, o.fall_penalty);
-    } catch (const std::exception& e) {
-      first = failed_run(e.what(), duration, o.fall_penalty);
+  if (!resume_from) {
+    std::optional<TuneRun> run = run_first(o, s, result.duration);
+    if (!run) {
+      result.interrupted = true;
+      return result;
     }
+    first = *run;
   }
 
-  // --- the search state ----------------------------------------------------------------------
   const int d = static_cast<int>(o.params.size());
-  const bool cmaes = o.method == "cmaes";
-  std::mt19937_64 rng(o.seed);
-  std::uniform_real_distribution<double> uniform(0.0, 1.0);
-  std::normal_distribution<double> normal(0.0, 1.0);
   Eigen::VectorXd start_unit(d);
-  for (int k = 0; k < d; ++k) start_unit[k] = std::clamp(to_unit(o.params[k], start[k]), 0.0, 1.0);
-  // cem: per candidate, the unit coordinates; the mean and spread of the next generation
-  std::vector<std::vector<double>> units;
-  std::vector<double> mean(d), sigma(d, 0.3);
-  const int elite_count = std::max(2, (o.population + 3) / 4);
-  // cmaes: lambda is the population (at least 2, checked above)
-  std::optional<Cmaes> es;
-  if (cmaes)
-    es.emplace(start_unit, 0.3, o.population, Eigen::VectorXd::Zero(d), Eigen::VectorXd::Ones(d));
-  const int generations = (o.budget + o.population - 1) / o.population;
-  result.generations = generations;
+  for (int k = 0; k < d; ++k)
+    start_unit[k] = std::clamp(to_unit(o.params[k], s.start[k]), 0.0, 1.0);
+  TuneSearch search(o, start_unit);
+  result.generations = (o.budget + o.population - 1) / o.population;
+  if (resume_from) resume_tune(o, s, *resume_from, search, result);
 
-  // the search state as JSON, after a finished generation
-  auto checkpoint = [&]() {
-    nlohmann::json search = {{"rng", stream_text(rng)}};
-    if (cmaes) {
-      const CmaesState& s = es->state();
-      search["mean"] = std::vector<double>(s.mean.data(), s.mean.data() + s.mean.size());
-      search["sigma"] = s.sigma;
-      search["C"] = std::vector<double>(s.C.data(), s.C.data() + s.C.size());
-      search["p_sigma"] = std::vector<double>(s.p_sigma.data(), s.p_sigma.data() + d);
-      search["p_c"] = std::vector<double>(s.p_c.data(), s.p_c.data() + d);
-      search["generation"] = s.generation;
-    } else {
-      search["normal"] = stream_text(normal);
-      search["mean"] = mean;
-      search["sigma"] = sigma;
-      search["units"] = units;
-    }
-    nlohmann::json candidates = nlohmann::json::array();
-    for (const auto& c : result.candidates) candidates.push_back(candidate_to_json(c));
-    return nlohmann::json{{"format", kCheckpointFormat},
-                          {"options", tune_fingerprint(o)},
-                          {"finished_generations", result.finished_generations},
-                          {"best", result.best},
-                          {"candidates", candidates},
-                          {"search", search}};
-  };
-  auto best_yaml = [&] {
-    YAML::Node best_doc = run_doc(o, base, result.candidates[result.best].values, -1);
-    YAML::Emitter out;
-    out << best_doc;
-    return std::string(out.c_str());
-  };
-
-  // a resumed search: the finished generations and the state after them, exactly as saved
-  if (resuming) {
-    try {
-      const nlohmann::json& cp = *resume_from;
-      for (const auto& c : cp.at("candidates")) result.candidates.push_back(candidate_from_json(c));
-      result.best = cp.at("best").get<int>();
-      result.finished_generations = cp.at("finished_generations").get<int>();
-      if (result.candidates.empty() || result.best < 0 ||
-          result.best >= static_cast<int>(result.candidates.size()) ||
-          result.finished_generations > generations)
-        throw std::runtime_error("inconsistent candidates");
-      const nlohmann::json& search = cp.at("search");
-      from_text(search.at("rng").get<std::string>(), rng);
-      if (cmaes) {
-        CmaesState s;
-        s.mean = to_vector(search.at("mean"), d);
-        s.sigma = search.at("sigma").get<double>();
-        Eigen::VectorXd c = to_vector(search.at("C"), d * d);
-        s.C = Eigen::Map<Eigen::MatrixXd>(c.data(), d, d);
-        s.p_sigma = to_vector(search.at("p_sigma"), d);
-        s.p_c = to_vector(search.at("p_c"), d);
-        s.generation = search.at("generation").get<int>();
-        es->set_state(s);
-      } else {
-        from_text(search.at("normal").get<std::string>(), normal);
-        mean = search.at("mean").get<std::vector<double>>();
-        sigma = search.at("sigma").get<std::vector<double>>();
-        units = search.at("units").get<std::vector<std::vector<double>>>();
-        if (static_cast<int>(mean.size()) != d || static_cast<int>(sigma.size()) != d ||
-            units.size() != result.candidates.size())
-          throw std::runtime_error("a search state of another size");
-      }
-    } catch (const std::exception& e) {
-      throw InputError(fmt::format("--resume: not a stance tune resume file ({})", e.what()));
-    }
-    result.checkpoint = *resume_from;
-    result.scenario_yaml = best_yaml();
-  }
-
-  // --- the search ----------------------------------------------------------------------------
-  for (int g = result.finished_generations; g < generations; ++g) {
-    if (interrupted()) {
+  for (int g = result.finished_generations; g < result.generations; ++g) {
+    if (o.interrupt && o.interrupt->load()) {
       result.interrupted = true;
       break;
     }
     const int count = std::min(o.population, o.budget - g * o.population);
-    std::vector<std::vector<double>> u(count, std::vector<double>(d));
-    Eigen::MatrixXd drawn;  // cmaes: the generation's points, one per column
-    if (cmaes) {
-      drawn = es->ask(rng);
-      // the start takes the first place of generation 0
-      if (g == 0) drawn.col(0) = start_unit;
-      for (int c = 0; c < count; ++c)
-        for (int k = 0; k < d; ++k) u[c][k] = drawn(k, c);
-    } else if (g == 0) {
-      // the start, then a Latin-hypercube sample of the box
-      for (int k = 0; k < d; ++k) u[0][k] = start_unit[k];
-      const int m = count - 1;
-      for (int k = 0; k < d && m > 0; ++k) {
-        std::vector<int> strata(m);
-        for (int s = 0; s < m; ++s) strata[s] = s;
-        for (int s = m - 1; s > 0; --s) {
-          int r = static_cast<int>(uniform(rng) * (s + 1));
-          std::swap(strata[s], strata[std::min(r, s)]);
-        }
-        for (int s = 0; s < m; ++s) u[1 + s][k] = (strata[s] + uniform(rng)) / m;
-      }
-    } else {
-      for (int c = 0; c < count; ++c)
-        for (int k = 0; k < d; ++k) {
-          double x = mean[k] + sigma[k] * normal(rng);
-          for (int tries = 0; tries < 8 && (x < 0 || x > 1); ++tries)
-            x = mean[k] + sigma[k] * normal(rng);
-          u[c][k] = std::clamp(x, 0.0, 1.0);
-        }
-    }
-
-    std::vector<TuneCandidate> gen(count);
-    for (int c = 0; c < count; ++c) {
-      gen[c].generation = g;
-      gen[c].index = c;
-      gen[c].values.resize(d);
-      for (int k = 0; k < d; ++k)
-        gen[c].values[k] = (g == 0 && c == 0) ? start[k] : from_unit(o.params[k], u[c][k]);
-      gen[c].runs.resize(runs_per);
-    }
-    std::vector<char> cut(count * runs_per, 0);
-    // over threads, and over MPI ranks under mpirun: every rank needs every score, since the
-    // next generation is drawn from them (each rank draws the same, from the same seed)
-    BatchRanks::get().distributed_for(
-        count * runs_per, o.threads,
-        [&](int job) {
-          const int c = job / runs_per, j = job % runs_per;
-          if (g == 0 && c == 0 && j == 0)
-            gen[c].runs[j] = first;
-          else
-            gen[c].runs[j] = run_one(gen[c].values, j - 1, cut[job]);
-        },
-        [&](int job) {
-          return nlohmann::json{{"run", run_to_json(gen[job / runs_per].runs[job % runs_per])},
-                                {"cut", cut[job] != 0}}
-              .dump();
-        },
-        [&](int job, const std::string& text) {
-          const nlohmann::json j = nlohmann::json::parse(text);
-          gen[job / runs_per].runs[job % runs_per] = run_from_json(j.at("run"));
-          cut[job] = j.at("cut").get<bool>() ? 1 : 0;
-        },
-        /*every_rank=*/true);
+    const Eigen::MatrixXd unit = search.draw(g, count);
+    std::vector<TuneCandidate> gen = generation_candidates(o, s, g, unit);
     // a generation with a run cut short is abandoned: a resumed search runs it again
-    if (std::find(cut.begin(), cut.end(), 1) != cut.end()) {
+    if (!run_generation(o, s, first, result.duration, g, gen)) {
       result.interrupted = true;
       break;
     }
-    for (int c = 0; c < count; ++c) {
-      aggregate_runs(gen[c]);
-      result.candidates.push_back(gen[c]);
-      const TuneCandidate& best = result.candidates[result.best];
-      if (result.candidates.back().robust_score < best.robust_score)
+    for (TuneCandidate& c : gen) {
+      aggregate_runs(c);
+      result.candidates.push_back(c);
+      if (c.robust_score < result.candidates[result.best].robust_score)
         result.best = static_cast<int>(result.candidates.size()) - 1;
     }
-
-    if (cmaes) {
-      // the optimiser learns from full generations only; a short last one ends the search
-      if (count == o.population) {
-        std::vector<double> scores(count);
-        for (int c = 0; c < count; ++c) scores[c] = gen[c].robust_score;
-        es->tell(drawn, scores);
-      }
-    } else {
-      for (int c = 0; c < count; ++c) units.push_back(u[c]);
-      // the elite so far: mean and spread of the next generation
-      std::vector<int> order(result.candidates.size());
-      for (size_t i = 0; i < order.size(); ++i) order[i] = static_cast<int>(i);
-      std::stable_sort(order.begin(), order.end(), [&](int a, int b) {
-        return result.candidates[a].robust_score < result.candidates[b].robust_score;
-      });
-      const int e = std::min(elite_count, static_cast<int>(order.size()));
-      for (int k = 0; k < d; ++k) {
-        double s = 0, ss = 0;
-        for (int i = 0; i < e; ++i) s += units[order[i]][k];
-        mean[k] = s / e;
-        for (int i = 0; i < e; ++i) ss += std::pow(units[order[i]][k] - mean[k], 2);
-        double spread = e > 1 ? std::sqrt(ss / (e - 1)) : sigma[k];
-        sigma[k] = std::max(0.02, 0.5 * sigma[k] + 0.5 * spread);
-      }
-    }
+    search.learn(unit, gen);
     result.finished_generations = g + 1;
-    result.checkpoint = checkpoint();
-    result.scenario_yaml = best_yaml();
+    result.checkpoint = tune_checkpoint(o, result, search);
+    result.scenario_yaml = best_scenario_yaml(o, s.base, result);
     if (on_generation) on_generation(result, g);
   }
   return result;

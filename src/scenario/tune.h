@@ -8,9 +8,10 @@
 // robust score is the maximum over its runs: the nominal point and every neighbour.
 //
 // Search, in the box normalised to [0, 1] per parameter (log-scaled where asked), by one of:
-//  - "cem", a cross-entropy method (the default): generation 0 is the scenario's current point
-//    followed by a Latin-hypercube sample of the box; later generations sample a Gaussian
-//    around the mean of the elite candidates so far, with a spread that shrinks to theirs;
+//  - "cem", a cross-entropy method (math/cem.h; the default): generation 0 is the scenario's
+//    current point followed by a Latin-hypercube sample of the box; later generations sample a
+//    Gaussian around the mean of the elite candidates so far, with a spread that shrinks to
+//    theirs;
 //  - "cmaes", CMA-ES (math/cmaes.h) started at the scenario's current point with step 0.3 of
 //    the box and lambda = population; candidate 0 of generation 0 is the start itself. Points
 //    outside the box are drawn again (up to 10 times), then clamped. A last generation cut
