@@ -177,9 +177,12 @@ int main(int argc, char** argv) {
   run_cmd->add_option("--export-bvh", export_bvh,
                       "mocap_tracker / mocap_retarget: write the simulated motion");
 
-  std::string list_dir = "scenarios";
-  auto* list_cmd = app.add_subcommand("list", "controllers and scenarios");
-  list_cmd->add_option("dir", list_dir, "scenario folder");
+  std::string list_what;
+  auto* list_cmd =
+      app.add_subcommand("list", "controllers and scenarios; a controller's parameters");
+  list_cmd->add_option("what", list_what,
+                       "a scenario folder (default scenarios), 'controllers' or a controller "
+                       "type: its parameters with unit, range and help");
 
   // `sweep`: any key path; `sweep-gain`: the slope walker's hip kp, 2..12, plotted
   stance::SweepCommand sweep, sweep_gain;
@@ -349,7 +352,7 @@ int main(int argc, char** argv) {
     return stance::kExitBadInput;
 #endif
   }
-  if (*list_cmd) return stance::list_command(list_dir);
+  if (*list_cmd) return stance::list_command(list_what);
   if (*sweep_cmd) return stance::sweep_command(sweep);
   if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);
   if (*push_threshold_cmd) return stance::push_threshold_command(push_threshold);

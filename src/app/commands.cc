@@ -548,9 +548,68 @@ int bvh_synth_command(const std::string& out_path, bool run) {
   });
 }
 
-int list_command(const std::string& scenario_dir) {
+namespace {
+// a controller type's parameters, one line each: path, default, unit, range, help
+void print_controller_params(const ControllerType& type) {
+  std::cout << fmt::format("{}: {}\n", type.name, type.summary);
+  const std::vector<ParamDoc> docs = type.params ? type.params() : std::vector<ParamDoc>{};
+  if (docs.empty()) {
+    std::cout << "  (no parameters)\n";
+    return;
+  }
+  // long defaults (lists, tables) are cut: the column is for the value a user would change
+  auto shown = [](const std::string& text) {
+    return text.size() <= 16 ? text : text.substr(0, 13) + "...";
+  };
+  size_t path_width = 9, value_width = 7, unit_width = 4, range_width = 5;
+  for (const auto& d : docs) {
+    path_width = std::max(path_width, d.path.size());
+    value_width = std::max(value_width, shown(d.default_value).size());
+    unit_width = std::max(unit_width, d.meta.unit.size());
+    range_width = std::max(range_width, range_text(d.meta).size());
+  }
+  auto line = [&](std::string_view path, std::string_view value, std::string_view unit,
+                  std::string_view range, std::string_view help) {
+    std::string text = fmt::format("  {:<{}}  {:<{}}  {:<{}}  {:<{}}  {}", path, path_width, value,
+                                   value_width, unit, unit_width, range, range_width, help);
+    text.erase(text.find_last_not_of(' ') + 1);
+    std::cout << text << "\n";
+  };
+  line("parameter", "default", "unit", "range", "help");
+  for (const auto& d : docs)
+    line(d.path, shown(d.default_value), d.meta.unit, range_text(d.meta), d.meta.help);
+}
+}  // namespace
+
+int list_command(const std::string& what) {
   return guarded([&] {
-    std::cout << "controllers:\n";
+    // "controllers", or one controller type: their parameters
+    if (what == "controllers") {
+      for (const auto& t : controller_registry()) {
+        print_controller_params(t);
+        std::cout << "\n";
+      }
+      return kExitOk;
+    }
+    std::vector<std::string> names;
+    for (const auto& t : controller_registry()) {
+      if (t.name == what) {
+        print_controller_params(t);
+        return kExitOk;
+      }
+      names.push_back(t.name);
+    }
+    // else a scenario folder (the default: scenarios)
+    const std::string scenario_dir = what.empty() ? "scenarios" : what;
+    if (!what.empty() && !std::filesystem::is_directory(what)) {
+      names.push_back("controllers");
+      std::string hint = did_you_mean(what, names);
+      if (hint.empty()) hint = " (`stance list` shows the types)";
+      throw InputError(fmt::format(
+          "list: '{}' is neither a controller type nor a scenario folder{}", what, hint));
+    }
+    std::cout << "controllers (stance list NAME prints one's parameters, with units and "
+                 "ranges):\n";
     for (const auto& t : controller_registry())
       std::cout << fmt::format("  {:<16} {}\n", t.name, t.summary);
     std::cout << "scenarios in " << scenario_dir << ":\n";

@@ -131,8 +131,10 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd);
 RunCommand bvh_track_run(const BvhTrackCommand& cmd, const std::string& scenario);
 int bvh_track_command(const BvhTrackCommand& cmd, const RunObserverMaker& observe = {});
 
-// list scenarios in a folder and the registered controllers
-int list_command(const std::string& scenario_dir);
+// `stance list [WHAT]`: the registered controllers and the scenarios in a folder (WHAT, default
+// scenarios); WHAT "controllers" or a controller type: their parameters with default, unit,
+// range and help. Anything else is bad input (exit 2).
+int list_command(const std::string& what);
 
 // `stance sweep SCENARIO --param key.path (--from A --to B --steps N | --values a,b,c)`:
 // one run per value on `threads` threads; sweep.csv and points.csv in out_dir, and with

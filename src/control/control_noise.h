@@ -30,12 +30,15 @@ struct ControlNoiseParams {
 
   template <class V>
   void visit(V& v) {
-    v("balance_std", balance_std, {.unit = "ctrl", .min = 0, .max = 1e3});
-    v("other_std", other_std, {.unit = "ctrl", .min = 0, .max = 1e3});
+    v("balance_std", balance_std,
+      {.unit = "ctrl", .min = 0, .max = 1e3, .help = "noise deviation on the balance actuators"});
+    v("other_std", other_std,
+      {.unit = "ctrl", .min = 0, .max = 1e3, .help = "noise deviation on the other actuators"});
     v("smoothing_s", smoothing_s,
       {.unit = "s", .min = 0, .max = 100, .help = "Gaussian kernel width; 0: white noise"});
     v("balance_actuators", balance_actuators, {.help = "regexes of actuators with balance_std"});
-    v("seed_offset", seed_offset, {.min = 0, .max = 1e9});
+    v("seed_offset", seed_offset,
+      {.min = 0, .max = 1e9, .help = "added to the scenario's seed: another noise sequence"});
   }
 };
 

@@ -19,6 +19,7 @@
 
 #include "control/marker.h"
 #include "core/state_archive.h"
+#include "params/param_doc.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
 
@@ -296,6 +297,8 @@ struct ControllerType {
   std::string name;
   std::string summary;
   ControllerFactory make;
+  // its parameters with their defaults, units, ranges and help (`stance list NAME`)
+  std::function<std::vector<ParamDoc>()> params;
 };
 
 const std::vector<ControllerType>& controller_registry();

@@ -44,7 +44,7 @@ struct MocapClipParams {
     v("bvh", bvh, {.help = "BVH clip to track"});
     v("scale_to_meters", scale_to_meters, {.unit = "m", .min = 0, .help = "0: detect"});
     v("up_axis", up_axis, {.help = "the file's up axis: y, z, or auto (from the legs)"});
-    v("first_frame", first_frame, {.min = 0});
+    v("first_frame", first_frame, {.min = 0, .help = "first clip frame tracked"});
     v("skip_leading_pose", skip_leading_pose,
       {.help = "first_frame 0: start after leading frames that jump to the motion (a T-pose)"});
     v("last_frame", last_frame, {.min = -1, .help = "-1: the last frame"});

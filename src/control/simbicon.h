@@ -209,7 +209,7 @@ struct SimbiconParams {
     v("skeleton", skeleton);
     v("gait", gait);
     v("balance_point", balance_point, {.help = "hip or com"});
-    v("initial_state", initial_state, {.min = 0, .max = 3});
+    v("initial_state", initial_state, {.min = 0, .max = 3, .help = "FSM state at the start"});
     v("heading_rad", heading_rad,
       {.unit = "rad", .min = -3.2, .max = 3.2, .help = "3D: desired heading about z"});
     v("path_gain", path_gain,
@@ -217,8 +217,10 @@ struct SimbiconParams {
        .min = 0,
        .max = 10,
        .help = "3D: heading turn per metre left of the start line"});
-    v("max_steer_rad", max_steer_rad, {.unit = "rad", .min = 0, .max = 1.5});
-    v("max_recorded_steps", max_recorded_steps, {.min = 1, .max = 10000000});
+    v("max_steer_rad", max_steer_rad,
+      {.unit = "rad", .min = 0, .max = 1.5, .help = "3D: clamp of the path correction"});
+    v("max_recorded_steps", max_recorded_steps,
+      {.min = 1, .max = 10000000, .help = "steps.csv capacity (reserved up front)"});
   }
 };
 

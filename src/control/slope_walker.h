@@ -70,21 +70,32 @@ struct SlopeWalkerParams {
     v("hip_kv", hip_kv, {.unit = "N m s/rad", .min = 0, .help = "hip servo damping"});
     v("knee_kp", knee_kp, {.unit = "N/m", .min = 0, .help = "knee servo stiffness"});
     v("knee_kv", knee_kv, {.unit = "N s/m", .min = 0, .help = "knee servo damping"});
-    v("max_hip_torque", max_hip_torque, {.unit = "N m", .min = 0});
-    v("max_knee_force", max_knee_force, {.unit = "N", .min = 0});
+    v("max_hip_torque", max_hip_torque, {.unit = "N m", .min = 0, .help = "hip torque clamp"});
+    v("max_knee_force", max_knee_force, {.unit = "N", .min = 0, .help = "knee force clamp"});
     v("hip_target_rad", hip_target_rad,
       {.unit = "rad", .min = 0, .max = 2, .help = "swing leg ahead of the stance leg"});
-    v("knee_retract_m", knee_retract_m, {.unit = "m", .min = -1, .max = 0});
-    v("foot_contact_height_m", foot_contact_height_m, {.unit = "m", .min = 0});
-    v("stance_past_vertical_rad", stance_past_vertical_rad, {.unit = "rad", .min = -1, .max = 1});
-    v("knee_extend_angle_rad", knee_extend_angle_rad, {.unit = "rad", .min = -1, .max = 1});
+    v("knee_retract_m", knee_retract_m,
+      {.unit = "m", .min = -1, .max = 0, .help = "knee slide while retracted (negative: shorter)"});
+    v("foot_contact_height_m", foot_contact_height_m,
+      {.unit = "m", .min = 0, .help = "a foot below this is near the ground"});
+    v("stance_past_vertical_rad", stance_past_vertical_rad,
+      {.unit = "rad",
+       .min = -1,
+       .max = 1,
+       .help = "a stance leg below this angle is past vertical"});
+    v("knee_extend_angle_rad", knee_extend_angle_rad,
+      {.unit = "rad", .min = -1, .max = 1, .help = "a retracted leg re-extends past this angle"});
     v("knee_fsm", knee_fsm, {.help = "false: knees stay straight"});
-    v("first_swing_leg", first_swing_leg, {.min = 1, .max = 2});
+    v("first_swing_leg", first_swing_leg, {.min = 1, .max = 2, .help = "leg 1 or 2"});
     v("transient_steps", transient_steps, {.min = 0, .help = "steps before gait analysis"});
-    v("max_period", max_period, {.min = 1, .max = 1000});
-    v("period_tolerance_m", period_tolerance_m, {.unit = "m", .min = 0});
-    v("fall_hip_height_m", fall_hip_height_m, {.unit = "m", .min = 0});
-    v("stall_time_s", stall_time_s, {.unit = "s", .min = 0});
+    v("max_period", max_period,
+      {.min = 1, .max = 1000, .help = "longest gait period looked for, steps"});
+    v("period_tolerance_m", period_tolerance_m,
+      {.unit = "m", .min = 0, .help = "step lengths this close count as equal"});
+    v("fall_hip_height_m", fall_hip_height_m,
+      {.unit = "m", .min = 0, .help = "hip below this height above the floor: fell"});
+    v("stall_time_s", stall_time_s,
+      {.unit = "s", .min = 0, .help = "no step for this long: stalled"});
   }
 };
 
