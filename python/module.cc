@@ -15,4 +15,5 @@ PYBIND11_MODULE(_stance, m) {
   bind_view(m);
   bind_maths(m);
   bind_batch(m);
+  bind_bvh(m);
 }

@@ -48,9 +48,22 @@ line or the parameter; stance.DivergenceError (a RuntimeError) is the CLI's exit
 
 Batch: stance.sweep, stance.tune and stance.robustness return numpy arrays and release the GIL
 while C++ runs, as Simulation.run does.
+
+Motion capture::
+
+    clip = stance.read_bvh("walk.bvh")  # a BvhClip: joints, channel_names, frame_time,
+    clip.frames                         # frames x channels (numpy), rotations, translations,
+    clip.standing_height_m, clip.mean_speed_mps, clip.facing_deg, clip.warnings
+    r = stance.track("walk.bvh", out="out/walk")   # `stance bvh track`: a TrackResult
+    r.success, r.g_mpjpe_m, r.metrics["mocap"], r.log["root_x"], r.tracked.frames
+
+Every path argument takes a str or a pathlib.Path. The package ships type stubs
+(__init__.pyi, py.typed) for editors and type checkers.
 """
 
 from ._stance import (  # noqa: F401
+    BvhClip,
+    BvhJoint,
     ControlOutput,
     Contact,
     DareResult,
@@ -65,6 +78,7 @@ from ._stance import (  # noqa: F401
     RunResult,
     Simulation,
     SimulationState,
+    TrackResult,
     design_lqr,
     find_lqr_setpoint,
     linearize_fd,
@@ -72,10 +86,12 @@ from ._stance import (  # noqa: F401
     load,
     lqr_state_cost,
     plot_force_offset,
+    read_bvh,
     robustness,
     solve_dare,
     spectral_radius,
     sweep,
+    track,
     tune,
 )
 
@@ -85,11 +101,12 @@ except ImportError:
     pass
 
 __all__ = [
-    "Controller", "ControlOutput", "Contact", "DareResult", "DivergenceError", "Engine",
-    "EngineState", "InputError", "JointInfo", "JointType", "LqrDesign", "LqrSetPoint",
-    "RunResult", "Simulation", "SimulationState", "design_lqr", "find_lqr_setpoint",
-    "linearize_fd", "linearize_fd_forces", "load", "lqr_gain", "lqr_state_cost",
-    "plot_force_offset", "robustness", "run", "solve_dare", "spectral_radius", "sweep", "tune", "view",
+    "BvhClip", "BvhJoint", "Controller", "ControlOutput", "Contact", "DareResult",
+    "DivergenceError", "Engine", "EngineState", "InputError", "JointInfo", "JointType",
+    "LqrDesign", "LqrSetPoint", "RunResult", "Simulation", "SimulationState", "TrackResult",
+    "design_lqr", "find_lqr_setpoint", "linearize_fd", "linearize_fd_forces", "load", "lqr_gain",
+    "lqr_state_cost", "plot_force_offset", "read_bvh", "robustness", "run", "solve_dare",
+    "spectral_radius", "sweep", "track", "tune", "view",
 ]
 
 

@@ -136,25 +136,30 @@ int check_screenshots_options(const std::string& scenario_dir, double at) {
   });
 }
 
+std::unique_ptr<Simulation> make_run_simulation(const RunCommand& cmd) {
+  check_run_command(cmd);
+  LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
+  if (loaded.scenario.name.empty())
+    loaded.scenario.name = std::filesystem::path(cmd.scenario).stem().string();
+  RunOptions opt;
+  opt.engine = cmd.engine;
+  opt.duration = cmd.duration;
+  opt.out_dir = cmd.out_dir;
+  opt.quiet = cmd.quiet;
+  opt.progress = !cmd.quiet;
+  if (cmd.past_fall) opt.stop_after_fall_s = -1;
+  for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
+  opt.interrupt = &g_interrupt;
+  opt.check_expect_names = true;
+  if (cmd.check && !loaded.scenario.expect.given)
+    throw InputError(cmd.scenario + ": --check: the scenario has no 'expect' block to check");
+  return std::make_unique<Simulation>(loaded, opt);
+}
+
 int run_command(const RunCommand& cmd, const RunObserverMaker& observe) {
   return guarded([&] {
-    check_run_command(cmd);
-    LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
-    if (loaded.scenario.name.empty())
-      loaded.scenario.name = std::filesystem::path(cmd.scenario).stem().string();
-    RunOptions opt;
-    opt.engine = cmd.engine;
-    opt.duration = cmd.duration;
-    opt.out_dir = cmd.out_dir;
-    opt.quiet = cmd.quiet;
-    opt.progress = !cmd.quiet;
-    if (cmd.past_fall) opt.stop_after_fall_s = -1;
-    for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
-    opt.interrupt = &g_interrupt;
-    opt.check_expect_names = true;
-    if (cmd.check && !loaded.scenario.expect.given)
-      throw InputError(cmd.scenario + ": --check: the scenario has no 'expect' block to check");
-    Simulation run(loaded, opt);
+    const std::unique_ptr<Simulation> simulation = make_run_simulation(cmd);
+    Simulation& run = *simulation;
     std::unique_ptr<StepObserver> observer = observe ? observe(run) : nullptr;
     if (observer) run.add_observer(observer.get());
     InterruptHandler interrupt_handler;

@@ -47,6 +47,10 @@ struct RunCommand {
   std::string camera;  // follow or free (fixed); empty: the scenario's (camera.mode)
 };
 int run_command(const RunCommand& cmd, const RunObserverMaker& observe = {});
+// the Simulation run_command runs: the scenario with cmd.sets (named after its file when it has
+// no name) and cmd's options; throws InputError. For callers that want the result, not the exit
+// code (the Python module's track)
+std::unique_ptr<Simulation> make_run_simulation(const RunCommand& cmd);
 // the options' values checked as the parameters they set (--duration as the scenario's
 // duration); throws InputError. run_command checks them; the recorder's callers call this first
 void check_run_command(const RunCommand& cmd);
