@@ -6,6 +6,7 @@
 #include <iostream>
 
 #include "app/commands.h"
+#include "app/track_batch.h"
 #include "core/error.h"
 #ifdef STANCE_HAVE_VIEWER
 #include "viz/viz_commands.h"
@@ -136,11 +137,22 @@ int main(int argc, char** argv) {
   bvh_retarget_cmd->add_option("--last-frame", retarget.last_frame, "last frame (-1: the end)");
   stance::BvhTrackCommand track;
   std::string track_record;
+  stance::BvhTrackBatchCommand track_batch;  // several clips, a folder or a glob
   auto* bvh_track_cmd = bvh_cmd->add_subcommand(
-      "track", "track a clip in free mode with the sampling planner (no per-clip tuning)");
-  bvh_track_cmd->add_option("input", track.bvh, "BVH file")->required();
+      "track", "track clips in free mode with the sampling planner (no per-clip tuning)");
+  bvh_track_cmd
+      ->add_option("input", track_batch.inputs,
+                   "BVH files, folders or quoted globs (more than one: OUT/<clip>/ each, and "
+                   "OUT/results.csv)")
+      ->required();
   bvh_track_cmd->add_option("--out", track.out_dir,
                             "output folder (track.yaml, summary.json, log.csv, tracked.bvh)");
+  bvh_track_cmd->add_option("--jobs", track_batch.jobs,
+                            "several clips: clips at once per process (default: one per thread)");
+  bvh_track_cmd->add_flag("--resume", track_batch.resume,
+                          "several clips: keep --out's finished clips, track the rest");
+  bvh_track_cmd->add_flag("--plot,!--no-plot", track_batch.plot,
+                          "several clips: OUT/results.png (gnuplot; default on)");
   bvh_track_cmd->add_option("--duration", track.duration, "seconds (default: the clip once)");
   bvh_track_cmd->add_flag("--loop", track.loop, "repeat the clip, root carried forward");
   bvh_track_cmd->add_option("--first-frame", track.first_frame,
@@ -344,6 +356,12 @@ int main(int argc, char** argv) {
   if (*bvh_synth_run_cmd) return stance::bvh_synth_command(synth_out, true);
   if (*bvh_retarget_cmd) return stance::bvh_retarget_command(retarget);
   if (*bvh_track_cmd) {
+    if (stance::is_track_batch(track_batch.inputs) || track_batch.resume) {
+      track_batch.track = track;
+      track_batch.record = track_record;
+      return stance::bvh_track_batch_command(track_batch);
+    }
+    track.bvh = track_batch.inputs.front();
     if (track_record.empty()) return stance::bvh_track_command(track);
 #ifdef STANCE_HAVE_VIEWER
     return stance::record_track_command(track, track_record);

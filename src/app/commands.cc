@@ -432,8 +432,11 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
     doc["model"][0]["file"] = model;
     if (cmd.map.empty()) {
       // no --map: found from the model's tree, written beside the scenario to edit and pass back
+      // (its engine loads the model under the lock every load takes: a batch tracks clips at once)
+      std::unique_lock<std::mutex> load_lock(model_load_mutex());
       const AutoJointMap found =
           find_joint_map_of_files(cmd.bvh, cmd.model, cmd.engine, cmd.scale_to_meters);
+      load_lock.unlock();
       files.map = joint_map_yaml(found, cmd.bvh, cmd.model);
       files.map_report = joint_map_report(found);
       tracker["joint_map"] = "map.yaml";
