@@ -16,6 +16,7 @@ set(stance_label_patterns
   physics "^(BipedStand|BipedSkateboard|LqrBalance|SimbiconWalk|SimbiconGaits|Simbicon3d|SimbiconCharacter)\\."
   physics "^SimbiconDart\\.Walks"
   physics "^(SimbiconHumanoid|SimbiconFullbody1|SimbiconSpine|SimbiconSteps)\\."
+  physics "^SimbiconPitchAnkles\\.Walks"
   physics "^SlopeWalker\\.(Walks|LockedKnees)"
   physics "^StablePd\\.StandsWherePlainPdDiverges$"
   physics "^DartEngine\\.(BipedFallsAndRestsOnGround|MjcfPendulumPeriod)"

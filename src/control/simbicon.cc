@@ -1,11 +1,15 @@
 #include "control/simbicon.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
+#include <mutex>
+#include <set>
 
 #include "core/atomic_file.h"
 #include "core/error.h"
@@ -115,9 +119,57 @@ void add_leg_servos(const Simbicon::Model& m, int fsm, const SimbiconStateTarget
       servo(m.ankle[stance], m.ankle_sign[stance], tg.stance_ankle + dc_ankle, gn.stance_ankle);
 }
 
+// a left/right pair of optional dofs: both named, or neither (-1, -1)
+std::array<int, 2> optional_dof_pair(const Engine& engine, const std::string& right,
+                                     const std::string& left, const char* key) {
+  if (right.empty() != left.empty())
+    throw InputError(
+        fmt::format("simbicon skeleton: right_{0} is {1} but left_{0} is {2}; name "
+                    "both or neither",
+                    key, right.empty() ? "empty" : "'" + right + "'",
+                    left.empty() ? "empty" : "'" + left + "'"));
+  if (right.empty()) return {-1, -1};
+  return {engine.require_dof(right), engine.require_dof(left)};
+}
+
+// 3D dofs: the hip rolls make a biped spatial; hip yaw and ankle roll are optional in 3D (robots
+// with one-axis ankles, or hips without yaw)
+void resolve_spatial_dofs(const SimbiconSkeleton& k, const Engine& engine, Simbicon::Model& m) {
+  m.hip_roll = optional_dof_pair(engine, k.right_hip_roll, k.left_hip_roll, "hip_roll");
+  m.hip_yaw = optional_dof_pair(engine, k.right_hip_yaw, k.left_hip_yaw, "hip_yaw");
+  m.ankle_roll = optional_dof_pair(engine, k.right_ankle_roll, k.left_ankle_roll, "ankle_roll");
+  m.spatial = m.hip_roll[0] >= 0;
+  if (!m.spatial && (m.hip_yaw[0] >= 0 || m.ankle_roll[0] >= 0))
+    throw InputError(
+        "simbicon skeleton: hip yaw or ankle roll named without left/right_hip_roll; a 3D biped "
+        "needs the hip rolls (hip yaw and ankle roll are optional), a planar one none of them");
+}
+
+// one line at load naming what a 3D controller turned off for the model; once per message per
+// process (a planner and a sweep build the controller many times)
+void note_turned_off_features(const Simbicon::Model& m, const ControllerContext& ctx) {
+  if (!m.spatial || ctx.rollout) return;
+  std::vector<std::string> off;
+  if (m.ankle_roll[0] < 0)
+    off.push_back(
+        "ankle roll servos (no ankle roll: coronal balance by the swing hip's roll "
+        "and foot placement)");
+  if (m.hip_yaw[0] < 0)
+    off.push_back(m.params.path_gain > 0 ? "heading hold and path_gain (no hip yaw)"
+                                         : "heading hold (no hip yaw)");
+  if (off.empty()) return;
+  const std::string line = fmt::format("note: {}: {}: simbicon: turned off for this model: {}",
+                                       ctx.source.file, ctx.path, fmt::join(off, "; "));
+  static std::mutex mutex;
+  static std::set<std::string> printed;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (printed.insert(line).second) std::cerr << line << "\n";
+}
+
 }  // namespace
 
-Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext&, const Engine& engine) {
+Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext& ctx,
+                   const Engine& engine) {
   Model& m = model_;
   m.params = params;
   const SimbiconGait& g = params.gait;
@@ -146,21 +198,7 @@ Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext&, const
   m.hip = {engine.require_dof(k.right_hip), engine.require_dof(k.left_hip)};
   m.knee = {engine.require_dof(k.right_knee), engine.require_dof(k.left_knee)};
   m.ankle = {engine.require_dof(k.right_ankle), engine.require_dof(k.left_ankle)};
-  const std::array<const std::string*, 6> spatial_names = {&k.right_hip_roll,   &k.left_hip_roll,
-                                                           &k.right_hip_yaw,    &k.left_hip_yaw,
-                                                           &k.right_ankle_roll, &k.left_ankle_roll};
-  int named = 0;
-  for (const std::string* n : spatial_names) named += n->empty() ? 0 : 1;
-  if (named != 0 && named != 6)
-    throw InputError(
-        "simbicon skeleton: a 3D biped needs all six of left/right_hip_roll, "
-        "_hip_yaw and _ankle_roll; a planar one none");
-  m.spatial = named == 6;
-  if (m.spatial) {
-    m.hip_roll = {engine.require_dof(k.right_hip_roll), engine.require_dof(k.left_hip_roll)};
-    m.hip_yaw = {engine.require_dof(k.right_hip_yaw), engine.require_dof(k.left_hip_yaw)};
-    m.ankle_roll = {engine.require_dof(k.right_ankle_roll), engine.require_dof(k.left_ankle_roll)};
-  }
+  resolve_spatial_dofs(k, engine, m);
   for (int dof : {m.hip[0], m.hip[1], m.knee[0], m.knee[1], m.ankle[0], m.ankle[1]}) {
     const JointInfo& j = engine.joint(engine.dof_joint(dof));
     if (j.type != JointType::kHinge)
@@ -221,6 +259,7 @@ Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext&, const
       torso_is_child = b == j.body;
     m.spine_sign = (axis.dot(forward) > 0 ? 1.0 : -1.0) * (torso_is_child ? -1.0 : 1.0);
   }
+  note_turned_off_features(m, ctx);
 }
 
 void Simbicon::reset_state(State& s, const Engine& engine) const {
@@ -336,7 +375,9 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
     // start line. Measured, not derived: this sign brings the walker back to the line (the
     // coronal feedback re-centres the feet faster than the turned heading moves the body);
     // the opposite sign drifts off (tests/control/simbicon_test.cc, docs/simbicon.md)
-    const double steer = std::clamp(m.params.path_gain * (s.lateral_last - s.lateral_start),
+    // without hip yaw nothing turns the walker: no steering
+    const double path_gain = m.hip_yaw[0] >= 0 ? m.params.path_gain : 0.0;
+    const double steer = std::clamp(path_gain * (s.lateral_last - s.lateral_start),
                                     -m.params.max_steer_rad, m.params.max_steer_rad);
     const Eigen::Quaterniond heading = Eigen::AngleAxisd(steer, m.up) * m.heading;
     const Eigen::Quaterniond torso_goal =
@@ -350,6 +391,9 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
       Eigen::Vector3d tau = gain.kp * err.angle() * err.axis() -
                             gain.damping() * engine.body_velocity(body).head<3>();
       for (int i = 0; i < 3; ++i) tau[i] = clamp_torque(tau[i], gain.max_torque);
+      // without hip yaw the heading is not held: a torque about up would leak into the roll and
+      // pitch hinges through their tilt
+      if (m.hip_yaw[0] < 0) tau -= m.up.dot(tau) * m.up;
       return tau;
     };
     const Eigen::Vector3d tau_torso = orientation_servo(m.torso, torso_goal, gn.torso);
@@ -363,13 +407,15 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
       const int thigh = m.thigh[side];
       engine.point_jacobian(thigh, engine.body_pose(thigh).pos, s.jac_none, s.jac_rot);
       for (int dof : {m.hip_roll[side], m.hip[side], m.hip_yaw[side]})
-        out.tau[dof] += s.jac_rot.col(dof).dot(tau);
+        if (dof >= 0) out.tau[dof] += s.jac_rot.col(dof).dot(tau);
     };
     to_hip(swing, tau_swing);
     to_hip(stance, tau_stance);
-    out.tau[m.ankle_roll[swing]] += joint_servo(engine, m.ankle_roll[swing], 0.0, gn.swing_ankle);
-    out.tau[m.ankle_roll[stance]] +=
-        joint_servo(engine, m.ankle_roll[stance], 0.0, gn.stance_ankle);
+    if (m.ankle_roll[0] >= 0) {
+      out.tau[m.ankle_roll[swing]] += joint_servo(engine, m.ankle_roll[swing], 0.0, gn.swing_ankle);
+      out.tau[m.ankle_roll[stance]] +=
+          joint_servo(engine, m.ankle_roll[stance], 0.0, gn.stance_ankle);
+    }
     if (m.spine_roll >= 0) {
       // leaning towards the stance leg is a turn about +forward for the right leg
       const double lean = (stance == kRight ? 1.0 : -1.0) * tg.spine_roll;

@@ -158,7 +158,9 @@ struct SimbiconSkeleton {
   std::string left_hip = "left_hip", right_hip = "right_hip";          // dofs
   std::string left_knee = "left_knee", right_knee = "right_knee";
   std::string left_ankle = "left_ankle", right_ankle = "right_ankle";
-  // 3D: set all six to control a spatial biped; empty = planar
+  // 3D: the hip rolls make a spatial biped (empty = planar); hip yaw and ankle roll are
+  // optional pairs there (without ankle roll, coronal balance is the swing hip's roll and foot
+  // placement; without hip yaw, the heading is not held). What is off is said at load.
   std::string left_hip_roll, right_hip_roll, left_hip_yaw, right_hip_yaw;
   std::string left_ankle_roll, right_ankle_roll;
   // 3D, optional: a roll hinge between the torso and the upper body, leaned by spine_roll
@@ -183,9 +185,10 @@ struct SimbiconSkeleton {
     v("right_ankle", right_ankle);
     v("left_hip_roll", left_hip_roll, {.help = "3D: dof; empty = planar"});
     v("right_hip_roll", right_hip_roll);
-    v("left_hip_yaw", left_hip_yaw);
+    v("left_hip_yaw", left_hip_yaw, {.help = "3D, optional: dof; empty = heading not held"});
     v("right_hip_yaw", right_hip_yaw);
-    v("left_ankle_roll", left_ankle_roll);
+    v("left_ankle_roll", left_ankle_roll,
+      {.help = "3D, optional: dof; empty = one-axis ankles (no ankle roll servo)"});
     v("right_ankle_roll", right_ankle_roll);
     v("spine_roll", spine_roll,
       {.help = "3D, optional: dof, roll hinge between the torso and the upper body"});
@@ -272,7 +275,8 @@ class Simbicon final : public TypedController<SimbiconState> {
     std::array<SimbiconStateTargets, 4> targets;                 // by FSM state
     std::array<SimbiconGains, 4> gains;                          // by FSM state
     bool use_com = false;
-    bool spatial = false;  // 3D: hip roll/yaw and ankle roll dofs present
+    bool spatial = false;  // 3D: hip roll dofs named
+    // by Side; -1: not named (hip yaw and ankle roll are optional in 3D)
     std::array<int, 2> hip_roll{{-1, -1}}, hip_yaw{{-1, -1}}, ankle_roll{{-1, -1}};
     int spine_roll = -1;    // dof, or -1
     double spine_sign = 1;  // the spine hinge's angle per radian of lean about forward
