@@ -17,6 +17,7 @@ set(stance_label_patterns
   physics "^SimbiconDart\\.Walks"
   physics "^(SimbiconHumanoid|SimbiconFullbody1|SimbiconSpine|SimbiconSteps)\\."
   physics "^SimbiconPitchAnkles\\.Walks"
+  physics "^StandPoseAuto\\.(Humanoid|Atlas)"
   physics "^SlopeWalker\\.(Walks|LockedKnees)"
   physics "^StablePd\\.StandsWherePlainPdDiverges$"
   physics "^DartEngine\\.(BipedFallsAndRestsOnGround|MjcfPendulumPeriod)"

@@ -110,6 +110,8 @@ struct Scenario {
   double slope_rad = 0;         // tilts gravity about y: g = |g| (sin a, 0, -cos a)
   NamedValues initial_pose;     // dof -> value
   std::string keyframe;         // MuJoCo keyframe name (MuJoCo only)
+  // "auto": lean the legs so that the COM is over the feet (control/standing_pose.h); "" or off
+  std::string stand_pose;
   double duration = 10;         // s
   int seed = 0;
   double torque_scale = 1;  // multiplies the summed controller torques (seed: 0.8)
@@ -137,6 +139,9 @@ struct Scenario {
        .help = "downhill slope along +x, applied by tilting gravity"});
     v("initial_pose", initial_pose, {.help = "dof name: value"});
     v("keyframe", keyframe, {.help = "MuJoCo keyframe to start from"});
+    v("stand_pose", stand_pose,
+      {.help = "auto: lean the legs at hips and ankles until the COM is over the feet (after "
+               "initial_pose; the feet: fall.allowed_contacts if two); empty or off: as given"});
     v("duration", duration, {.unit = "s", .min = 0});
     v("seed", seed, {.min = 0});
     v("torque_scale", torque_scale, {.min = 0, .max = 10});

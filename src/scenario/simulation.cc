@@ -16,6 +16,7 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/model_format.h"
+#include "control/standing_pose.h"
 #include "core/timestep.h"
 #include "engine/world_spec.h"
 #include "model/model_path.h"
@@ -196,6 +197,28 @@ void warn_when_no_ground(const Scenario& s) {
               << ": no model is a ground and the base floats: it falls through at once (add "
                  "models/ground.urdf under model:)\n";
 }
+
+// stand_pose: auto leans the legs until the COM is over the feet (control/standing_pose.h); the
+// feet are the fall check's two allowed contacts when it names two. Said once per process.
+void apply_stand_pose(Engine& engine, const Scenario& s, const LoadedScenario* loaded) {
+  if (s.stand_pose.empty() || s.stand_pose == "off") return;
+  if (s.stand_pose != "auto")
+    throw InputError(fmt::format("{}stand_pose: expected auto or off, found '{}'",
+                                 place_in(loaded, {"stand_pose"}), s.stand_pose));
+  StandingPoseOptions options;
+  if (s.fall.allowed_contacts.size() == 2) options.feet = s.fall.allowed_contacts;
+  StandingPose pose;
+  try {
+    pose = find_standing_pose(engine, options);
+  } catch (const InputError& e) {
+    throw InputError(place_in(loaded, {"stand_pose"}) + e.what());
+  }
+  static std::mutex mutex;
+  static std::set<std::string> said;
+  const std::string line = describe_standing_pose(pose, engine);
+  std::lock_guard<std::mutex> lock(mutex);
+  if (said.insert(line).second) std::cerr << "note: " << line << "\n";
+}
 }  // namespace
 
 std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::string& engine_name,
@@ -230,6 +253,7 @@ std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::strin
     engine->set_dof_position(dof, value);
   }
   engine->forward();
+  apply_stand_pose(*engine, s, loaded);
   return engine;
 }
 
@@ -280,6 +304,7 @@ std::string world_key(const Scenario& s, const std::string& engine_name,
   for (double g : s.gravity) k += fmt::format("{:.17g},", g);
   k += fmt::format("|slope={:.17g}|key={}|pose=", s.slope_rad, s.keyframe);
   for (const auto& [name, value] : s.initial_pose) k += fmt::format("{}={:.17g},", name, value);
+  k += fmt::format("|stand={}", s.stand_pose);
   k += fmt::format("|seed={}|T={:.17g}", s.seed, s.duration);
   return k;
 }
