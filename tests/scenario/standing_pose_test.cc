@@ -1,8 +1,8 @@
 // stand_pose: auto (control/standing_pose.h, issue 45): the legs lean at the hips, the ankles turn
 // back by as much, until the COM is over the centre of the feet. The found pose has its COM
 // there with the feet as they were; MuJoCo's humanoid and DART's Atlas stand from it at their
-// shipped gains, at the gains x0.8 and x1.2 and at other timesteps; and poses that fall as given
-// (the legs slanted under an upright torso, Atlas bent forward at the back) stand once leaned.
+// shipped gains, at the gains x0.8 and x1.2 and at other timesteps (Atlas also bent forward at
+// the back); the humanoid's legs slanted under its upright torso fall as given, stand once leaned.
 #include "control/standing_pose.h"
 
 #include <gtest/gtest.h>
