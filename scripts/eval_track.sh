@@ -1,100 +1,183 @@
 #!/usr/bin/env bash
-# make eval-track: the planner's tracking matrix. Every clip under one parameter set:
-# the defaults at planner seeds 1-5, then at seed 1 kp x0.8, kp x1.2, a 1 ms and a 2 ms timestep.
-# Writes out/eval_track/<clip>/<setting>/ (each a bvh track output folder), out/eval_track/table.md,
-# and puts the table between the EVAL-TRACK markers of docs/results.md.
-# Usage: scripts/eval_track.sh [BUILD] [SECONDS]   (SECONDS: override every clip's length)
-# A candidate change to the shared defaults is evaluated with EVAL_SET, e.g.
-#   EVAL_SET="--set controllers.0.root_force_kd=100" scripts/eval_track.sh
-# which adds those --set arguments to every run, writes to out/eval_track_candidate and leaves
-# the docs alone (a candidate's table is not the shipped defaults' table).
-# EVAL_ONLY="synthetic_run mass_walk/kp0.8" reruns only those clips (or clip/setting rows); the
-# other rows are read from their folders of an earlier run, for a change known not to touch
-# them (one that acts only above a body error those rows never reached).
+# make eval-track: the planner's tracking matrix, as batches of `stance bvh track`. Every clip under
+# one parameter set: the defaults at planner seeds 1-5, then at seed 1 kp x0.8, kp x1.2, a 1 ms
+# and a 2 ms timestep. The clips, in groups that share their options (one batch per group and
+# setting; a group is a folder of links to its clips, named as the table names them):
+#   looped    the synthetic walk and run, and mass_walk, looped for 20 s
+#   dataset   every clip in ../shared/data/bvh (the Bandai Namco clips included), once each
+#             (mass_walk here is mass_walk_once)
+#   mass_walk_humanoid, synthetic_walk_humanoid
+#             the clip on MuJoCo's humanoid.xml through its joint map, looped for 10 s
+# Writes OUT/<group>/<setting>/ (a batch folder: <clip>/ each, results.csv, results.md,
+# results.png), OUT/table.md, and puts the table between the EVAL-TRACK markers of
+# docs/results.md. OUT is out/eval_track.
+# Usage: scripts/eval_track.sh [BUILD] [SECONDS]   (SECONDS: every clip's length)
+# Environment:
+#   THREADS=2          threads of the batch (default: every core)
+#   EVAL_JOBS=1        clips at once; the default 1 gives each clip every thread, so that its
+#                      compute column is the one of a single run on THREADS threads
+#   EVAL_SET="--set controllers.0.root_force_kd=100"   a candidate change of the shared defaults,
+#                      added to every run, into out/eval_track_candidate (the docs are left alone)
+#   EVAL_ONLY="synthetic_run mass_walk/kp0.8"   reruns only those clips (or clip/setting rows);
+#                      the others are kept from the earlier run's folders (--resume)
+#   EVAL_RESUME=1      goes on with an interrupted evaluation (every batch with --resume)
+#   EVAL_CLIPS="mass_walk cmu_131_01", EVAL_SETTINGS="seed1 kp0.8"   a subset, into
+#                      out/eval_track_subset (the docs are left alone, as with SECONDS)
 set -euo pipefail
 BUILD=${1:-build}
 ONLY_SECONDS=${2:-}
 STANCE=$BUILD/stance
 EVAL_SET=${EVAL_SET:-}
 EVAL_ONLY=${EVAL_ONLY:-}
-OUT=out/eval_track
-[ -n "$EVAL_SET" ] && OUT=out/eval_track_candidate
+EVAL_RESUME=${EVAL_RESUME:-}
+EVAL_CLIPS=${EVAL_CLIPS:-}
+EVAL_SETTINGS=${EVAL_SETTINGS:-}
+EVAL_JOBS=${EVAL_JOBS:-1}
 SHARED=${STANCE_SHARED:-../shared}
 THREADS=${THREADS:-$(nproc)}
+OUT=out/eval_track
+docs=yes
+if [ -n "$EVAL_SET" ]; then
+  OUT=out/eval_track_candidate
+  docs=no
+elif [ -n "$EVAL_CLIPS$EVAL_SETTINGS$ONLY_SECONDS" ]; then
+  OUT=out/eval_track_subset
+  docs=no
+fi
 mkdir -p "$OUT/clips"
 "$STANCE" bvh synth-walk "$OUT/clips/synthetic_walk.bvh" >/dev/null
 "$STANCE" bvh synth-run "$OUT/clips/synthetic_run.bvh" >/dev/null
+abs() { echo "$(cd "$(dirname "$1")" && pwd)/$(basename "$1")"; }
 
-# name | bvh | duration | extra arguments
-clips=(
-  "synthetic_walk|$OUT/clips/synthetic_walk.bvh|20|--loop"
-  "synthetic_run|$OUT/clips/synthetic_run.bvh|20|--loop"
-)
+# in_list WORD "LIST": WORD is one of the LIST's words (an empty LIST holds every word)
+in_list() { [ -z "$2" ] || [[ " $2 " == *" $1 "* ]]; }
+
+# link GROUP NAME FILE: the group's folder gets NAME.bvh -> FILE (unless EVAL_CLIPS leaves it out)
+link() {
+  in_list "$2" "$EVAL_CLIPS" || return 0
+  mkdir -p "$(dirname "$OUT/groups/$1/$2")"
+  ln -sfn "$(abs "$3")" "$OUT/groups/$1/$2.bvh"
+}
+rm -rf "$OUT/groups"
+link looped synthetic_walk "$OUT/clips/synthetic_walk.bvh"
+link looped synthetic_run "$OUT/clips/synthetic_run.bvh"
+link synthetic_walk_humanoid synthetic_walk_humanoid "$OUT/clips/synthetic_walk.bvh"
 if [ -f "$SHARED/data/bvh/mass_walk.bvh" ]; then
-  clips+=("mass_walk|$SHARED/data/bvh/mass_walk.bvh|20|--loop")
-  clips+=("cmu_131_01|$SHARED/data/bvh/cmu_131_01.bvh||")
-  clips+=("mass_walk_humanoid|$SHARED/data/bvh/mass_walk.bvh|10|--loop --map models/maps/mass_walk_to_humanoid.yaml --model mujoco://model/humanoid/humanoid.xml")
+  link looped mass_walk "$SHARED/data/bvh/mass_walk.bvh"
+  link mass_walk_humanoid mass_walk_humanoid "$SHARED/data/bvh/mass_walk.bvh"
+  while IFS= read -r f; do
+    name=${f#"$SHARED/data/bvh/"}
+    name=${name%.bvh}
+    [ "$name" = mass_walk ] && name=mass_walk_once
+    link dataset "$name" "$f"
+  done < <(find "$SHARED/data/bvh" -name '*.bvh' | LC_ALL=C sort)
+else
+  echo "eval-track: $SHARED/data/bvh not found: the synthetic clips alone" >&2
 fi
-clips+=("synthetic_walk_humanoid|$OUT/clips/synthetic_walk.bvh|10|--loop --map models/maps/synthetic_walk_to_humanoid.yaml --model mujoco://model/humanoid/humanoid.xml")
 
-row() {  # clip setting dir
-  python3 - "$1" "$2" "$3" <<'PY'
-import json, sys
-clip, setting, d = sys.argv[1:4]
-s = json.load(open(d + "/summary.json"))
-m = s["metrics"].get("mocap", {})
-ok = (not s["fell"]) and m.get("success", False) and m.get("mean_root_error_m", 9) <= 0.2 \
-     and m.get("mean_joint_error_deg", 99) <= 6
-# a run cut short (Ctrl-C, a killed job) proves nothing about the rest of its clip
-verdict = "CUT" if s.get("interrupted") else ("PASS" if ok else "FAIL")
-print("| {} | {} | {:.1f} | {} | {} | {:.3f} | {:.3f} | {:.2f} | {:.3f} | {:.1f} | {} |".format(
-    clip, setting, s["sim_time"], "yes" if s["fell"] else "no",
-    "yes" if m.get("success") else "no", m.get("mean_body_position_error_m", float("nan")),
-    m.get("mean_root_error_m", float("nan")), m.get("mean_joint_error_deg", float("nan")),
-    m.get("foot_skate_m_per_s", float("nan")), m.get("compute_s_per_sim_s", float("nan")),
-    verdict))
-PY
+# name | options (the clips' length is ONLY_SECONDS when given)
+groups=(
+  "looped|--loop --duration 20"
+  "dataset|"
+  "mass_walk_humanoid|--loop --duration 10 --map models/maps/mass_walk_to_humanoid.yaml --model mujoco://model/humanoid/humanoid.xml"
+  "synthetic_walk_humanoid|--loop --duration 10 --map models/maps/synthetic_walk_to_humanoid.yaml --model mujoco://model/humanoid/humanoid.xml"
+)
+
+# the tracker's shared kp, read from the scenario bvh track writes
+probe="$OUT/probe"
+"$STANCE" bvh track "$OUT/clips/synthetic_walk.bvh" --out "$probe" --duration 0.01 --quiet >/dev/null
+kp=$(sed -n 's/^ *kp: *\([0-9.eE+-]*\) *$/\1/p' "$probe/track.yaml" | head -1)
+settings=("seed1|--set seed=1" "seed2|--set seed=2" "seed3|--set seed=3" "seed4|--set seed=4"
+  "seed5|--set seed=5"
+  "kp0.8|--set seed=1 --set controllers.0.kp=$(python3 -c "print($kp*0.8)")"
+  "kp1.2|--set seed=1 --set controllers.0.kp=$(python3 -c "print($kp*1.2)")"
+  "dt1ms|--set seed=1 --set timestep=0.001" "dt2ms|--set seed=1 --set timestep=0.002")
+
+# EVAL_ONLY: the clips of DIR (a batch folder of SETTING) it names lose their summary.json, so
+# that --resume runs them again and keeps the rest
+forget_only() {
+  local dir=$1 setting=$2 summary clip
+  while IFS= read -r summary; do
+    clip=${summary#"$dir/"}
+    clip=${clip%/summary.json}
+    if [[ " $EVAL_ONLY " == *" $clip "* || " $EVAL_ONLY " == *" $clip/$setting "* ]]; then
+      rm -f "$summary"
+    fi
+  done < <(find "$dir" -name summary.json)
 }
 
-table="$OUT/table.md"
-{
-  echo "| clip | setting | sim s | fell | success | G-MPJPE m | root m | joint deg | skate m/s | compute s/s | holds |"
-  echo "|---|---|---|---|---|---|---|---|---|---|---|"
-} > "$table"
-for entry in "${clips[@]}"; do
-  IFS='|' read -r name bvh seconds extra <<< "$entry"
-  [ -n "$ONLY_SECONDS" ] && seconds=$ONLY_SECONDS
-  dur=()
-  [ -n "$seconds" ] && dur=(--duration "$seconds")
-  # the tracker's shared kp, read from the scenario bvh track writes
-  probe="$OUT/$name/probe"
-  # shellcheck disable=SC2086
-  "$STANCE" bvh track "$bvh" --out "$probe" --duration 0.01 --quiet $extra >/dev/null
-  kp=$(sed -n 's/^ *kp: *\([0-9.eE+-]*\) *$/\1/p' "$probe/track.yaml" | head -1)
-  settings=("seed1|--set seed=1" "seed2|--set seed=2" "seed3|--set seed=3" "seed4|--set seed=4"
-            "seed5|--set seed=5"
-            "kp0.8|--set seed=1 --set controllers.0.kp=$(python3 -c "print($kp*0.8)")"
-            "kp1.2|--set seed=1 --set controllers.0.kp=$(python3 -c "print($kp*1.2)")"
-            "dt1ms|--set seed=1 --set timestep=0.001" "dt2ms|--set seed=1 --set timestep=0.002")
+for g in "${groups[@]}"; do
+  IFS='|' read -r group options <<<"$g"
+  [ -d "$OUT/groups/$group" ] || continue
+  if [ -n "$ONLY_SECONDS" ]; then
+    # shellcheck disable=SC2001
+    options="$(echo "$options" | sed 's/--duration [0-9.]*//') --duration $ONLY_SECONDS"
+  fi
   for s in "${settings[@]}"; do
-    IFS='|' read -r sname sargs <<< "$s"
-    dir="$OUT/$name/$sname"
-    if [ -n "$EVAL_ONLY" ] && ! [[ " $EVAL_ONLY " == *" $name "* || " $EVAL_ONLY " == *" $name/$sname "* ]]; then
-      echo "eval-track: $name $sname: kept from the earlier run" >&2
-      if [ -f "$dir/summary.json" ]; then row "$name" "$sname" "$dir" >> "$table"; fi
-      continue
+    IFS='|' read -r setting sargs <<<"$s"
+    in_list "$setting" "$EVAL_SETTINGS" || continue
+    dir="$OUT/$group/$setting"
+    resume=()
+    if [ -f "$dir/track_batch.json" ] && [ -n "$EVAL_ONLY$EVAL_RESUME" ]; then
+      resume=(--resume)
+      [ -n "$EVAL_ONLY" ] && forget_only "$dir" "$setting"
     fi
-    echo "eval-track: $name $sname" >&2
+    echo "eval-track: $group $setting" >&2
+    code=0
     # shellcheck disable=SC2086
-    "$STANCE" bvh track "$bvh" --out "$dir" "${dur[@]}" --threads "$THREADS" --quiet $extra $sargs \
-      $EVAL_SET \
-      || echo "eval-track: $name $sname exited $?" >&2
-    if [ -f "$dir/summary.json" ]; then row "$name" "$sname" "$dir" >> "$table"; fi
+    "$STANCE" bvh track "$OUT/groups/$group" --out "$dir" --threads "$THREADS" --jobs "$EVAL_JOBS" \
+      --quiet $options $sargs $EVAL_SET "${resume[@]}" || code=$?
+    if [ "$code" -eq 130 ]; then
+      echo "eval-track: interrupted; go on with EVAL_RESUME=1 $0 $*" >&2
+      exit 130
+    fi
+    [ "$code" -eq 0 ] || echo "eval-track: $group $setting exited $code" >&2
   done
 done
+
+# the table: every batch's rows, clip by clip in the groups' order, then setting by setting
+table="$OUT/table.md"
+python3 - "$OUT" "$table" "${groups[@]%%|*}" -- "${settings[@]%%|*}" <<'PY'
+import csv, os, sys
+out, table = sys.argv[1:3]
+rest = sys.argv[3:]
+groups, settings = rest[:rest.index("--")], rest[rest.index("--") + 1:]
+def num(r, k, digits):
+    return "{:.{}f}".format(float(r[k]), digits) if r[k] else "-"
+lines = ["| clip | setting | sim s | fell | success | G-MPJPE m | root m | joint deg | skate m/s "
+         "| compute s/s | holds |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+for group in groups:
+    rows = {}
+    for setting in settings:
+        path = os.path.join(out, group, setting, "results.csv")
+        if os.path.exists(path):
+            rows[setting] = {r["clip"]: r for r in csv.DictReader(open(path))}
+    clips = []
+    for by_clip in rows.values():
+        clips += [c for c in by_clip if c not in clips]
+    for clip in clips:
+        for setting in settings:
+            r = rows.get(setting, {}).get(clip)
+            if r is None:
+                continue
+            if r["error"]:
+                lines.append("| {} | {} | - | - | - | - | - | - | - | - | ERROR: {} |".format(
+                    clip, setting, r["error"].replace("|", "\\|")))
+                continue
+            fell, success = r["fell"] == "1" or r["diverged"] == "1", r["success"] == "1"
+            holds = (not fell and success and float(r["root_error_m"]) <= 0.2
+                     and float(r["joint_error_deg"]) <= 6)
+            lines.append("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |".format(
+                clip, setting, num(r, "sim_s", 1), "diverged" if r["diverged"] == "1" else
+                ("yes" if fell else "no"), "yes" if success else "no", num(r, "g_mpjpe_m", 3),
+                num(r, "root_error_m", 3), num(r, "joint_error_deg", 2),
+                num(r, "foot_skate_m_per_s", 3), num(r, "compute_s_per_sim_s", 1),
+                "PASS" if holds else "FAIL"))
+open(table, "w").write("\n".join(lines) + "\n")
+PY
 cat "$table"
-if [ -n "$EVAL_SET" ]; then
-  echo "eval-track: candidate ($EVAL_SET): table in $table; the docs keep the shipped defaults' table" >&2
+if [ "$docs" = no ]; then
+  echo "eval-track: a candidate or a subset: table in $table; the docs keep the full matrix's" >&2
   exit 0
 fi
 

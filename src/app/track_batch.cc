@@ -236,6 +236,7 @@ void check_batch_options(const BvhTrackBatchCommand& cmd) {
   const BvhTrackCommand& t = cmd.track;
   if (!cmd.record.empty())
     throw InputError("--record: renders one clip; track that clip alone to record it");
+  if (cmd.view) throw InputError("--view: shows one clip; track that clip alone to watch it");
   if (t.out_dir.empty()) throw InputError("--out: give an output folder");
   if (cmd.resume && !is_track_batch(cmd.inputs))
     throw InputError(
@@ -315,6 +316,10 @@ std::string md_text(std::string s) {
 
 std::string md_number(double v, int digits) {
   return std::isfinite(v) ? fmt::format("{:.{}f}", v, digits) : "-";
+}
+
+std::string clip_count(size_t n) {
+  return fmt::format("{} clip{}", n, n == 1 ? "" : "s");
 }
 
 std::string yes_no(bool b) {
@@ -640,8 +645,8 @@ TrackRow read_track_row(const std::string& clip, const std::string& dir) {
 
 std::string TrackBatchSummary::line() const {
   std::string s =
-      fmt::format("{} clips: {} succeeded ({:.1f}%), {} fell, {} diverged, {} could not be read",
-                  clips, succeeded, 100 * success_rate, fell, diverged, errors);
+      fmt::format("{}: {} succeeded ({:.1f}%), {} fell, {} diverged, {} could not be read",
+                  clip_count(clips), succeeded, 100 * success_rate, fell, diverged, errors);
   if (tracked == 0) return s + "; no clip tracked";
   return s + fmt::format("; G-MPJPE median {:.3f} m, 90th percentile {:.3f} m", median_g_mpjpe_m,
                          p90_g_mpjpe_m);
@@ -810,9 +815,9 @@ int bvh_track_batch_command(const BvhTrackBatchCommand& cmd) {
       return kExitInterrupted;
     }
     std::cout << fmt::format(
-        "tracked {} clips ({} kept from the earlier run) in {:.1f} s wall; "
+        "tracked {} ({} kept from the earlier run) in {:.1f} s wall; "
         "wrote {}/results.csv and results.md\n",
-        r.rows.size(), r.resumed, wall, out);
+        clip_count(r.rows.size()), r.resumed, wall, out);
     if (cmd.plot) {
       if (std::system("command -v gnuplot >/dev/null 2>&1") != 0) {
         std::cerr << "note: gnuplot not found, so no results.png (Debian: apt-get install "

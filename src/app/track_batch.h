@@ -91,6 +91,7 @@ struct BvhTrackBatchCommand {
   bool resume = false;  // keep OUT's finished clips (same clips and options) and run the rest
   bool plot = true;     // OUT/results.png (gnuplot)
   std::string record;   // --record: refused (one clip only)
+  bool view = false;    // --view: refused (one clip only)
 };
 
 struct TrackBatchResult {
