@@ -29,6 +29,10 @@ struct BackendModel {
   // joint name
   bool fixed_base = false;
   std::vector<std::pair<std::string, double>> effort_limits;
+  // MJCF: files read in place of the ones on disk, as (path, text): the model and its includes
+  // with the attributes of a newer MuJoCo that stance applies itself removed
+  // (model/mjcf_newer.h); their joint limits are in `effort_limits`, on both engines
+  std::vector<std::pair<std::string, std::string>> patched_files;
 };
 
 struct BackendWorld {
@@ -45,7 +49,8 @@ std::unique_ptr<Engine> open_dart_engine(const BackendWorld& world);
 // compiles a model file with MuJoCo's compiler (its error thrown, located: MJCF meant for DART
 // goes through it first, as DART's MJCF parser asserts on values MuJoCo rejects) and returns its
 // torque limits by joint name: its actuators' forcerange, a motor's ctrlrange x gain, times gear,
-// summed per joint (DART's MJCF parser reads no actuators)
+// summed per joint (DART's MJCF parser reads no actuators), each the tighter of that and the
+// model's `effort_limits`
 std::vector<std::pair<std::string, double>> mjcf_joint_force_limits(const BackendModel& model);
 
 }  // namespace stance

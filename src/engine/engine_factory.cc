@@ -12,6 +12,7 @@
 #include "engine/backend_world.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "model/mjcf_newer.h"
 #include "model/model_path.h"
 #include "model/robot_model.h"
 #include "model/skel_to_mjcf.h"
@@ -40,6 +41,26 @@ void warn_once(const std::string& message) {
   static std::set<std::string> printed;
   std::lock_guard<std::mutex> lock(mutex);
   if (printed.insert(message).second) std::cerr << "warning: " << message << "\n";
+}
+
+// an MJCF file's attributes of a newer MuJoCo that stance applies itself: read (their joint
+// limits join the model's) and removed from the text MuJoCo parses; returns the note to print
+// once the model has loaded
+std::string apply_newer_mjcf(const ModelFile& mf, BackendModel& model) {
+  NewerMjcf newer = read_newer_mjcf(mf.path, model.file);
+  for (PatchedModelFile& f : newer.patched)
+    model.patched_files.emplace_back(std::move(f.path), std::move(f.text));
+  model.effort_limits.insert(model.effort_limits.end(), newer.joint_force_limits.begin(),
+                             newer.joint_force_limits.end());
+  return newer.note;
+}
+
+// a load note, printed once per process and message
+void note_once(const std::string& note) {
+  static std::mutex mutex;
+  static std::set<std::string> printed;
+  std::lock_guard<std::mutex> lock(mutex);
+  if (!note.empty() && printed.insert(note).second) std::cerr << "note: " << note << "\n";
 }
 
 // MuJoCo's compiler error about a body of a URDF/SDF translation ("x.urdf (translated to
@@ -125,7 +146,10 @@ std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
   const std::string path = resolve_model_path(mf.path);
   check_mjcf_root(mf.path, path);
   world.models.push_back({path, path, "", model_format(path), mf.offset});
-  return open_mujoco_engine(world);
+  const std::string note = apply_newer_mjcf(mf, world.models.back());
+  std::unique_ptr<Engine> engine = open_mujoco_engine(world);
+  note_once(note);
+  return engine;
 }
 
 }  // namespace
@@ -137,6 +161,7 @@ std::unique_ptr<Engine> make_mujoco_engine(const WorldSpec& spec) {
 std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
 #ifdef STANCE_HAVE_DART
   BackendWorld world = world_options(spec);
+  std::vector<std::string> notes;
   for (const auto& mf : spec.models) {
     const std::string path = resolve_model_path(mf.path);
     BackendModel model{mf.path, path, "", model_format(path), mf.offset};
@@ -144,6 +169,7 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
     if (model.format == ModelFormat::kSkel) check_skel_for_dart(path);
     if (model.format == ModelFormat::kMjcf) {
       check_mjcf_root(mf.path, path);
+      notes.push_back(apply_newer_mjcf(mf, model));
       model.effort_limits = mjcf_joint_force_limits(model);  // compiles it: its errors, located
     }
     if (is_robot_format(model.format)) {
@@ -155,7 +181,9 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
     }
     world.models.push_back(std::move(model));
   }
-  return checked_timestep(open_dart_engine(world), spec);
+  std::unique_ptr<Engine> engine = checked_timestep(open_dart_engine(world), spec);
+  for (const std::string& note : notes) note_once(note);
+  return engine;
 #else
   throw InputError("this build of stance has no DART backend");
 #endif

@@ -32,6 +32,30 @@ std::string name_of(const mjModel* m, int type, int id, const std::string& fallb
   return (n && *n) ? std::string(n) : fallback;
 }
 
+// the first single-quoted text after `from`; empty when absent
+std::string quoted_after(const std::string& msg, const std::string& from) {
+  const size_t at = msg.find(from);
+  if (at == std::string::npos) return "";
+  const size_t begin = msg.find('\'', at + from.size());
+  const size_t end = begin == std::string::npos ? begin : msg.find('\'', begin + 1);
+  return end == std::string::npos ? "" : msg.substr(begin + 1, end - begin - 1);
+}
+
+// MuJoCo 2.2.2's schema refusal of an attribute or element (most often one of a newer MuJoCo,
+// as current model collections use): said so; empty for other messages
+std::string newer_mujoco_message(const std::string& msg) {
+  const std::string element = quoted_after(msg, "Element");
+  if (element.empty()) return "";
+  const std::string attribute = quoted_after(msg, "unrecognized attribute:");
+  const char* what =
+      "is unknown to MuJoCo 2.2.2, which stance links: misspelt, or it needs a newer MuJoCo "
+      "(remove it to load the model here)";
+  if (!attribute.empty()) return fmt::format("<{}> attribute '{}' {}", element, attribute, what);
+  if (msg.find("unrecognized element") != std::string::npos)
+    return fmt::format("element <{}> {}", element, what);
+  return "";
+}
+
 // MuJoCo's compiler errors contain "line = N" for XML problems; reshape them as file:line.
 std::string mujoco_load_message(const std::string& file, const char* err) {
   std::string msg = err;
@@ -43,22 +67,35 @@ std::string mujoco_load_message(const std::string& file, const char* err) {
   if (pos != std::string::npos) line = std::atoi(msg.c_str() + pos + 5);
   auto eq = msg.find("line = ");
   if (eq != std::string::npos) line = std::atoi(msg.c_str() + eq + 7);
+  if (const std::string newer = newer_mujoco_message(msg); !newer.empty())
+    return located(file, line, newer);
   return located(file, line, msg);
 }
 
-mjModel* load_from_text(const std::string& text, const std::string& source) {
+// MJCF text in place of files: `files` as (path, text), loaded as `name`; the VFS matches file
+// names without their folders, so relative paths (meshes, includes) resolve as from `name`
+mjModel* load_from_texts(const std::vector<std::pair<std::string, std::string>>& files,
+                         const std::string& name, const std::string& source) {
   auto vfs = std::make_unique<mjVFS>();
   mj_defaultVFS(vfs.get());
-  const char* vname = "stance_model.xml";
-  if (mj_makeEmptyFileVFS(vfs.get(), vname, static_cast<int>(text.size())) != 0)
-    throw InputError(source + ": cannot create a MuJoCo virtual file");
-  int id = mj_findFileVFS(vfs.get(), vname);
-  std::memcpy(vfs->filedata[id], text.data(), text.size());
+  for (const auto& [path, text] : files) {
+    if (mj_makeEmptyFileVFS(vfs.get(), path.c_str(), static_cast<int>(text.size())) != 0) {
+      mj_deleteVFS(vfs.get());
+      throw InputError(source + ": cannot create a MuJoCo virtual file");
+    }
+    const int id = mj_findFileVFS(vfs.get(), path.c_str());
+    std::memcpy(vfs->filedata[id], text.data(), text.size());
+  }
   char err[1024] = "";
-  mjModel* m = mj_loadXML(vname, vfs.get(), err, sizeof(err));
+  mjModel* m = mj_loadXML(name.c_str(), vfs.get(), err, sizeof(err));
   mj_deleteVFS(vfs.get());
-  if (!m) throw InputError(mujoco_load_message(source + " (translated to MJCF)", err));
+  if (!m) throw InputError(mujoco_load_message(source, err));
   return m;
+}
+
+mjModel* load_from_text(const std::string& text, const std::string& source) {
+  const char* vname = "stance_model.xml";
+  return load_from_texts({{vname, text}}, vname, source + " (translated to MJCF)");
 }
 
 // the largest |torque| actuator i puts on its joint, infinite when the file bounds it not: its
@@ -98,6 +135,16 @@ std::vector<double> joint_force_limits(const mjModel* m) {
   return limits;
 }
 
+// the joints' limits, each the tighter of the actuators' and the model's own by joint name
+std::vector<double> joint_force_limits(const mjModel* m, const BackendModel& model) {
+  std::vector<double> limits = joint_force_limits(m);
+  for (const auto& [name, limit] : model.effort_limits) {
+    const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
+    if (j >= 0) limits[j] = std::min(limits[j], limit);
+  }
+  return limits;
+}
+
 }  // namespace
 
 std::vector<std::pair<std::string, double>> mjcf_joint_force_limits(const BackendModel& model) {
@@ -105,7 +152,7 @@ std::vector<std::pair<std::string, double>> mjcf_joint_force_limits(const Backen
   world.models.push_back(model);
   world.models.back().offset.setZero();
   mjModel* m = load_mujoco_model(world);
-  const std::vector<double> limits = joint_force_limits(m);
+  const std::vector<double> limits = joint_force_limits(m, model);
   std::vector<std::pair<std::string, double>> out;
   for (int j = 0; j < m->njnt; ++j)
     if (std::isfinite(limits[j]))
@@ -121,6 +168,8 @@ mjModel* load_mujoco_model(const BackendWorld& world) {
   mjModel* m = nullptr;
   if (!model.text.empty()) {
     m = load_from_text(model.text, model.name);
+  } else if (!model.patched_files.empty()) {
+    m = load_from_texts(model.patched_files, model.file, model.name);
   } else {
     char err[1024] = "";
     m = mj_loadXML(model.file.c_str(), nullptr, err, sizeof(err));
@@ -146,6 +195,7 @@ mjModel* load_mujoco_model(const BackendWorld& world) {
 std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world) {
   mjModel* m = load_mujoco_model(world);
   auto engine = std::make_unique<MujocoEngine>(m, world.models.front().name);
+  engine->tighten_force_limits(joint_force_limits(m, world.models.front()));
   // the start keyframe, when the model has it
   if (!world.start_keyframe.empty() &&
       mj_name2id(m, mjOBJ_KEY, world.start_keyframe.c_str()) >= 0) {
@@ -239,6 +289,11 @@ void MujocoEngine::build_tables() {
   // force limits of joints driven by bounded actuators (forcerange; a motor's ctrlrange x gain)
   const std::vector<double> limits = joint_force_limits(m_);
   for (int j = 0; j < m_->njnt; ++j) joints_[j].force_limit = limits[j];
+}
+
+void MujocoEngine::tighten_force_limits(const std::vector<double>& limits) {
+  for (size_t j = 0; j < joints_.size(); ++j)
+    joints_[j].force_limit = std::min(joints_[j].force_limit, limits[j]);
 }
 
 int MujocoEngine::body_index(std::string_view name) const {

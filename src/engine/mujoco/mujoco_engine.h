@@ -18,6 +18,8 @@ class MujocoEngine final : public Engine {
   // takes ownership of model; `source` names the file for messages
   MujocoEngine(mjModel* model, std::string source);
   ~MujocoEngine() override;
+  // each joint's force limit the tighter of its own and limits[joint] (dim njoint)
+  void tighten_force_limits(const std::vector<double>& limits);
   MujocoEngine(const MujocoEngine&) = delete;
   MujocoEngine& operator=(const MujocoEngine&) = delete;
 
