@@ -83,6 +83,8 @@ int main(int argc, char** argv) {
   auto* view_cmd = app.add_subcommand("view", "watch, push and tune a scenario in a window");
   view_cmd->add_option("scenario", view.scenario, "scenario YAML")->required();
   view_cmd->add_option("--engine", view.engine, "mujoco or dart (default: the scenario's)");
+  view_cmd->add_option("--quit-after", view.quit_after_s,
+                       "close after S s of wall time and print the pace (benchmarks)");
   view_cmd->add_option("--set", view.sets, "override a parameter: key.path=value")
       ->allow_extra_args(false);
 
@@ -169,6 +171,18 @@ int main(int argc, char** argv) {
   bvh_track_cmd->add_option("--set", track.sets, "override: key.path=value")
       ->allow_extra_args(false);
   bvh_track_cmd->add_option("--record", track_record, "also render the run as an MP4");
+  std::string track_camera = "side", track_size = "640x360", track_debug_draw = "off";
+  bool track_view = false;
+  bvh_track_cmd->add_option("--camera", track_camera,
+                            "--record: side, front (of the clip's heading), follow or free "
+                            "(the scenario's camera.*; default side)");
+  bvh_track_cmd->add_option("--size", track_size, "--record: frame size WxH (default 640x360)");
+  bvh_track_cmd->add_option("--debug-draw", track_debug_draw,
+                            "--record: on draws the COM, contacts and planner path (default off)");
+  bvh_track_cmd->add_flag("--view", track_view, "watch the tracking run in the viewer instead");
+  double track_quit_after = 0;
+  bvh_track_cmd->add_option("--quit-after", track_quit_after,
+                            "--view: close after S s of wall time and print the pace");
   bvh_track_cmd->add_flag("--quiet", track.quiet, "no summary on stdout");
   bvh_track_cmd->add_flag("--origin-centred", track.origin_centred,
                           "tracked.bvh starts above the origin, on the ground (the default: "
@@ -362,11 +376,15 @@ int main(int argc, char** argv) {
       return stance::bvh_track_batch_command(track_batch);
     }
     track.bvh = track_batch.inputs.front();
-    if (track_record.empty()) return stance::bvh_track_command(track);
+    if (track_record.empty() && !track_view) return stance::bvh_track_command(track);
 #ifdef STANCE_HAVE_VIEWER
-    return stance::record_track_command(track, track_record);
+    if (track_view) return stance::view_track_command(track, track_quit_after);
+    return stance::record_track_command(track, {.video = track_record,
+                                                .camera = track_camera,
+                                                .size = track_size,
+                                                .debug_draw = track_debug_draw});
 #else
-    std::cerr << "error: --record needs the viewer build (STANCE_WITH_VIEWER)\n";
+    std::cerr << "error: --record and --view need the viewer build (STANCE_WITH_VIEWER)\n";
     return stance::kExitBadInput;
 #endif
   }

@@ -257,3 +257,7 @@ PY
 # the peer of issue 19 in this same run: DART's atlas_simbicon example beside stance's Atlas walk
 echo
 bash "$root/bench/atlas_peer.sh" "$build" ${json_out:+--json "${json_out%.json}_atlas.json"}
+
+# the tracking video's cost and the viewer's pace on the tracked walk (issue 42)
+echo
+bash "$root/bench/tracking_view.sh" "$build"

@@ -12,7 +12,7 @@ set(stance_timeout_physics 600)
 set(stance_timeout_viz 600)
 
 set(stance_label_patterns
-  viz "^(ViewerTest|RecorderTest|SceneViewTest)\\."
+  viz "^(ViewerTest|RecorderTest|SceneViewTest|TrackVideoTest)\\."
   physics "^(BipedStand|BipedSkateboard|LqrBalance|SimbiconWalk|SimbiconGaits|Simbicon3d|SimbiconCharacter)\\."
   physics "^SimbiconDart\\.Walks"
   physics "^(SimbiconHumanoid|SimbiconFullbody1|SimbiconSpine|SimbiconSteps)\\."
@@ -33,6 +33,7 @@ set(stance_label_patterns
   physics "^SimulationLoop\\.StopsOneSecondAfterAFall"
   physics "^PlannerStanding\\."
   physics "^PlannerTracking\\."
+  physics "^ExternalForces\\.PlannerKeeps"
   physics "^RobustnessMap\\."
   physics "^ShippedScenario/ScenarioExpectation\\.")
 

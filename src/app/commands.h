@@ -65,6 +65,7 @@ struct ViewCommand {
   std::string engine;
   std::vector<std::string> sets;
   int width = 1400, height = 900;
+  double quit_after_s = 0;  // wall s; then prints the simulated time over the wall time
 };
 
 struct InfoCommand {

@@ -660,6 +660,23 @@ bool Simulation::compute_controls() {
   return true;
 }
 
+void ExternalForces::apply(Engine& engine) const {
+  const double t = engine.time();
+  for (const Push& p : pushes)
+    if (t < p.until_s && p.body >= 0)
+      engine.apply_external_force(p.body, Eigen::Vector3d(p.force.data()),
+                                  engine.body_com(p.body));
+  if (spring.body < 0) return;
+  const BodyPose pose = engine.body_pose(spring.body);
+  const Eigen::Vector3d arm = pose.quat * Eigen::Vector3d(spring.point_in_body.data());
+  const Eigen::Matrix<double, 6, 1> twist = engine.body_velocity(spring.body);
+  const Eigen::Vector3d velocity = twist.tail<3>() + twist.head<3>().cross(arm);
+  const Eigen::Vector3d force =
+      spring.stiffness * (Eigen::Vector3d(spring.target.data()) - pose.pos - arm) -
+      spring.damping * velocity;
+  engine.apply_external_force(spring.body, force, pose.pos + arm);
+}
+
 bool Simulation::step() {
   Engine& e = *engine_;
   RunProgress& s = progress_;
@@ -673,6 +690,7 @@ bool Simulation::step() {
   if (out_.dof_velocity_used) send_velocity_commands(out_.dof_velocity);
   for (const auto& push : model_->pushes)
     if (push.p.active_at(t)) e.apply_external_force(push.body, push.p.force, push_point(e, push));
+  s.external.apply(e);
   // torque statistics over the controlled (non-zero) entries
   for (int i = 0; i < out_.tau.size(); ++i) {
     double tau = out_.tau[i];

@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <atomic>
 #include <deque>
 #include <functional>
@@ -149,6 +150,35 @@ class ControllerCache {
   long builds_ = 0;
 };
 
+// forces from outside the scenario, set while it runs (the viewer's keys and mouse spring). They
+// are part of the run's state (RunProgress): saved, restored and branched with it, so that the
+// planner's rollouts feel them too; step() applies them after the scenario's pushes.
+struct ExternalForces {
+  // a force at a body's COM (world, N) until a simulated time (s)
+  struct Push {
+    int body = -1;
+    std::array<double, 3> force = {0, 0, 0};
+    double until_s = 0;
+  };
+  // a damped spring pulling a point on a body (body frame, m) towards a world target (m):
+  // stiffness (N/m) * (target - point) - damping (N s/m) * the point's velocity; body < 0: none
+  struct Spring {
+    int body = -1;
+    std::array<double, 3> point_in_body = {0, 0, 0};
+    std::array<double, 3> target = {0, 0, 0};
+    double stiffness = 0, damping = 0;
+  };
+  std::vector<Push> pushes;
+  Spring spring;
+
+  template <class A>
+  void serialize(A& a) {
+    a(pushes), a(spring);
+  }
+  // the forces acting at the engine's time, applied to it (its positions forwarded)
+  void apply(Engine& engine) const;
+};
+
 // the run's bookkeeping: fall and divergence detection, metric accumulators, servo commands
 struct RunProgress {
   long steps = 0;
@@ -174,6 +204,7 @@ struct RunProgress {
   // the controllers' metrics (JSON) as they were when the run fell: if the state blows up on the
   // floor afterwards, a walk's distance and speed are those it had, not the blown-up state's
   std::string controller_metrics_at_fall;
+  ExternalForces external;  // the viewer's pushes and spring
 
   template <class A>
   void serialize(A& a) {
@@ -183,6 +214,7 @@ struct RunProgress {
     a(clamped_steps), a(steps_at_limit);
     plan.serialize(a);
     a(controller_metrics_at_fall);
+    external.serialize(a);
   }
 };
 
@@ -272,6 +304,8 @@ class Simulation {
   // rollout model (timestep); the parameters are checked as the scenario's are.
   void set_planner_params(const PlannerParams& params);
   const RunProgress& progress() const { return progress_; }
+  // set between steps by the viewer; reset() clears them
+  ExternalForces& external_forces() { return progress_.external; }
   // what the controllers commanded in the last step (tau already scaled by torque_scale)
   const ControlOutput& last_output() const { return out_; }
   // the controllers' log values now, appended (signal_names order)

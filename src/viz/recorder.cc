@@ -11,6 +11,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "motion/bvh_measure.h"
 #include "viz/gl_context.h"
 
 namespace stance {
@@ -24,7 +25,42 @@ void make_parent_folder(const std::string& path) {
   std::filesystem::create_directories(p.parent_path(), ec);
   if (ec) throw InputError(fmt::format("{}: cannot create its folder ({})", path, ec.message()));
 }
+
+// the camera and what is drawn, as the options ask
+void apply_view_options(SceneView& view, const RecordOptions& o) {
+  if (o.camera) view.options.camera = *o.camera;
+  if (o.azimuth_deg && std::isfinite(*o.azimuth_deg)) view.camera().azimuth = *o.azimuth_deg;
+  view.options.com = view.options.contacts = view.options.markers = o.debug_draw;
+}
+
+// a file-axes direction turned as bvh track turns the clip: its up axis to +z
+Eigen::Vector3d file_to_z_up(const Eigen::Vector3d& v, char up_axis) {
+  if (up_axis != 'y') return v;
+  // +90 deg about x (motion/reference_motion.h): y -> z, z -> -y
+  return {v.x(), -v.z(), v.y()};
+}
 }  // namespace
+
+double side_view_azimuth_deg(const Eigen::Vector3d& heading) {
+  // the camera looks along d = (cos a, sin a, 0); the picture's right is d x up =
+  // (sin a, -cos a, 0), which is to be the heading
+  if (heading.head<2>().norm() < 1e-9) return std::nan("");
+  return std::atan2(heading.x(), -heading.y()) * 180 / M_PI;
+}
+
+double front_view_azimuth_deg(const Eigen::Vector3d& heading) {
+  if (heading.head<2>().norm() < 1e-9) return std::nan("");
+  return std::atan2(-heading.y(), -heading.x()) * 180 / M_PI;
+}
+
+Eigen::Vector3d clip_heading_world(const BvhClip& clip, double scale_to_meters) {
+  const BvhCharacterMeasures m = measure_bvh_character(clip, scale_to_meters);
+  constexpr double kTravelsM = 0.2;
+  Eigen::Vector3d file = m.travel.norm() * m.scale_to_meters > kTravelsM ? m.travel : m.facing;
+  Eigen::Vector3d world = file_to_z_up(file, m.up_axis);
+  world.z() = 0;
+  return world.norm() > 1e-9 ? Eigen::Vector3d(world.normalized()) : Eigen::Vector3d::Zero();
+}
 
 void parse_frame_size(const std::string& text, int& width, int& height) {
   int w = 0, h = 0;
@@ -120,8 +156,8 @@ VideoRecorder::VideoRecorder(Simulation& run, const RecordOptions& o) : run_(run
         fmt::format("video start {} s: expected a time in 0..{} s", o.video_start, duration));
   gl_ = std::make_unique<OffscreenGlContext>();
   gl_backend_ = gl_->backend();
-  view_ = std::make_unique<SceneView>(run, o.width, o.height, o.scene_look);
-  if (o.camera) view_->options.camera = *o.camera;
+  view_ = std::make_unique<SceneView>(run, o.width, o.height, o.scene_look, o.draft_look);
+  apply_view_options(*view_, o);
   video_ = std::make_unique<VideoWriter>(o.video, o.width, o.height,
                                          o.playback_fps > 0 ? o.playback_fps : o.fps);
   // frames at k / fps for video_start <= k / fps < duration
@@ -173,8 +209,8 @@ RecordResult record_scenario(const LoadedScenario& loaded, const RunOptions& run
   OffscreenGlContext gl;
   result.gl_backend = gl.backend();
   Simulation run(loaded, run_options);
-  SceneView view(run, o.width, o.height, o.scene_look);
-  if (o.camera) view.options.camera = *o.camera;
+  SceneView view(run, o.width, o.height, o.scene_look, o.draft_look);
+  apply_view_options(view, o);
   Engine& engine = run.engine();
   double duration = run.scenario().duration;
   if (!o.screenshot.empty() && (o.screenshot_time < 0 || o.screenshot_time > duration))

@@ -11,6 +11,7 @@
 #include <string>
 #include <vector>
 
+#include "motion/bvh.h"
 #include "scenario/scenario.h"
 #include "scenario/simulation.h"
 #include "viz/scene_view.h"
@@ -27,8 +28,27 @@ struct RecordOptions {
   int width = 1280;            // even (the H.264 encoder's 4:2:0 chroma needs it)
   int height = 720;
   std::optional<CameraMode> camera;  // empty: the scenario's (camera.mode)
-  bool scene_look = true;            // stance's sky, floor and shadows (viz/scene_look.h)
+  // deg, the camera's azimuth instead of the scenario's (side_view_azimuth_deg); empty: its
+  std::optional<double> azimuth_deg;
+  bool scene_look = true;  // stance's sky, floor and shadows (viz/scene_look.h)
+  // no shadows and no multisampling: a third of a frame's time in software rendering
+  bool draft_look = false;
+  // the COM ball, the contacts and their forces, the controllers' markers and the planner's
+  // path (the pushes and the reference's ghost are drawn either way)
+  bool debug_draw = true;
 };
+
+// the azimuth (deg, MuJoCo's: the camera looks along (cos a, sin a, 0)) of a camera beside a
+// character heading along `heading` (horizontal, Z-up world), who then goes from the left of
+// the picture to the right; NaN for a heading with no horizontal part
+double side_view_azimuth_deg(const Eigen::Vector3d& heading);
+// the camera in front of that character, looking at its face; NaN as above
+double front_view_azimuth_deg(const Eigen::Vector3d& heading);
+// where a clip's character heads in the Z-up world that stance tracks it in (unit, horizontal):
+// where its root travels from the first motion frame to the last, or, when it stays within
+// 0.2 m, where it faces (motion/bvh_measure.h); zero when nothing tells.
+// scale_to_meters: 0 detects it
+Eigen::Vector3d clip_heading_world(const BvhClip& clip, double scale_to_meters = 0);
 
 struct RecordResult {
   long frames = 0;
@@ -64,6 +84,8 @@ class VideoRecorder final : public StepObserver {
   void on_finish(const Simulation& sim, const RunResult& result) override;
   long frames() const { return written_; }
   const std::string& gl_backend() const { return gl_backend_; }
+  // the camera the frames are drawn from (azimuth and elevation in deg, distance in m)
+  const mjvCamera& camera() const { return view_->camera(); }
   // why the video could not be finished; empty when it was written
   const std::string& error() const { return error_; }
 

@@ -29,7 +29,8 @@ double SceneView::framing_distance(double size_m, double fovy_deg) {
   return std::max(1.2, 0.5 * kFramingMargin * size_m / std::tan(half_fov));
 }
 
-SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height, bool look) {
+SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height, bool look,
+                     bool draft) {
   Engine& engine = run.engine();
   mj_ = dynamic_cast<MujocoEngine*>(&engine);
   if (!mj_) {
@@ -87,8 +88,11 @@ SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height,
   body_weight_n_ = std::max(1e-6, engine.total_mass() * std::max(1e-6, g.norm()));
   ground_height_ = run.scenario().fall.ground_height;
 
+  // the shadow pass and 4x multisampling are most of a software-rendered frame
+  if (draft) model_->vis.quality.offsamples = 0;
   mjv_defaultScene(&scn_);
   mjv_makeScene(model_, &scn_, kMaxGeoms);
+  if (draft) scn_.flags[mjRND_SHADOW] = 0;
   mjv_defaultOption(&opt_);
   mjr_defaultContext(&con_);
   mjr_makeContext(model_, &con_, mjFONTSCALE_150);

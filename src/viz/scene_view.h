@@ -47,9 +47,10 @@ class SceneView {
  public:
   // needs a current OpenGL context. offscreen_size: the largest frame render_offscreen() makes.
   // look: stance's sky, floor and shadows (scene_look.h) on models that bring no look of their
-  // own; false draws the model as it is (quicker in software rendering: tests)
+  // own; false draws the model as it is (quicker in software rendering: tests). draft: no
+  // shadows and no multisampling offscreen, a third of a frame's time in software rendering
   SceneView(Simulation& run, int offscreen_width = 1280, int offscreen_height = 720,
-            bool look = true);
+            bool look = true, bool draft = false);
   ~SceneView();
   SceneView(const SceneView&) = delete;
   SceneView& operator=(const SceneView&) = delete;
@@ -93,6 +94,7 @@ class SceneView {
   // the drawn poses (geom_xpos etc., world frame) of the drawing model
   const mjData* draw_data() const;
   mjvCamera& camera() { return cam_; }
+  const mjvCamera& camera() const { return cam_; }
   const mjModel* draw_model() const { return model_; }
   mjvScene& scene() { return scn_; }
   SceneOptions options;

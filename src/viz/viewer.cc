@@ -99,12 +99,6 @@ struct Viewer::Impl {
   double speed = 1.0;         // requested sim/wall factor
   double achieved_speed = 0;  // measured
   bool anchor_dirty = true;   // re-anchor sim time to wall time
-  struct KeyPush {
-    int body = -1;
-    Eigen::Vector3d force = Eigen::Vector3d::Zero();
-    double until = 0;
-  };
-  std::vector<KeyPush> key_pushes;
   int push_body = 0;
   double push_newtons = 0;
   std::vector<RollingSeries> plots;  // com height, torques, then the controllers' signals
@@ -205,14 +199,29 @@ struct Viewer::Impl {
     return pose.pos + pose.quat * selected_local;
   }
 
-  // the spring from the selected point to the target, damped by the point's velocity
-  Eigen::Vector3d spring_force(const Engine& e) const {
-    Eigen::Vector3d p = selected_point(e);
-    BodyPose pose = e.body_pose(selected);
-    Eigen::Matrix<double, 6, 1> twist = e.body_velocity(selected);
-    Eigen::Vector3d v = twist.tail<3>() + twist.head<3>().cross(p - pose.pos);
-    double mass = std::max(view->subtree_mass(selected), e.body_mass(selected));
-    return mass * (kDragStiffness * (drag_target - p) - std::sqrt(kDragStiffness) * v);
+  // the mouse spring into the run's state (the planner's rollouts feel it): from the selected
+  // point to the target, damped by the point's velocity, scaled by the pulled subtree's mass
+  void set_spring(const Engine& e) {
+    ExternalForces::Spring& spring = run->external_forces().spring;
+    if (!dragging || selected < 0) {
+      spring.body = -1;
+      return;
+    }
+    const double mass = std::max(view->subtree_mass(selected), e.body_mass(selected));
+    spring.body = selected;
+    for (int i = 0; i < 3; ++i) {
+      spring.point_in_body[i] = selected_local[i];
+      spring.target[i] = drag_target[i];
+    }
+    spring.stiffness = mass * kDragStiffness;
+    spring.damping = mass * std::sqrt(kDragStiffness);
+  }
+
+  // a key push into the run's state, for kPushSeconds from now; finished ones are dropped
+  void add_key_push(const Engine& e, const Eigen::Vector3d& force) {
+    auto& pushes = run->external_forces().pushes;
+    std::erase_if(pushes, [&](const ExternalForces::Push& p) { return p.until_s <= e.time(); });
+    pushes.push_back({push_body, {force.x(), force.y(), force.z()}, e.time() + kPushSeconds});
   }
 
   void record_snapshot() {
@@ -234,7 +243,6 @@ struct Viewer::Impl {
     e.restore_state(state);
     e.forward();
     run->reset_controllers();
-    key_pushes.clear();
     next_snapshot = e.time() + 1.0 / kHistoryRateHz;
     frame_target = e.time();
     scrubbed = -1;
@@ -244,7 +252,6 @@ struct Viewer::Impl {
   void replay() {
     run->reset();
     fall_reported = false;
-    key_pushes.clear();
     reset_plots();
     history.clear();
     record_snapshot();
@@ -295,18 +302,13 @@ struct Viewer::Impl {
     planner_entries = planner_params(*run);
   }
 
-  // one physics step with the viewer's key pushes and mouse spring (mutex held)
+  // one physics step; the key pushes and the mouse spring act through the run's state
+  // (mutex held)
   void step_locked() {
     resume_from_scrub();
     if (!pending.empty()) swap_ready();
     Engine& e = run->engine();
-    double t = e.time();
-    for (const auto& p : key_pushes)
-      if (t < p.until) e.apply_external_force(p.body, p.force, e.body_com(p.body));
-    if (dragging && selected >= 0) {
-      e.forward();
-      e.apply_external_force(selected, spring_force(e), selected_point(e));
-    }
+    set_spring(e);
     if (!run->step()) {
       paused = true;
       status = "diverged: " + run->progress().divergence;
@@ -387,6 +389,27 @@ struct Viewer::Impl {
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(2));
     }
+  }
+
+  // at most 60 frames a second; while the physics cannot keep pace, the window takes at most a
+  // quarter of the wall time (software rendering would otherwise starve the planner's threads)
+  void rest_after_frame(double frame_s) const {
+    double rest = 1.0 / 60 - frame_s;
+    bool behind;
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      behind = !pace_warning().empty();
+    }
+    if (behind) rest = std::max(rest, 3 * frame_s);
+    if (rest > 0) std::this_thread::sleep_for(std::chrono::duration<double>(rest));
+  }
+
+  // said on the picture when the physics cannot keep the requested pace (compute is slower than
+  // real time), so that a slow run is never mistaken for the motion's own speed
+  std::string pace_warning() const {
+    if (!options.threaded || paused || recording || achieved_speed <= 0) return "";
+    if (achieved_speed >= 0.9 * speed) return "";
+    return fmt::format("{:.2f}x real time (compute-bound)", achieved_speed);
   }
 
   void reset_plots() {
@@ -570,7 +593,16 @@ Viewer::~Viewer() {
 }
 
 void Viewer::run() {
-  while (!glfwWindowShouldClose(impl_->window)) frame();
+  const auto start = Clock::now();
+  const double quit_after_s = impl_->options.quit_after_s;
+  while (!glfwWindowShouldClose(impl_->window)) {
+    const auto frame_start = Clock::now();
+    frame();
+    if (quit_after_s > 0 &&
+        std::chrono::duration<double>(Clock::now() - start).count() >= quit_after_s)
+      break;
+    impl_->rest_after_frame(std::chrono::duration<double>(Clock::now() - frame_start).count());
+  }
 }
 
 void Viewer::key(int k) {
@@ -632,7 +664,7 @@ void Viewer::key(int k) {
       if (forth.norm() < 1e-6) forth = Eigen::Vector3d::UnitY();
       forth.normalize();
       double sign = k == GLFW_KEY_PERIOD ? 1.0 : -1.0;
-      s.key_pushes.push_back({s.push_body, sign * s.push_newtons * forth, e.time() + kPushSeconds});
+      s.add_key_push(e, sign * s.push_newtons * forth);
       s.status = fmt::format("push {:.0f} N {} on {}", s.push_newtons, sign > 0 ? "forth" : "back",
                              e.body_name(s.push_body));
       break;
@@ -910,9 +942,11 @@ void Viewer::frame() {
   ImGui_ImplGlfw_NewFrame();
   ImGui::NewFrame();
   bool record_frame = false;
+  std::string overlay;
   {
     std::lock_guard<std::mutex> lock(s.mutex);
     if (!s.pending.empty()) s.swap_ready();
+    overlay = s.pace_warning();
     if (s.recording && !s.paused) {
       // a fixed step of simulated time per recorded frame, whatever the wall-clock pace
       Engine& e = s.run->engine();
@@ -933,8 +967,9 @@ void Viewer::frame() {
     std::vector<ForceArrow> arrows;
     std::vector<Marker> markers;
     Engine& e = s.run->engine();
-    for (const auto& p : s.key_pushes)
-      if (e.time() < p.until) arrows.push_back({e.body_com(p.body), p.force});
+    for (const auto& p : s.run->external_forces().pushes)
+      if (e.time() < p.until_s)
+        arrows.push_back({e.body_com(p.body), Eigen::Vector3d(p.force.data())});
     if (s.selected >= 0) {
       // the selected point, and the pull as an arrow to the target
       e.forward();
@@ -964,7 +999,7 @@ void Viewer::frame() {
     s.draw_panels();
   }
   ImGui::Render();
-  s.view->render_window(width, height, "");
+  s.view->render_window(width, height, overlay);
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
   // keep what is shown, for screenshots
   s.frame_w = width;

@@ -48,6 +48,7 @@ struct ViewerOptions {
   std::string capture_dir = ".";  // where the r (MP4) and i (PNG) keys write
   double record_fps = 60;         // frames per simulated second of the r key's MP4
   bool scene_look = true;         // stance's sky, floor and shadows (viz/scene_look.h)
+  double quit_after_s = 0;        // run() returns after this much wall time; 0: when closed
 };
 
 class Viewer {
@@ -62,7 +63,7 @@ class Viewer {
   Viewer(const Viewer&) = delete;
   Viewer& operator=(const Viewer&) = delete;
 
-  // until the window is closed
+  // until the window is closed (or quit_after_s)
   void run();
   // one frame: events, (unthreaded) physics, drawing, panels, swap
   void frame();

@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <functional>
 #include <iostream>
@@ -126,12 +128,34 @@ int record_command(const RunCommand& cmd) {
   return screenshot_command(cmd, ro);
 }
 
-int record_track_command(const BvhTrackCommand& cmd, const std::string& video) {
-  RunCommand run;
-  run.record = video;
+RecordOptions track_record_options(const BvhTrackCommand& cmd, const TrackVideoOptions& video) {
+  RecordOptions ro;
+  ro.video = video.video;
+  ro.fps = video.fps;
+  parse_frame_size(video.size, ro.width, ro.height);
+  ro.draft_look = true;
+  if (video.debug_draw != "on" && video.debug_draw != "off")
+    throw InputError(fmt::format("--debug-draw '{}': expected on or off", video.debug_draw));
+  ro.debug_draw = video.debug_draw == "on";
+  const std::string& camera = video.camera;
+  if (camera != "side" && camera != "front" && camera != "follow" && camera != "free")
+    throw InputError(fmt::format("--camera '{}': expected side, front, follow or free", camera));
+  ro.camera = camera == "free" ? CameraMode::kFree : CameraMode::kFollow;
+  if (camera == "side" || camera == "front") {
+    const Eigen::Vector3d heading = clip_heading_world(read_bvh(cmd.bvh), cmd.scale_to_meters);
+    double azimuth =
+        camera == "side" ? side_view_azimuth_deg(heading) : front_view_azimuth_deg(heading);
+    // a clip that neither travels nor faces anywhere keeps the scenario's angles
+    if (std::isfinite(azimuth)) ro.azimuth_deg = azimuth;
+  }
+  check_video_options(ro);
+  return ro;
+}
+
+int record_track_command(const BvhTrackCommand& cmd, const TrackVideoOptions& video) {
   RecordOptions ro;
   if (int code = guarded([&] {
-        ro = record_options(run);
+        ro = track_record_options(cmd, video);
         return kExitOk;
       });
       code != kExitOk)
@@ -139,6 +163,22 @@ int record_track_command(const BvhTrackCommand& cmd, const std::string& video) {
   return run_recorded(ro, cmd.quiet, [&](const RunObserverMaker& observe) {
     return bvh_track_command(cmd, observe);
   });
+}
+
+int view_track_command(const BvhTrackCommand& cmd, double quit_after_s) {
+  std::string scenario;
+  if (int code = guarded([&] {
+        scenario = write_bvh_track_scenario(cmd);
+        return kExitOk;
+      });
+      code != kExitOk)
+    return code;
+  ViewCommand view;
+  view.quit_after_s = quit_after_s;
+  view.scenario = scenario;
+  view.engine = cmd.engine;
+  view.sets = cmd.sets;
+  return view_command(view);
 }
 
 int view_command(const ViewCommand& cmd) {
@@ -149,8 +189,18 @@ int view_command(const ViewCommand& cmd) {
     vo.width = cmd.width;
     vo.height = cmd.height;
     vo.save_path = cmd.scenario;
+    vo.quit_after_s = cmd.quit_after_s;
     Viewer viewer(loaded, vo);
+    const double sim0 = viewer.sim_time();
+    const auto wall0 = std::chrono::steady_clock::now();
     viewer.run();
+    const double wall =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+    // how the viewer kept pace (bench/): simulated time over wall time
+    if (cmd.quit_after_s > 0)
+      std::cout << fmt::format(
+          "viewed {:.2f} s of wall time: {:.3f} s simulated, {:.3f}x real time\n", wall,
+          viewer.sim_time() - sim0, (viewer.sim_time() - sim0) / wall);
     return kExitOk;
   });
 }

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "app/commands.h"
+#include "viz/recorder.h"
 
 namespace stance {
 
@@ -13,8 +14,28 @@ namespace stance {
 // (the video in the run that writes summary.json and log.csv; the screenshot in one of its own)
 int record_command(const RunCommand& cmd);
 
+// the video of `stance bvh track CLIP --record out.mp4`
+struct TrackVideoOptions {
+  std::string video;  // .mp4 or .gif
+  // side or front: beside or in front of the clip's heading (clip_heading_world), following the
+  // root; follow: the scenario's camera angles (camera.*), following the root; free: those angles
+  // from where the camera starts
+  std::string camera = "side";
+  // small enough that rendering in software (llvmpipe) adds under a third to the run's time
+  std::string size = "640x360";
+  std::string debug_draw = "off";  // on: the COM ball, contacts, markers, the planner's path
+  double fps = 30;                 // frames per simulated second
+};
+// the recording options of that video (the camera from the clip's heading); throws InputError
+// naming the option
+RecordOptions track_record_options(const BvhTrackCommand& cmd, const TrackVideoOptions& video);
+
 // `stance bvh track CLIP --record out.mp4`: the tracking run with its video rendered as it goes
-int record_track_command(const BvhTrackCommand& cmd, const std::string& video);
+int record_track_command(const BvhTrackCommand& cmd, const TrackVideoOptions& video);
+
+// `stance bvh track CLIP --view`: the viewer on the tracking scenario that bvh track writes
+// (quit_after_s: as ViewCommand's)
+int view_track_command(const BvhTrackCommand& cmd, double quit_after_s = 0);
 
 // `stance view SCENARIO [--engine E]` (ViewCommand is in app/commands.h)
 int view_command(const ViewCommand& cmd);

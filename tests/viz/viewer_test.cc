@@ -14,6 +14,7 @@
 
 #include "control/lqr.h"
 #include "core/error.h"
+#include "scenario/simulation.h"
 #include "test_support.h"
 
 namespace stance {
@@ -151,6 +152,44 @@ TEST_F(ViewerTest, PushKeyChangesTheMotion) {
     calm.frame();
   }
   EXPECT_GT(pushed.com_velocity().x() - calm.com_velocity().x(), 0.05);
+}
+
+// the key's push and the mouse spring go through the run's state: a saved state holds them, so
+// the planner's rollouts (which branch from it) feel them, and restoring it replays them
+TEST_F(ViewerTest, KeyPushAndMouseSpringAreInTheRunsSavedState) {
+  LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
+  RunOptions run_options;
+  run_options.quiet = true;
+  auto owned = std::make_unique<Simulation>(loaded, run_options);
+  Simulation& run = *owned;
+  Viewer v(loaded, test_options(), std::move(owned));
+  v.key(GLFW_KEY_PERIOD);  // forth: +x
+  SimulationState pushed;
+  run.save(pushed);
+  ASSERT_EQ(pushed.progress.external.pushes.size(), 1u);
+  const ExternalForces::Push& push = pushed.progress.external.pushes[0];
+  EXPECT_GT(push.force[0], 0);
+  EXPECT_GT(push.until_s, run.time());
+
+  ASSERT_TRUE(v.select_body("h_head"));
+  v.drag_to(v.body_position("h_head") + Eigen::Vector3d(0.3, 0, 0));
+  v.frame();
+  SimulationState pulled;
+  run.save(pulled);
+  EXPECT_EQ(pulled.progress.external.spring.body, v.selected_body());
+  EXPECT_GT(pulled.progress.external.spring.stiffness, 0);
+
+  // the run's own step applies them, and restored, it goes on as it did from there
+  for (int i = 0; i < 30; ++i) ASSERT_TRUE(run.step());
+  const Eigen::Vector3d com = run.engine().com();
+  run.restore(pulled);
+  for (int i = 0; i < 30; ++i) ASSERT_TRUE(run.step());
+  EXPECT_EQ(run.engine().com(), com);
+  v.release();
+  v.frame();
+  SimulationState released;
+  run.save(released);
+  EXPECT_EQ(released.progress.external.spring.body, -1);
 }
 
 TEST_F(ViewerTest, PanelGainChangesBehaviourAndSaves) {
