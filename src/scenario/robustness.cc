@@ -8,6 +8,7 @@
 #include <cmath>
 #include <filesystem>
 #include <limits>
+#include <memory>
 #include <mutex>
 #include <numbers>
 #include <sstream>
@@ -226,16 +227,23 @@ RobustnessCell cell_from_json(const nlohmann::json& j) {
   return c;
 }
 
-RobustnessResult run_robustness(
-    const LoadedScenario& loaded, const RobustnessOptions& options,
-    const std::function<void(const RobustnessCell&, int done, int total)>& on_cell,
-    const std::vector<RobustnessCell>& finished) {
-  const RobustnessOptions& o = options;
-  validate(o);
-  RobustnessResult result;
-  result.scenario = loaded.scenario.name;
+namespace {
 
-  auto push_of = [&](const Eigen::Vector3d& force, double start) {
+// what every run of a map shares; not copied or moved (the gait observers point at its feet)
+struct RobustnessSetup {
+  RobustnessSetup(const LoadedScenario& l, const RobustnessOptions& opts) : loaded(l), o(opts) {}
+
+  const LoadedScenario& loaded;
+  const RobustnessOptions& o;
+  ControllerCache cache;
+  double duration = 0;                 // s, of every run
+  Horizontal h;                        // the horizontal plane's axes
+  std::vector<std::vector<int>> feet;  // each foot's bodies
+  // the unpushed run: its gait, and its root at every step (the detours' reference)
+  std::unique_ptr<GaitObserver> baseline;
+  std::vector<Eigen::Vector3d> baseline_root;
+
+  Perturbation push(const Eigen::Vector3d& force, double start) const {
     Perturbation p;
     p.body = o.body;
     p.force = force;
@@ -244,120 +252,111 @@ RobustnessResult run_robustness(
     p.point = o.point;
     p.offset = o.offset;
     return p;
-  };
-  auto run_options = [&](double duration) {
+  }
+  // the options of one run, sharing the cache
+  RunOptions run_options() {
     RunOptions r;
     r.engine = o.engine;
     r.duration = duration;
     r.quiet = true;
+    r.cache = &cache;
     return r;
-  };
-  ControllerCache cache;
-  double duration = o.duration.value_or(loaded.scenario.duration);
-
-  // a probe: the body, the engine and the point resolve here, on this thread
-  RunOptions probe_options = run_options(duration);
-  probe_options.extra_pushes.push_back(push_of(Eigen::Vector3d::Zero(), 0));
-  probe_options.cache = &cache;
-  Simulation probe(loaded, probe_options);
-  Engine& e = probe.engine();
-  result.engine = std::string(e.engine_name());
-  e.forward();
-  const Eigen::Vector3d up = probe.model().up;
-  const Horizontal h = horizontal_basis(up);
-  const ResolvedPush& pushed = probe.model().pushes.back();
-
-  // the directions: the plane's, or the one a planar model can move along
-  {
-    Eigen::MatrixXd jac(3, e.nv()), none(3, 0);
-    e.point_jacobian(pushed.body, push_point(e, pushed), jac, none);
-    const Eigen::Matrix2d reach = (h * jac) * (h * jac).transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(reach);
-    const double big = eig.eigenvalues()[1], small = eig.eigenvalues()[0];
-    if (!(big > 1e-12))
-      throw InputError(fmt::format(
-          "robustness: body '{}' cannot move horizontally (a fixed base?): nothing to push",
-          o.body));
-    result.planar = small < 1e-9 * big;
-    if (result.planar) {
-      Eigen::Vector2d a = eig.eigenvectors().col(1);
-      for (int i = 0; i < 2; ++i) a[i] = snapped(a[i]);
-      if (a[0] < 0 || (a[0] == 0 && a[1] < 0)) a = -a;
-      const double angle = std::atan2(a[1], a[0]) * 180 / std::numbers::pi;
-      for (double sign : {1.0, -1.0}) {
-        result.directions.push_back(snapped(Eigen::Vector3d(sign * h.transpose() * a)));
-        result.angles_deg.push_back(sign > 0 ? angle : angle + 180);
-      }
-      if (o.directions != 2)
-        result.notes.push_back(fmt::format(
-            "planar model: '{}' moves along one horizontal direction only, so the map has its "
-            "two senses ({} and {} degrees) instead of {} directions",
-            o.body, result.angles_deg[0], result.angles_deg[1], o.directions));
-    } else {
-      for (int k = 0; k < o.directions; ++k) {
-        const double deg = 360.0 * k / o.directions;
-        const double rad = deg * std::numbers::pi / 180;
-        const double c = snapped(std::cos(rad)), s = snapped(std::sin(rad));
-        result.directions.push_back(snapped(Eigen::Vector3d(c * h.row(0) + s * h.row(1))));
-        result.angles_deg.push_back(deg);
-      }
-    }
   }
+};
 
-  // the feet: the allowed contacts, else what touches the ground in the unpushed run
+// the directions: the plane's, or the two senses of the one a planar model can move along
+void find_directions(const RobustnessSetup& s, Engine& e, const ResolvedPush& pushed,
+                     RobustnessResult& result) {
+  const RobustnessOptions& o = s.o;
+  const Horizontal& h = s.h;
+  Eigen::MatrixXd jac(3, e.nv()), none(3, 0);
+  e.point_jacobian(pushed.body, push_point(e, pushed), jac, none);
+  const Eigen::Matrix2d reach = (h * jac) * (h * jac).transpose();
+  Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(reach);
+  const double big = eig.eigenvalues()[1], small = eig.eigenvalues()[0];
+  if (!(big > 1e-12))
+    throw InputError(fmt::format(
+        "robustness: body '{}' cannot move horizontally (a fixed base?): nothing to push", o.body));
+  result.planar = small < 1e-9 * big;
+  if (result.planar) {
+    Eigen::Vector2d a = eig.eigenvectors().col(1);
+    for (int i = 0; i < 2; ++i) a[i] = snapped(a[i]);
+    if (a[0] < 0 || (a[0] == 0 && a[1] < 0)) a = -a;
+    const double angle = std::atan2(a[1], a[0]) * 180 / std::numbers::pi;
+    for (double sign : {1.0, -1.0}) {
+      result.directions.push_back(snapped(Eigen::Vector3d(sign * h.transpose() * a)));
+      result.angles_deg.push_back(sign > 0 ? angle : angle + 180);
+    }
+    if (o.directions != 2)
+      result.notes.push_back(fmt::format(
+          "planar model: '{}' moves along one horizontal direction only, so the map has its "
+          "two senses ({} and {} degrees) instead of {} directions",
+          o.body, result.angles_deg[0], result.angles_deg[1], o.directions));
+    return;
+  }
+  for (int k = 0; k < o.directions; ++k) {
+    const double deg = 360.0 * k / o.directions;
+    const double rad = deg * std::numbers::pi / 180;
+    const double c = snapped(std::cos(rad)), sn = snapped(std::sin(rad));
+    result.directions.push_back(snapped(Eigen::Vector3d(c * h.row(0) + sn * h.row(1))));
+    result.angles_deg.push_back(deg);
+  }
+}
+
+// the feet: the allowed contacts, else what touches the ground in the unpushed run; a foot is
+// a topmost such body with the such bodies below it
+void find_feet(RobustnessSetup& s, const Simulation& probe, RobustnessResult& result) {
+  const Engine& e = probe.engine();
   std::vector<char> is_foot(probe.model().allowed_contact.begin(),
                             probe.model().allowed_contact.end());
   is_foot.resize(e.nbody(), 0);
   if (std::find(is_foot.begin(), is_foot.end(), 1) == is_foot.end()) {
     std::vector<std::vector<int>> none;
-    GaitObserver finder(none, o.min_air_s, h);
+    GaitObserver finder(none, s.o.min_air_s, s.h);
     finder.touched = &is_foot;
-    RunOptions ro = run_options(duration);
-    ro.cache = &cache;
-    Simulation sim(loaded, ro);
+    Simulation sim(s.loaded, s.run_options());
     sim.add_observer(&finder);
     sim.run();
     result.notes.push_back(
         "feet: the bodies that touch the ground in the unpushed run (no fall.allowed_contacts)");
   }
-  std::vector<std::vector<int>> feet;
-  {
-    std::vector<int> top(e.nbody(), -1);
-    for (int b = 0; b < e.nbody(); ++b) {
-      if (!is_foot[b]) continue;
-      top[b] = b;
-      for (int p = e.body_parent(b); p >= 0; p = e.body_parent(p))
-        if (is_foot[p]) top[b] = p;
-    }
-    for (int b = 0; b < e.nbody(); ++b) {
-      if (top[b] != b) continue;
-      feet.push_back({});
-      for (int c = 0; c < e.nbody(); ++c)
-        if (top[c] == b) feet.back().push_back(c);
-      result.feet.push_back(e.body_name(b));
-    }
+  std::vector<int> top(e.nbody(), -1);
+  for (int b = 0; b < e.nbody(); ++b) {
+    if (!is_foot[b]) continue;
+    top[b] = b;
+    for (int p = e.body_parent(b); p >= 0; p = e.body_parent(p))
+      if (is_foot[p]) top[b] = p;
   }
+  for (int b = 0; b < e.nbody(); ++b) {
+    if (top[b] != b) continue;
+    s.feet.push_back({});
+    for (int c = 0; c < e.nbody(); ++c)
+      if (top[c] == b) s.feet.back().push_back(c);
+    result.feet.push_back(e.body_name(b));
+  }
+}
 
-  // the unpushed run: the gait, the phases' start times, the root to measure detours against
-  std::vector<Eigen::Vector3d> baseline_root;
-  GaitObserver baseline(feet, o.min_air_s, h);
-  auto run_baseline = [&] {
-    baseline = GaitObserver(feet, o.min_air_s, h);
-    baseline_root.clear();
-    baseline.record_root = &baseline_root;
-    RunOptions ro = run_options(duration);
-    ro.cache = &cache;
-    ro.stop_after_fall_s = -1;  // the reference goes on to the end
-    Simulation sim(loaded, ro);
-    sim.add_observer(&baseline);
-    RunResult r = sim.run();
-    result.unpushed_fall_time.reset();
-    if (r.fell) result.unpushed_fall_time = r.fall_time;
-    if (r.diverged) result.unpushed_fall_time = r.sim_time;
-  };
-  run_baseline();
+// the unpushed run, to the end even after a fall: the gait and the root to measure detours by
+void run_baseline(RobustnessSetup& s, RobustnessResult& result) {
+  s.baseline = std::make_unique<GaitObserver>(s.feet, s.o.min_air_s, s.h);
+  s.baseline_root.clear();
+  s.baseline->record_root = &s.baseline_root;
+  RunOptions ro = s.run_options();
+  ro.stop_after_fall_s = -1;
+  Simulation sim(s.loaded, ro);
+  sim.add_observer(s.baseline.get());
+  RunResult r = sim.run();
+  result.unpushed_fall_time.reset();
+  if (r.fell) result.unpushed_fall_time = r.fall_time;
+  if (r.diverged) result.unpushed_fall_time = r.sim_time;
+}
+
+// the phases' push times: a walker's over the step after `at`, else `phase_spacing_s` apart;
+// runs are lengthened (and the baseline run again) to hold the last push's recovery window
+void find_phases(RobustnessSetup& s, RobustnessResult& result) {
+  const RobustnessOptions& o = s.o;
   std::vector<double> after;
-  for (double t : baseline.touchdowns)
+  for (double t : s.baseline->touchdowns)
     if (t >= o.at) after.push_back(t);
   result.walker =
       after.size() >= 2 && !(result.unpushed_fall_time && *result.unpushed_fall_time < after[1]);
@@ -372,18 +371,68 @@ RobustnessResult run_robustness(
   if (result.walker) result.step_period_s = after[1] - after[0];
   const double needed = *std::max_element(result.push_starts.begin(), result.push_starts.end()) +
                         o.push_duration + o.recovery_window_s;
-  if (needed > duration + 1e-9) {
+  if (needed > s.duration + 1e-9) {
     result.notes.push_back(
         fmt::format("runs lengthened from {} s to {} s: the last push and its {} s recovery window",
-                    duration, needed, o.recovery_window_s));
-    duration = needed;
-    run_baseline();
+                    s.duration, needed, o.recovery_window_s));
+    s.duration = needed;
+    run_baseline(s, result);
   }
-  result.duration_s = duration;
+  result.duration_s = s.duration;
+}
 
-  // every direction and phase: an independent bisection
-  const int nd = static_cast<int>(result.directions.size()), np = o.phases;
-  result.cells.resize(nd * np);
+// one pushed run of a cell's bisection, recorded in the cell; true when it survived
+bool push_trial(RobustnessSetup& s, const RobustnessResult& result, RobustnessCell& cell,
+                double force) {
+  const RobustnessOptions& o = s.o;
+  const double start = result.push_starts[cell.phase];
+  const double window_from = start + o.push_duration, window_to = window_from + o.recovery_window_s;
+  RobustnessTrial t;
+  t.direction = cell.direction;
+  t.phase = cell.phase;
+  t.force = force;
+  RunOptions ro = s.run_options();
+  ro.interrupt = o.interrupt;
+  ro.extra_pushes.push_back(s.push(force * result.directions[cell.direction], start));
+  GaitObserver gait(s.feet, o.min_air_s, s.h);
+  gait.reference_root = &s.baseline_root;
+  gait.detour_from_s = start;
+  Simulation sim(s.loaded, ro);
+  sim.add_observer(&gait);
+  const RunResult r = sim.run();
+  if (r.interrupted) throw Interrupted{};
+  if (r.fell) t.fall_time = r.fall_time;
+  if (r.diverged) t.fall_time = r.sim_time;
+  t.touchdowns = count_in(gait.touchdowns, window_from, window_to);
+  t.recovery_steps = t.touchdowns - count_in(s.baseline->touchdowns, window_from, window_to);
+  t.detour_m = gait.detour_m;
+  const bool stepped = result.walker ? t.recovery_steps > o.max_recovery_steps
+                                     : count_in(gait.liftoffs, start, s.duration) > 0;
+  t.outcome = static_cast<int>(push_outcome(t.fall_time, start, stepped));
+  cell.trials.push_back(t);
+  return t.survived();
+}
+
+// one direction and phase (cell `index`): the largest push survived, by bisection
+void search_cell(RobustnessSetup& s, RobustnessResult& result, int index) {
+  RobustnessCell& cell = result.cells[index];
+  const int np = s.o.phases;
+  cell.direction = index / np;
+  cell.phase = index % np;
+  const PushBracket b =
+      bisect_push([&](double force) { return push_trial(s, result, cell, force); }, s.o.max_force,
+                  s.o.tolerance);
+  cell.threshold = b.survived;
+  cell.fell = b.fell;
+  cell.falls_unpushed = b.falls_unpushed;
+  for (const auto& t : cell.trials)
+    if (t.force == (b.falls_unpushed ? 0.0 : b.survived)) cell.outcome_at_threshold = t.outcome;
+  cell.done = true;
+}
+
+// the cells of an interrupted map, in place; returns how many there were
+int keep_finished(const std::vector<RobustnessCell>& finished, int nd, int np,
+                  RobustnessResult& result) {
   int done = 0;
   for (const auto& c : finished) {
     if (c.direction < 0 || c.direction >= nd || c.phase < 0 || c.phase >= np)
@@ -394,65 +443,29 @@ RobustnessResult run_robustness(
     cell = c;
     cell.done = true;
   }
+  return done;
+}
+
+// every cell not yet done, over threads and MPI ranks; on_cell reports each (on rank 0)
+void search_cells(RobustnessSetup& s, RobustnessResult& result, int done,
+                  const std::function<void(const RobustnessCell&, int done, int total)>& on_cell) {
+  const RobustnessOptions& o = s.o;
+  const int total = static_cast<int>(result.cells.size());
   std::mutex report;
   BatchRanks& ranks = BatchRanks::get();
-  auto interrupted = [&] { return o.interrupt && o.interrupt->load(); };
-  auto search = [&](int index) {
-    RobustnessCell& cell = result.cells[index];
-    if (cell.done) return;
-    if (interrupted()) throw Interrupted{};
-    cell.direction = index / np;
-    cell.phase = index % np;
-    const double start = result.push_starts[cell.phase];
-    const double window_from = start + o.push_duration,
-                 window_to = window_from + o.recovery_window_s;
-    const int baseline_steps = count_in(baseline.touchdowns, window_from, window_to);
-    auto trial = [&](double force) {
-      RobustnessTrial t;
-      t.direction = cell.direction;
-      t.phase = cell.phase;
-      t.force = force;
-      RunOptions ro = run_options(duration);
-      ro.cache = &cache;
-      ro.interrupt = o.interrupt;
-      ro.extra_pushes.push_back(push_of(force * result.directions[cell.direction], start));
-      GaitObserver gait(feet, o.min_air_s, h);
-      gait.reference_root = &baseline_root;
-      gait.detour_from_s = start;
-      Simulation sim(loaded, ro);
-      sim.add_observer(&gait);
-      const RunResult r = sim.run();
-      if (r.interrupted) throw Interrupted{};
-      if (r.fell) t.fall_time = r.fall_time;
-      if (r.diverged) t.fall_time = r.sim_time;
-      t.touchdowns = count_in(gait.touchdowns, window_from, window_to);
-      t.recovery_steps = t.touchdowns - baseline_steps;
-      t.detour_m = gait.detour_m;
-      const bool stepped = result.walker ? t.recovery_steps > o.max_recovery_steps
-                                         : count_in(gait.liftoffs, start, duration) > 0;
-      t.outcome = static_cast<int>(push_outcome(t.fall_time, start, stepped));
-      cell.trials.push_back(t);
-      return t.survived();
-    };
-    const PushBracket b = bisect_push(trial, o.max_force, o.tolerance);
-    cell.threshold = b.survived;
-    cell.fell = b.fell;
-    cell.falls_unpushed = b.falls_unpushed;
-    for (const auto& t : cell.trials)
-      if (t.force == (b.falls_unpushed ? 0.0 : b.survived)) cell.outcome_at_threshold = t.outcome;
-    cell.done = true;
-    if (!ranks.root()) return;
-    std::lock_guard<std::mutex> lock(report);
-    ++done;
-    if (on_cell) on_cell(cell, done, nd * np);
-  };
   // an interrupted search leaves its cell as it was (not done); the others stop starting
   std::atomic<bool> stopped{false};
   ranks.distributed_for(
-      nd * np, o.threads,
+      total, o.threads,
       [&](int index) {
         try {
-          search(index);
+          if (result.cells[index].done) return;
+          if (o.interrupt && o.interrupt->load()) throw Interrupted{};
+          search_cell(s, result, index);
+          if (!ranks.root()) return;
+          std::lock_guard<std::mutex> lock(report);
+          ++done;
+          if (on_cell) on_cell(result.cells[index], done, total);
         } catch (const Interrupted&) {
           result.cells[index] = RobustnessCell{};
           stopped = true;
@@ -466,10 +479,43 @@ RobustnessResult run_robustness(
         if (text.empty()) return;
         result.cells[index] = cell_from_json(nlohmann::json::parse(text));
         ++done;
-        if (on_cell) on_cell(result.cells[index], done, nd * np);
+        if (on_cell) on_cell(result.cells[index], done, total);
       });
   for (const auto& c : result.cells) result.interrupted = result.interrupted || !c.done;
   if (!result.interrupted && stopped) result.interrupted = true;
+}
+
+}  // namespace
+
+RobustnessResult run_robustness(
+    const LoadedScenario& loaded, const RobustnessOptions& options,
+    const std::function<void(const RobustnessCell&, int done, int total)>& on_cell,
+    const std::vector<RobustnessCell>& finished) {
+  const RobustnessOptions& o = options;
+  validate(o);
+  RobustnessResult result;
+  result.scenario = loaded.scenario.name;
+  RobustnessSetup s(loaded, o);
+  s.duration = o.duration.value_or(loaded.scenario.duration);
+
+  // a probe: the body, the engine and the point resolve here, on this thread
+  RunOptions probe_options = s.run_options();
+  probe_options.extra_pushes.push_back(s.push(Eigen::Vector3d::Zero(), 0));
+  Simulation probe(loaded, probe_options);
+  Engine& e = probe.engine();
+  result.engine = std::string(e.engine_name());
+  e.forward();
+  s.h = horizontal_basis(probe.model().up);
+  find_directions(s, e, probe.model().pushes.back(), result);
+  find_feet(s, probe, result);
+  run_baseline(s, result);
+  find_phases(s, result);
+
+  // every direction and phase: an independent bisection
+  const int nd = static_cast<int>(result.directions.size()), np = o.phases;
+  result.cells.resize(nd * np);
+  const int done = keep_finished(finished, nd, np, result);
+  search_cells(s, result, done, on_cell);
   return result;
 }
 
