@@ -18,6 +18,7 @@ set(stance_label_patterns
   physics "^(SimbiconHumanoid|SimbiconFullbody1|SimbiconSpine|SimbiconSteps)\\."
   physics "^SimbiconPitchAnkles\\.Walks"
   physics "^StandPoseAuto\\.(Humanoid|Atlas)"
+  physics "^SimbiconAtlasPitchAnkles\\..*Walks"
   physics "^SlopeWalker\\.(Walks|LockedKnees)"
   physics "^StablePd\\.StandsWherePlainPdDiverges$"
   physics "^DartEngine\\.(BipedFallsAndRestsOnGround|MjcfPendulumPeriod)"

@@ -18,6 +18,8 @@
 
 #include "core/error.h"
 #include "core/model_format.h"
+#include "model/mjcf_writing.h"
+#include "model/xml_reader.h"
 
 namespace stance {
 
@@ -28,35 +30,23 @@ using Eigen::Matrix3d;
 using Eigen::Vector3d;
 using tinyxml2::XMLElement;
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
+using mjcf::kCollisionBits;
+using mjcf::kInf;
+using mjcf::kMaxMujocoBodyDepth;
+using mjcf::num;
+using mjcf::quat_text;
+using mjcf::set_pose;
+using mjcf::vec;
+
 // a box side below this (a flat mesh) is raised to it: engines assert on empty boxes
 constexpr double kMinBoxSide = 1e-3;  // m
-// MuJoCo 2.2.2 reads XML at most 100 elements deep (as in skel_to_mjcf.cc)
-constexpr int kMaxMujocoBodyDepth = 96;
-constexpr int kCollisionBits = 31;
 
 // ---------------------------------------------------------------------------------------------
 // reading helpers: every error names file:line of the element
 
-class Reader {
+class RobotReader : public XmlReader {
  public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void fail(const XMLElement* el, const std::string& message) const {
-    throw InputError(located(file_, el != nullptr ? el->GetLineNum() : 0, message));
-  }
-
-  const XMLElement* need(const XMLElement* parent, const char* name) const {
-    const XMLElement* el = parent->FirstChildElement(name);
-    if (el == nullptr) fail(parent, fmt::format("<{}> is missing <{}>", parent->Name(), name));
-    return el;
-  }
-
-  std::string attribute(const XMLElement* el, const char* name) const {
-    const char* a = el->Attribute(name);
-    if (a == nullptr) fail(el, fmt::format("<{}> is missing the attribute '{}'", el->Name(), name));
-    return a;
-  }
+  using XmlReader::XmlReader;
 
   std::string text(const XMLElement* el) const {
     const char* t = el->GetText();
@@ -76,31 +66,7 @@ class Reader {
   // whitespace-separated finite numbers; `count` < 0 accepts any count
   std::vector<double> numbers(const XMLElement* el, const std::string& t, const std::string& what,
                               int count) const {
-    std::vector<double> values;
-    const char* p = t.c_str();
-    while (true) {
-      while (*p != '\0' && std::isspace(static_cast<unsigned char>(*p))) ++p;
-      if (*p == '\0') break;
-      char* end = nullptr;
-      errno = 0;
-      const double v = std::strtod(p, &end);
-      const bool separated =
-          end != p && (*end == '\0' || std::isspace(static_cast<unsigned char>(*end)));
-      if (!separated || errno == ERANGE || !std::isfinite(v)) {
-        const char* stop = p;
-        while (*stop != '\0' && !std::isspace(static_cast<unsigned char>(*stop))) ++stop;
-        fail(el, fmt::format("{}: '{}' is not a finite number", what, std::string(p, stop)));
-      }
-      if (std::abs(v) > kMaxModelLength && is_length(el))
-        fail(el, fmt::format("{}: {} is out of range (lengths are at most {} m)", what, v,
-                             kMaxModelLength));
-      values.push_back(v);
-      p = end;
-    }
-    if (count >= 0 && static_cast<int>(values.size()) != count)
-      fail(el, fmt::format("{}: expected {} number{}, found {} in '{}'", what, count,
-                           count == 1 ? "" : "s", values.size(), t));
-    return values;
+    return parse_numbers(el, t, what, count, is_length(el), "is not a finite number");
   }
 
   // an attribute's numbers; `fallback` when absent
@@ -128,11 +94,6 @@ class Reader {
     if (t == "false" || t == "0") return false;
     fail(el, fmt::format("<{}>: expected true/false/1/0, found '{}'", el->Name(), t));
   }
-
-  const std::string& file() const { return file_; }
-
- private:
-  std::string file_;
 };
 
 // R = Rz(yaw) Ry(pitch) Rx(roll): URDF's rpy and SDF's pose (fixed axes x, y, z)
@@ -150,7 +111,7 @@ Isometry3d make_pose(const std::vector<double>& xyz, const std::vector<double>& 
 }
 
 // URDF <origin xyz rpy>; identity when absent
-Isometry3d urdf_origin(const Reader& r, const XMLElement* parent) {
+Isometry3d urdf_origin(const RobotReader& r, const XMLElement* parent) {
   const XMLElement* o = parent->FirstChildElement("origin");
   if (o == nullptr) return Isometry3d::Identity();
   return make_pose(r.attribute_numbers(o, "xyz", 3, {0, 0, 0}),
@@ -158,7 +119,7 @@ Isometry3d urdf_origin(const Reader& r, const XMLElement* parent) {
 }
 
 // SDF <pose>x y z r p y</pose>; identity when absent
-Isometry3d sdf_pose(const Reader& r, const XMLElement* parent) {
+Isometry3d sdf_pose(const RobotReader& r, const XMLElement* parent) {
   const XMLElement* p = parent->FirstChildElement("pose");
   if (p == nullptr) return Isometry3d::Identity();
   for (const char* a : {"frame", "relative_to"}) {
@@ -174,7 +135,7 @@ Isometry3d sdf_pose(const Reader& r, const XMLElement* parent) {
 }
 
 // a symmetric inertia that a body can have: finite, eigenvalues >= 0, triangle inequality
-void check_inertia(const Reader& r, const XMLElement* el, const std::string& link,
+void check_inertia(const RobotReader& r, const XMLElement* el, const std::string& link,
                    const Matrix3d& inertia) {
   Eigen::SelfAdjointEigenSolver<Matrix3d> eig(inertia);
   const Vector3d e = eig.eigenvalues();
@@ -208,7 +169,7 @@ std::vector<std::string> package_folders(const RobotOptions& options) {
 
 // a mesh reference (relative to the model file, absolute, file://, package:// or model://) as
 // an absolute path to an existing file
-std::string resolve_mesh(const Reader& r, const XMLElement* el, const std::string& model_path,
+std::string resolve_mesh(const RobotReader& r, const XMLElement* el, const std::string& model_path,
                          const std::string& reference, const RobotOptions& options) {
   namespace fs = std::filesystem;
   std::string path;
@@ -313,7 +274,7 @@ namespace {
 // ---------------------------------------------------------------------------------------------
 // URDF
 
-RobotGeometry read_urdf_geometry(const Reader& r, const XMLElement* el,
+RobotGeometry read_urdf_geometry(const RobotReader& r, const XMLElement* el,
                                  const std::string& model_path, const RobotOptions& options) {
   RobotGeometry g;
   g.line = el->GetLineNum();
@@ -355,7 +316,7 @@ RobotGeometry read_urdf_geometry(const Reader& r, const XMLElement* el,
   return g;
 }
 
-RobotLink read_urdf_link(const Reader& r, const XMLElement* el, const std::string& model_path,
+RobotLink read_urdf_link(const RobotReader& r, const XMLElement* el, const std::string& model_path,
                          const RobotOptions& options) {
   RobotLink link;
   link.name = r.attribute(el, "name");
@@ -389,7 +350,7 @@ RobotLink read_urdf_link(const Reader& r, const XMLElement* el, const std::strin
   return link;
 }
 
-Vector3d unit_axis(const Reader& r, const XMLElement* el, const std::vector<double>& xyz) {
+Vector3d unit_axis(const RobotReader& r, const XMLElement* el, const std::vector<double>& xyz) {
   const Vector3d axis(xyz[0], xyz[1], xyz[2]);
   if (!(axis.norm() > 1e-12)) r.fail(el, "the joint axis must not be zero");
   return axis.normalized();
@@ -398,7 +359,8 @@ Vector3d unit_axis(const Reader& r, const XMLElement* el, const std::vector<doub
 // a joint element's name, line and type, the type one of `types` (in the order the message
 // lists them); the start every format's joint reader shares
 using JointTypeNames = std::vector<std::pair<const char*, RobotJointType>>;
-RobotJoint read_joint_head(const Reader& r, const XMLElement* el, const JointTypeNames& types) {
+RobotJoint read_joint_head(const RobotReader& r, const XMLElement* el,
+                           const JointTypeNames& types) {
   RobotJoint j;
   j.name = r.attribute(el, "name");
   j.line = el->GetLineNum();
@@ -415,7 +377,7 @@ RobotJoint read_joint_head(const Reader& r, const XMLElement* el, const JointTyp
                          supported));
 }
 
-RobotJoint read_urdf_joint(const Reader& r, const XMLElement* el) {
+RobotJoint read_urdf_joint(const RobotReader& r, const XMLElement* el) {
   RobotJoint j = read_joint_head(r, el,
                                  {{"fixed", RobotJointType::kFixed},
                                   {"revolute", RobotJointType::kRevolute},
@@ -462,7 +424,7 @@ RobotJoint read_urdf_joint(const Reader& r, const XMLElement* el) {
 // ---------------------------------------------------------------------------------------------
 // SDF
 
-RobotGeometry read_sdf_geometry(const Reader& r, const XMLElement* el,
+RobotGeometry read_sdf_geometry(const RobotReader& r, const XMLElement* el,
                                 const std::string& model_path, const RobotOptions& options) {
   RobotGeometry g;
   g.line = el->GetLineNum();
@@ -506,7 +468,7 @@ RobotGeometry read_sdf_geometry(const Reader& r, const XMLElement* el,
 }
 
 // an SDF link; `world` receives the link's pose in the model frame
-RobotLink read_sdf_link(const Reader& r, const XMLElement* el, const std::string& model_path,
+RobotLink read_sdf_link(const RobotReader& r, const XMLElement* el, const std::string& model_path,
                         const RobotOptions& options, Isometry3d& in_model) {
   RobotLink link;
   link.name = r.attribute(el, "name");
@@ -542,7 +504,7 @@ RobotLink read_sdf_link(const Reader& r, const XMLElement* el, const std::string
   return link;
 }
 
-RobotJoint read_sdf_joint(const Reader& r, const XMLElement* el) {
+RobotJoint read_sdf_joint(const RobotReader& r, const XMLElement* el) {
   RobotJoint j = read_joint_head(r, el,
                                  {{"fixed", RobotJointType::kFixed},
                                   {"revolute", RobotJointType::kRevolute},
@@ -582,7 +544,7 @@ RobotJoint read_sdf_joint(const Reader& r, const XMLElement* el) {
 // the tree
 
 // one root, every joint's links known, no link with two parents; sets the root
-void check_tree(const Reader& r, const XMLElement* root_el, RobotModel& m,
+void check_tree(const RobotReader& r, const XMLElement* root_el, RobotModel& m,
                 const std::map<std::string, int>& link_lines) {
   std::vector<std::string> names;
   for (const auto& [name, line] : link_lines) names.push_back(name);
@@ -655,7 +617,7 @@ void load_document(const std::string& shown_name, const std::string& path,
     throw InputError(located(shown_name, 1, "no XML element in the file"));
 }
 
-void add_link(const Reader& r, const XMLElement* el, RobotModel& m,
+void add_link(const RobotReader& r, const XMLElement* el, RobotModel& m,
               std::map<std::string, int>& link_lines, RobotLink link) {
   if (m.links.size() >= kMaxRobotLinks)
     r.fail(el, fmt::format("more than {} links", kMaxRobotLinks));
@@ -679,7 +641,7 @@ void check_joint_names(const RobotModel& m) {
 
 RobotModel read_urdf(const std::string& shown_name, const std::string& path,
                      const RobotOptions& options, const tinyxml2::XMLDocument& doc) {
-  Reader r(shown_name);
+  RobotReader r(shown_name);
   const XMLElement* robot = doc.RootElement();
   if (std::strcmp(robot->Name(), "robot") != 0)
     r.fail(robot, fmt::format("expected a <robot> root element, found <{}>", robot->Name()));
@@ -720,7 +682,7 @@ RobotModel read_urdf(const std::string& shown_name, const std::string& path,
 
 RobotModel read_sdf(const std::string& shown_name, const std::string& path,
                     const RobotOptions& options, const tinyxml2::XMLDocument& doc) {
-  Reader r(shown_name);
+  RobotReader r(shown_name);
   const XMLElement* sdf = doc.RootElement();
   if (std::strcmp(sdf->Name(), "sdf") != 0)
     r.fail(sdf, fmt::format("expected an <sdf> root element, found <{}>", sdf->Name()));
@@ -993,6 +955,28 @@ std::string ground_urdf_text() {
 )";
 }
 
+namespace {
+// RobotOptions::lock_joints: each named joint becomes a fixed one at its zero position
+void lock_joints(RobotModel& m, const std::vector<std::string>& names) {
+  for (const std::string& name : names) {
+    auto it = std::find_if(m.joints.begin(), m.joints.end(),
+                           [&](const RobotJoint& j) { return j.name == name; });
+    if (it == m.joints.end())
+      throw InputError(fmt::format("{}: lock_joints: no joint '{}' in the file", m.file, name));
+    it->type = RobotJointType::kFixed;
+  }
+}
+
+// the same in the text DART parses: each named <joint> gets type="fixed"
+void lock_joints_in_text(XMLElement* parent, const std::vector<std::string>& names) {
+  for (XMLElement* j = parent->FirstChildElement("joint"); j; j = j->NextSiblingElement("joint")) {
+    const char* name = j->Attribute("name");
+    if (name != nullptr && std::find(names.begin(), names.end(), name) != names.end())
+      j->SetAttribute("type", "fixed");
+  }
+}
+}  // namespace
+
 RobotModel read_robot(const std::string& shown_name, const std::string& path,
                       const RobotOptions& options) {
   if (options.mesh_collision != "box" && options.mesh_collision != "mesh")
@@ -1005,6 +989,7 @@ RobotModel read_robot(const std::string& shown_name, const std::string& path,
     throw InputError(shown_name + ": not a URDF or SDF file");
   RobotModel m = format == ModelFormat::kUrdf ? read_urdf(shown_name, path, options, doc)
                                               : read_sdf(shown_name, path, options, doc);
+  lock_joints(m, options.lock_joints);
   MassCheck(m).run();
   return m;
 }
@@ -1013,14 +998,6 @@ RobotModel read_robot(const std::string& shown_name, const std::string& path,
 // the text DART parses
 
 namespace {
-
-std::string num(double v) {
-  return fmt::format("{:.17g}", v);
-}
-
-std::string vec(const Vector3d& v) {
-  return fmt::format("{} {} {}", num(v.x()), num(v.y()), num(v.z()));
-}
 
 // the box (full extents, centre in the mesh frame) fitted to a mesh
 struct FittedBox {
@@ -1040,7 +1017,7 @@ std::string robot_text_for_dart(const std::string& shown_name, const std::string
   const ModelFormat format = model_format(path);
   tinyxml2::XMLDocument doc;
   load_document(shown_name, path, doc);
-  Reader r(shown_name);
+  RobotReader r(shown_name);
   const bool boxes = options.mesh_collision == "box";
   if (format == ModelFormat::kUrdf) {
     for (XMLElement* link = doc.RootElement()->FirstChildElement("link"); link;
@@ -1113,6 +1090,9 @@ std::string robot_text_for_dart(const std::string& shown_name, const std::string
       }
     }
   }
+  XMLElement* root = doc.RootElement();
+  lock_joints_in_text(format == ModelFormat::kUrdf ? root : root->FirstChildElement("model"),
+                      options.lock_joints);
   tinyxml2::XMLPrinter printer;
   doc.Print(&printer);
   return printer.CStr();
@@ -1122,16 +1102,6 @@ std::string robot_text_for_dart(const std::string& shown_name, const std::string
 // MJCF
 
 namespace {
-
-std::string quat_text(const Matrix3d& r) {
-  const Eigen::Quaterniond q = Eigen::Quaterniond(r).normalized();
-  return fmt::format("{} {} {} {}", num(q.w()), num(q.x()), num(q.y()), num(q.z()));
-}
-
-void set_pose(XMLElement* el, const Isometry3d& t) {
-  el->SetAttribute("pos", vec(t.translation()).c_str());
-  if (!t.linear().isIdentity(0.0)) el->SetAttribute("quat", quat_text(t.linear()).c_str());
-}
 
 class MjcfBuilder {
  public:

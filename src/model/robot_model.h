@@ -36,6 +36,9 @@ struct RobotOptions {
   bool fixed_base = false;                // weld the root link to the world
   std::vector<std::string> package_path;  // folders searched for package://
   std::string mesh_collision = "box";     // "box": bounding boxes; "mesh": the meshes
+  // joints welded at their zero position, as fixed joints, on both engines (a robot made from
+  // another: Atlas with one-axis ankles)
+  std::vector<std::string> lock_joints;
 };
 
 struct RobotGeometry {

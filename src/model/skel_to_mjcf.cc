@@ -18,7 +18,9 @@
 #include "core/error.h"
 #include "core/model_format.h"
 #include "core/timestep.h"
+#include "model/mjcf_writing.h"
 #include "model/model_path.h"
+#include "model/xml_reader.h"
 
 namespace stance {
 
@@ -30,11 +32,13 @@ using Eigen::Vector3d;
 using Eigen::Vector4d;
 using tinyxml2::XMLElement;
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr int kCollisionBits = 31;  // contype bits used, keeping the masks positive ints
-// MuJoCo 2.2.2 reads XML at most 100 elements deep: <mujoco><worldbody>, the bodies, and the
-// innermost body's <geom> leave 96 nested bodies
-constexpr int kMaxMujocoBodyDepth = 96;
+using mjcf::kCollisionBits;
+using mjcf::kInf;
+using mjcf::kMaxMujocoBodyDepth;
+using mjcf::num;
+using mjcf::quat_text;
+using mjcf::set_pose;
+using mjcf::vec;
 
 // ---------------------------------------------------------------------------------------------
 // parsed SKEL content
@@ -125,29 +129,13 @@ struct SkelFile {
 // ---------------------------------------------------------------------------------------------
 // reading helpers: every error names file:line of the element
 
-class Reader {
+class SkelReader : public XmlReader {
  public:
-  explicit Reader(std::string file) : file_(std::move(file)) {}
-
-  [[noreturn]] void fail(const XMLElement* el, const std::string& message) const {
-    throw InputError(located(file_, el != nullptr ? el->GetLineNum() : 0, message));
-  }
-
-  const XMLElement* need(const XMLElement* parent, const char* name) const {
-    const XMLElement* el = parent->FirstChildElement(name);
-    if (el == nullptr) fail(parent, fmt::format("<{}> is missing <{}>", parent->Name(), name));
-    return el;
-  }
+  using XmlReader::XmlReader;
 
   std::string text(const XMLElement* el) const {
     const char* t = el->GetText();
     return t != nullptr ? std::string(t) : std::string();
-  }
-
-  std::string attribute(const XMLElement* el, const char* name) const {
-    const char* a = el->Attribute(name);
-    if (a == nullptr) fail(el, fmt::format("<{}> is missing the attribute '{}'", el->Name(), name));
-    return a;
   }
 
   // an element whose numbers are lengths (or a joint's initial state, which places bodies)
@@ -160,33 +148,8 @@ class Reader {
 
   // all whitespace-separated numbers of the element's text; `count` < 0 accepts any count
   std::vector<double> numbers(const XMLElement* el, int count) const {
-    std::string t = text(el);
-    std::vector<double> values;
-    const char* p = t.c_str();
-    while (true) {
-      while (*p != '\0' && std::isspace(static_cast<unsigned char>(*p))) ++p;
-      if (*p == '\0') break;
-      char* end = nullptr;
-      errno = 0;
-      double v = std::strtod(p, &end);
-      bool separated =
-          (end != p) && (*end == '\0' || std::isspace(static_cast<unsigned char>(*end)));
-      if (!separated || errno == ERANGE || !std::isfinite(v)) {
-        const char* stop = p;
-        while (*stop != '\0' && !std::isspace(static_cast<unsigned char>(*stop))) ++stop;
-        fail(el, fmt::format("<{}>: '{}' is not a number", el->Name(), std::string(p, stop)));
-      }
-      if (std::abs(v) > kMaxModelLength && is_length(el))
-        fail(el, fmt::format("<{}>: {} is out of range (lengths are at most {} m)", el->Name(), v,
-                             kMaxModelLength));
-      values.push_back(v);
-      p = end;
-    }
-    if (count >= 0 && static_cast<int>(values.size()) != count) {
-      fail(el, fmt::format("<{}>: expected {} number{}, found {} in '{}'", el->Name(), count,
-                           count == 1 ? "" : "s", values.size(), t));
-    }
-    return values;
+    return parse_numbers(el, text(el), fmt::format("<{}>", el->Name()), count, is_length(el),
+                         "is not a number");
   }
 
   double number(const XMLElement* el) const { return numbers(el, 1)[0]; }
@@ -245,15 +208,10 @@ class Reader {
     t.translation() = Vector3d(v[0], v[1], v[2]);
     return t;
   }
-
-  const std::string& file() const { return file_; }
-
- private:
-  std::string file_;
 };
 
 // a shape as DART's readShape reads it (the first known geometry wins, in DART's order)
-Shape read_shape(const Reader& r, const XMLElement* el, bool collision) {
+Shape read_shape(const SkelReader& r, const XMLElement* el, bool collision) {
   Shape s;
   s.collision = collision;
   if (const XMLElement* t = el->FirstChildElement("transformation")) s.pose = r.transform(t);
@@ -339,7 +297,7 @@ Shape read_shape(const Reader& r, const XMLElement* el, bool collision) {
 
 // <soft_shape> as DART's readSoftBodyNode reads it: counts are bounded, as DART allocates
 // the point masses they ask for
-void check_soft_shape(const Reader& r, const XMLElement* el) {
+void check_soft_shape(const SkelReader& r, const XMLElement* el) {
   r.positive(r.need(el, "total_mass"));
   if (const XMLElement* t = el->FirstChildElement("transformation")) r.transform(t);
   const XMLElement* geometry = r.need(el, "geometry");
@@ -422,7 +380,7 @@ Matrix3d shape_inertia(const Shape& s, double mass) {
   return i;
 }
 
-Body read_body(const Reader& r, const XMLElement* el, const Isometry3d& skeleton_frame) {
+Body read_body(const SkelReader& r, const XMLElement* el, const Isometry3d& skeleton_frame) {
   Body b;
   b.name = r.attribute(el, "name");
   b.line = el->GetLineNum();
@@ -474,7 +432,7 @@ Body read_body(const Reader& r, const XMLElement* el, const Isometry3d& skeleton
 }
 
 // <axis>/<axis2>/<axis3>: damping, dynamics and limits of dof i (DART's readJointDynamicsAndLimit)
-void read_axis_dynamics(const Reader& r, const XMLElement* joint_el, Joint& j) {
+void read_axis_dynamics(const SkelReader& r, const XMLElement* joint_el, Joint& j) {
   for (size_t i = 0; i < j.dofs.size(); ++i) {
     std::string tag = i == 0 ? "axis" : "axis" + std::to_string(i + 1);
     const XMLElement* axis = joint_el->FirstChildElement(tag.c_str());
@@ -497,7 +455,7 @@ void read_axis_dynamics(const Reader& r, const XMLElement* joint_el, Joint& j) {
   }
 }
 
-double dof_attribute(const Reader& r, const XMLElement* el, const char* name, double fallback) {
+double dof_attribute(const SkelReader& r, const XMLElement* el, const char* name, double fallback) {
   double v = fallback;
   if (el->QueryDoubleAttribute(name, &v) == tinyxml2::XML_WRONG_ATTRIBUTE_TYPE) {
     r.fail(el, fmt::format("<{}>: attribute '{}' is not a number", el->Name(), name));
@@ -506,7 +464,7 @@ double dof_attribute(const Reader& r, const XMLElement* el, const char* name, do
 }
 
 // <dof local_index=.. name=..> elements (DART's readAllDegreesOfFreedom)
-void read_dof_elements(const Reader& r, const XMLElement* joint_el, Joint& j) {
+void read_dof_elements(const SkelReader& r, const XMLElement* joint_el, Joint& j) {
   const int n = static_cast<int>(j.dofs.size());
   for (const XMLElement* el = joint_el->FirstChildElement("dof"); el != nullptr;
        el = el->NextSiblingElement("dof")) {
@@ -538,7 +496,7 @@ void read_dof_elements(const Reader& r, const XMLElement* joint_el, Joint& j) {
   }
 }
 
-Vector3d read_axis_xyz(const Reader& r, const XMLElement* joint_el, const char* tag,
+Vector3d read_axis_xyz(const SkelReader& r, const XMLElement* joint_el, const char* tag,
                        const std::string& joint_name) {
   const XMLElement* axis = joint_el->FirstChildElement(tag);
   if (axis == nullptr) {
@@ -549,7 +507,7 @@ Vector3d read_axis_xyz(const Reader& r, const XMLElement* joint_el, const char* 
   return a.normalized();
 }
 
-Joint read_joint(const Reader& r, const XMLElement* el) {
+Joint read_joint(const SkelReader& r, const XMLElement* el) {
   Joint j;
   j.name = r.attribute(el, "name");
   j.type = r.attribute(el, "type");
@@ -636,7 +594,7 @@ Joint read_joint(const Reader& r, const XMLElement* el) {
 }
 
 // fails on a joint cycle, which DART's assembly loop would follow for ever; linear in the bodies
-void check_no_cycle(const Reader& r, const Skeleton& s) {
+void check_no_cycle(const SkelReader& r, const Skeleton& s) {
   std::map<std::string, std::string> parent_of;  // child body -> parent body ("" = world)
   for (const Joint& j : s.joints) parent_of[j.child] = j.parent;
   enum { kUnseen, kOnPath, kDone };
@@ -660,7 +618,7 @@ void check_no_cycle(const Reader& r, const Skeleton& s) {
   }
 }
 
-Skeleton read_skeleton(const Reader& r, const XMLElement* el, const Vector3d& offset,
+Skeleton read_skeleton(const SkelReader& r, const XMLElement* el, const Vector3d& offset,
                        size_t& bodies_in_file) {
   Skeleton s;
   s.name = r.attribute(el, "name");
@@ -716,7 +674,7 @@ Skeleton read_skeleton(const Reader& r, const XMLElement* el, const Vector3d& of
 
 SkelFile read_skel_file(const SkelInput& input) {
   const std::string path = resolve_model_path(input.path);
-  Reader r(path);
+  SkelReader r(path);
   tinyxml2::XMLDocument doc;
   tinyxml2::XMLError err = doc.LoadFile(path.c_str());
   if (err != tinyxml2::XML_SUCCESS) {
@@ -781,29 +739,6 @@ Isometry3d joint_motion(const Joint& j, const Eigen::VectorXd& q) {
 
 // ---------------------------------------------------------------------------------------------
 // MJCF writing
-
-std::string num(double v) {
-  return fmt::format("{:.17g}", v);
-}
-
-std::string vec(const Vector3d& v) {
-  return fmt::format("{} {} {}", num(v.x()), num(v.y()), num(v.z()));
-}
-
-std::string quat_text(const Eigen::Quaterniond& q) {
-  return fmt::format("{} {} {} {}", num(q.w()), num(q.x()), num(q.y()), num(q.z()));
-}
-
-bool is_identity_rotation(const Matrix3d& r) {
-  return r.isIdentity(0.0);
-}
-
-void set_pose(XMLElement* el, const Isometry3d& t) {
-  el->SetAttribute("pos", vec(t.translation()).c_str());
-  if (!is_identity_rotation(t.linear())) {
-    el->SetAttribute("quat", quat_text(Eigen::Quaterniond(t.linear()).normalized()).c_str());
-  }
-}
 
 class MjcfWriter {
  public:

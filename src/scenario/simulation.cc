@@ -190,7 +190,8 @@ void warn_when_no_ground(const Scenario& s) {
     const std::string path = resolve_model_path(m.file);
     const ModelFormat format = model_format(path);
     if (format != ModelFormat::kUrdf && format != ModelFormat::kSdf) return;
-    robots.push_back(read_robot(m.file, path, {m.fixed_base, m.package_path, m.mesh_collision}));
+    robots.push_back(read_robot(m.file, path,
+                                {m.fixed_base, m.package_path, m.mesh_collision, m.lock_joints}));
   }
   if (robots_need_ground(robots))
     std::cerr << "warning: " << s.model.front().file
@@ -225,7 +226,8 @@ std::unique_ptr<Engine> make_scenario_engine(const Scenario& s, const std::strin
                                              const LoadedScenario* loaded) {
   WorldSpec spec;
   for (const auto& m : s.model)
-    spec.models.push_back({m.file, m.offset, {m.fixed_base, m.package_path, m.mesh_collision}});
+    spec.models.push_back(
+        {m.file, m.offset, {m.fixed_base, m.package_path, m.mesh_collision, m.lock_joints}});
   if (s.timestep > 0) spec.timestep = s.timestep;
   if (s.gravity.size() == 3)
     spec.gravity = Eigen::Vector3d(s.gravity[0], s.gravity[1], s.gravity[2]);
@@ -299,7 +301,8 @@ std::string world_key(const Scenario& s, const std::string& engine_name,
   std::string k = fmt::format("{}|{}|", engine_name, source);
   for (const auto& m : s.model)
     k += fmt::format("{}@{:.17g},{:.17g},{:.17g}|{}|{}|{};", m.file, m.offset.x(), m.offset.y(),
-                     m.offset.z(), m.fixed_base, fmt::join(m.package_path, ":"), m.mesh_collision);
+                     m.offset.z(), m.fixed_base, fmt::join(m.package_path, ":"), m.mesh_collision) +
+         fmt::format("lock={};", fmt::join(m.lock_joints, ","));
   k += fmt::format("|dt={:.17g}|g=", s.timestep);
   for (double g : s.gravity) k += fmt::format("{:.17g},", g);
   k += fmt::format("|slope={:.17g}|key={}|pose=", s.slope_rad, s.keyframe);
