@@ -21,6 +21,7 @@
 
 #include <atomic>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -48,15 +49,18 @@ std::vector<TrackClip> find_track_clips(const std::vector<std::string>& inputs,
 
 // one clip's row of the results
 struct TrackRow {
+  static constexpr double kNoValue = std::numeric_limits<double>::quiet_NaN();
   std::string clip;
-  int frames = 0;     // the clip's frames in the tracked range
-  double clip_s = 0;  // their duration
-  double sim_s = 0;   // simulated (less than the clip's after a fall)
+  int frames = 0;            // the clip's frames in the tracked range
+  double clip_s = kNoValue;  // their duration
+  double sim_s = kNoValue;   // simulated (less than the clip's after a fall)
   bool fell = false, diverged = false, success = false;
-  double g_mpjpe_m = 0, root_error_m = 0, joint_error_deg = 0, foot_skate_m_per_s = 0;
-  double compute_s_per_sim_s = 0;  // wall clock: the one column that is not reproducible
-  std::string error;               // not empty: the clip was not tracked, and why
-  bool internal_error = false;     // the error is a bug in stance, not the clip's
+  // NaN where the clip has no result
+  double g_mpjpe_m = kNoValue, root_error_m = kNoValue, joint_error_deg = kNoValue;
+  double foot_skate_m_per_s = kNoValue;
+  double compute_s_per_sim_s = kNoValue;  // wall clock: the one column that is not reproducible
+  std::string error;                      // not empty: the clip was not tracked, and why
+  bool internal_error = false;            // the error is a bug in stance, not the clip's
   // the root error over time (m): the mean over each strip_bin_s from t = 0 (NaN: no sample)
   double strip_bin_s = 0;
   std::vector<double> strip;
