@@ -19,6 +19,7 @@
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
+#include "app/commands.h"
 #include "control/controller.h"
 #include "engine/engine.h"
 #include "scenario/observers.h"
@@ -96,5 +97,18 @@ void bind_view(py::module_& m);        // simulation_bindings.cc: with the viewe
 void bind_maths(py::module_& m);       // maths_bindings.cc
 void bind_batch(py::module_& m);       // batch_bindings.cc
 void bind_bvh(py::module_& m);         // bvh_bindings.cc
+
+// ---- many clips (track_batch_bindings.cc)
+struct TrackBatchOptions {
+  int jobs = 0;  // clips at once per process; 0: as many as threads
+  bool resume = false;
+  bool plot = true;
+};
+// true when the inputs make a batch (several, a folder, a glob), as `stance bvh track` decides
+bool is_batch(const std::vector<std::string>& inputs);
+// `stance bvh track INPUTS --out track.out_dir`: a stance.TrackBatchResult
+py::object track_batch(const BvhTrackCommand& track, const std::vector<std::string>& inputs,
+                       const TrackBatchOptions& options);
+void bind_track_batch_result(py::module_& m);
 
 }  // namespace stance::python

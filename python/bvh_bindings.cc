@@ -256,13 +256,23 @@ PyTrackResult track_clip(const BvhTrackCommand& cmd, bool keep_out) {
   return result;
 }
 
+// the clips argument: one path or BvhClip, or a list or tuple of them
+std::vector<std::string> clip_inputs(const py::object& clips) {
+  std::vector<std::string> inputs;
+  if (py::isinstance<py::list>(clips) || py::isinstance<py::tuple>(clips))
+    for (py::handle c : clips) inputs.push_back(clip_path(py::reinterpret_borrow<py::object>(c)));
+  else
+    inputs.push_back(clip_path(clips));
+  return inputs;
+}
+
 py::object track(const py::object& clip, const std::optional<PathArg>& out,
                  std::optional<double> duration, bool loop, int first_frame, int last_frame,
                  const std::optional<PathArg>& map, const std::optional<PathArg>& model,
                  const std::string& engine, int threads, const py::object& overrides,
-                 bool origin_centred, double scale_to_meters) {
+                 bool origin_centred, double scale_to_meters, int jobs, bool resume, bool plot) {
+  const std::vector<std::string> inputs = clip_inputs(clip);
   BvhTrackCommand cmd;
-  cmd.bvh = clip_path(clip);
   if (out) cmd.out_dir = out->string();
   cmd.duration = duration;
   cmd.loop = loop;
@@ -277,6 +287,14 @@ py::object track(const py::object& clip, const std::optional<PathArg>& out,
   cmd.quiet = true;
   cmd.origin_centred = origin_centred;
   cmd.scale_to_meters = scale_to_meters;
+  if (inputs.size() != 1 || resume || is_batch(inputs)) {
+    if (!out)
+      throw InputError(
+          "track: several clips (a list, a folder or a glob) need out, the folder "
+          "for their results");
+    return track_batch(cmd, inputs, {jobs, resume, plot});
+  }
+  cmd.bvh = inputs[0];
   return py::cast(track_clip(cmd, out.has_value()));
 }
 
@@ -330,11 +348,13 @@ void bind_bvh(py::module_& m) {
   bind_bvh_joint(m);
   bind_bvh_clip(m);
   bind_track_result(m);
+  bind_track_batch_result(m);
   m.def("track", &track, py::arg("clip"), py::arg("out") = py::none(), py::kw_only(),
         py::arg("duration") = std::nullopt, py::arg("loop") = false, py::arg("first_frame") = 0,
         py::arg("last_frame") = -1, py::arg("map") = py::none(), py::arg("model") = py::none(),
         py::arg("engine") = "mujoco", py::arg("threads") = 0, py::arg("overrides") = py::none(),
-        py::arg("origin_centred") = false, py::arg("scale_to_meters") = 0.0,
+        py::arg("origin_centred") = false, py::arg("scale_to_meters") = 0.0, py::arg("jobs") = 0,
+        py::arg("resume") = false, py::arg("plot") = true,
         R"(`stance bvh track CLIP --out OUT`: the clip (a path or a BvhClip) tracked in free mode
 with the sampling planner, on a character built from the clip or, with model (and optionally a
 joint map), on that model. The same files and metrics as the command; out=None keeps none of
@@ -344,7 +364,13 @@ of the motion), last_frame (-1: the last), map, model, engine, threads (planner 
 every core; results do not depend on it), overrides ({"controllers.0.kp": 300}: --set on the
 generated scenario), origin_centred, scale_to_meters (m per file unit; 0: detected). Bad input
 raises stance.InputError before anything is written; DivergenceError as the command's exit 3.
-The GIL is released while C++ runs.)");
+The GIL is released while C++ runs.
+
+Many clips (a list, a folder or a glob, as the command takes them) make a batch into out: a
+folder per clip, results.csv and results.md, and with plot results.png (gnuplot; a warning
+without it); jobs clips at once (0: as many as threads), resume keeps out's finished clips.
+Returns a TrackBatchResult: the results table (rows) and its summary. A clip that cannot be read
+is a row with its error.)");
 }
 
 }  // namespace stance::python

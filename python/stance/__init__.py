@@ -56,6 +56,8 @@ Motion capture::
     clip.standing_height_m, clip.mean_speed_mps, clip.facing_deg, clip.warnings
     r = stance.track("walk.bvh", out="out/walk")   # `stance bvh track`: a TrackResult
     r.success, r.g_mpjpe_m, r.metrics["mocap"], r.log["root_x"], r.tracked.frames
+    b = stance.track(["a.bvh", "clips/"], out="out/batch")   # many: a TrackBatchResult
+    b.rows["g_mpjpe_m"], b.summary["success_rate"]           # results.csv as numpy, its summary
 
 Every path argument takes a str or a pathlib.Path. The package ships type stubs
 (__init__.pyi, py.typed) for editors and type checkers.
@@ -78,6 +80,7 @@ from ._stance import (  # noqa: F401
     RunResult,
     Simulation,
     SimulationState,
+    TrackBatchResult,
     TrackResult,
     design_lqr,
     find_lqr_setpoint,
@@ -103,10 +106,10 @@ except ImportError:
 __all__ = [
     "BvhClip", "BvhJoint", "Controller", "ControlOutput", "Contact", "DareResult",
     "DivergenceError", "Engine", "EngineState", "InputError", "JointInfo", "JointType",
-    "LqrDesign", "LqrSetPoint", "RunResult", "Simulation", "SimulationState", "TrackResult",
-    "design_lqr", "find_lqr_setpoint", "linearize_fd", "linearize_fd_forces", "load", "lqr_gain",
-    "lqr_state_cost", "plot_force_offset", "read_bvh", "robustness", "run", "solve_dare",
-    "spectral_radius", "sweep", "track", "tune", "view",
+    "LqrDesign", "LqrSetPoint", "RunResult", "Simulation", "SimulationState", "TrackBatchResult",
+    "TrackResult", "design_lqr", "find_lqr_setpoint", "linearize_fd", "linearize_fd_forces",
+    "load", "lqr_gain", "lqr_state_cost", "plot_force_offset", "read_bvh", "robustness", "run",
+    "solve_dare", "spectral_radius", "sweep", "track", "tune", "view",
 ]
 
 

@@ -2,7 +2,8 @@
 # Python-side helpers), for editors and type checkers. python/tests/test_stubs.py checks that
 # they name every public name and member the module has, and nothing it lacks.
 import os
-from typing import Any, Dict, List, Mapping, Optional, Protocol, Sequence, Tuple, Union
+from typing import (Any, Dict, List, Mapping, Optional, Protocol, Sequence, Tuple, Union,
+                    overload)
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -443,8 +444,37 @@ class TrackResult:
     def out(self) -> Optional[str]: ...
 
 def read_bvh(path: Path) -> BvhClip: ...
-def track(clip: Union[Path, BvhClip], out: Optional[Path] = None, *,
+class TrackBatchResult:
+    @property
+    def rows(self) -> Dict[str, Any]: ...
+    @property
+    def summary(self) -> Dict[str, Any]: ...
+    @property
+    def clips(self) -> List[str]: ...
+    @property
+    def resumed(self) -> int: ...
+    @property
+    def out(self) -> str: ...
+
+@overload
+def track(clip: BvhClip, out: Optional[Path] = None, *, duration: Optional[float] = None,
+          loop: bool = False, first_frame: int = 0, last_frame: int = -1,
+          map: Optional[Path] = None, model: Optional[Path] = None, engine: str = "mujoco",
+          threads: int = 0, overrides: Overrides = None, origin_centred: bool = False,
+          scale_to_meters: float = 0.0, jobs: int = 0, resume: bool = False,
+          plot: bool = True) -> TrackResult: ...
+@overload
+def track(clip: Sequence[Union[Path, BvhClip]], out: Optional[Path] = None, *,
           duration: Optional[float] = None, loop: bool = False, first_frame: int = 0,
           last_frame: int = -1, map: Optional[Path] = None, model: Optional[Path] = None,
           engine: str = "mujoco", threads: int = 0, overrides: Overrides = None,
-          origin_centred: bool = False, scale_to_meters: float = 0.0) -> TrackResult: ...
+          origin_centred: bool = False, scale_to_meters: float = 0.0, jobs: int = 0,
+          resume: bool = False, plot: bool = True) -> TrackBatchResult: ...
+# one file: a TrackResult; a folder or a glob: a TrackBatchResult
+@overload
+def track(clip: Path, out: Optional[Path] = None, *, duration: Optional[float] = None,
+          loop: bool = False, first_frame: int = 0, last_frame: int = -1,
+          map: Optional[Path] = None, model: Optional[Path] = None, engine: str = "mujoco",
+          threads: int = 0, overrides: Overrides = None, origin_centred: bool = False,
+          scale_to_meters: float = 0.0, jobs: int = 0, resume: bool = False,
+          plot: bool = True) -> Union[TrackResult, TrackBatchResult]: ...

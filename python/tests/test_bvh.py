@@ -1,5 +1,6 @@
 # stance.read_bvh and stance.track against the CLI: the exact parse of a small file, the measures
 # `stance bvh info` prints, and `stance bvh track`'s files and metrics for the same clip
+import csv
 import json
 import math
 import pathlib
@@ -184,3 +185,29 @@ def test_a_missing_or_bad_clip_raises_input_error_and_writes_nothing(tmp, walk_b
     assert not (tmp / "o").exists()
     with pytest.raises(TypeError, match="expected a path"):
         stance.track(42)
+
+
+def test_track_of_many_clips_gives_the_cli_batch_table(tmp, walk_bvh):
+    run_bvh = tmp / "run.bvh"
+    assert run_cli("bvh", "synth-run", run_bvh)[0] == 0
+    rc, out, err = run_cli("bvh", "track", walk_bvh, run_bvh, "--out", tmp / "cli",
+                           "--duration", 0.3, "--no-plot", "--quiet")
+    assert rc == 0, err
+    b = stance.track([walk_bvh, str(run_bvh)], out=tmp / "py", duration=0.3, plot=False)
+    assert b.out == str(tmp / "py") and b.clips == [str(walk_bvh), str(run_bvh)]
+    assert b.summary["line"] in out
+    assert (b.summary["clips"], b.summary["succeeded"], b.summary["errors"]) == (2, 2, 0)
+    # results.csv's columns, the wall-clock one aside (the CSV has 9 digits)
+    with open(tmp / "cli" / "results.csv") as f:
+        rows = list(csv.DictReader(f))
+    assert list(b.rows) == list(rows[0])
+    assert b.rows["clip"] == [r["clip"] for r in rows] == ["walk", "run"]
+    assert b.rows["error"] == ["", ""]
+    for name in set(rows[0]) - {"clip", "error", "compute_s_per_sim_s"}:
+        np.testing.assert_allclose(b.rows[name], [float(r[name]) for r in rows], rtol=1e-8,
+                                   err_msg=name)
+    for clip in ("walk", "run"):
+        assert without_wall_clock(read_summary(tmp / "py" / clip)) == \
+            without_wall_clock(read_summary(tmp / "cli" / clip))
+    with pytest.raises(stance.InputError, match="need out"):
+        stance.track([walk_bvh, run_bvh])
