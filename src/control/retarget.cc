@@ -14,6 +14,17 @@
 
 namespace stance {
 
+// a model body, with what probing found out about it and its joints
+struct RetargetModelBody {
+  int parent = -1;
+  std::vector<RetargetJoint> joints;
+  Eigen::Quaterniond rest_world = Eigen::Quaterniond::Identity();
+  Eigen::Quaterniond rest_local = Eigen::Quaterniond::Identity();  // B: parent^T * body at rest
+  Eigen::Vector3d rest_pos = Eigen::Vector3d::Zero();
+  int mapped = -1;  // index into the map's entries
+  int depth = 0;
+};
+
 namespace {
 
 constexpr double kProbeAngle = 0.5;  // rad; rotations about one axis are probed exactly
@@ -21,16 +32,6 @@ constexpr int kMaxHinges = 6;        // per body
 
 // one joint of a model body, with what probing found out about it
 using JointSlot = RetargetJoint;
-
-struct ModelBody {
-  int parent = -1;
-  std::vector<JointSlot> joints;
-  Eigen::Quaterniond rest_world = Eigen::Quaterniond::Identity();
-  Eigen::Quaterniond rest_local = Eigen::Quaterniond::Identity();  // B: parent^T * body at rest
-  Eigen::Vector3d rest_pos = Eigen::Vector3d::Zero();
-  int mapped = -1;  // index into the map's entries
-  int depth = 0;
-};
 
 // the rotation part of a ball or free joint in the engine's coordinates: MuJoCo stores a
 // quaternion (w x y z; free: after the position), DART a rotation vector (free: before it)
@@ -127,8 +128,8 @@ Eigen::Vector3d probed_axis(const Eigen::Quaterniond& before, const Eigen::Quate
 }
 
 // the model's bodies (parents, depths) and the joints on each
-std::vector<ModelBody> read_model_tree(const Engine& probe) {
-  std::vector<ModelBody> model(probe.nbody());
+std::vector<RetargetModelBody> read_model_tree(const Engine& probe) {
+  std::vector<RetargetModelBody> model(probe.nbody());
   for (int b = 0; b < probe.nbody(); ++b) model[b].parent = probe.body_parent(b);
   for (int j = 0; j < probe.njoint(); ++j) {
     const JointInfo& info = probe.joint(j);
@@ -157,7 +158,7 @@ void set_pose(Engine& probe, const Eigen::VectorXd& q) {
 // Fills the bodies' rest poses (in q0, the zero pose it writes), hinge axes and ball/free joint
 // frames by setting one coordinate at a time and reading the body's rotation; returns the
 // inverse of the free joint's translation map (coordinates -> world displacement).
-Eigen::Matrix3d probe_kinematics(Engine& probe, std::vector<ModelBody>& model,
+Eigen::Matrix3d probe_kinematics(Engine& probe, std::vector<RetargetModelBody>& model,
                                  const std::vector<int>& order, int free_body,
                                  const JointSlot& free_joint, Eigen::VectorXd& q0) {
   // the zero pose: hinges and slides 0, balls and the free joint at identity, root at origin
@@ -222,19 +223,52 @@ Eigen::Matrix3d probe_kinematics(Engine& probe, std::vector<ModelBody>& model,
 
 }  // namespace
 
-RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const JointMap& map,
-                                   Engine& probe, double duration_s,
-                                   const std::vector<int>& level_feet) {
-  const MotionSkeleton& sk = reference.skeleton();
-  const int nb = probe.nbody();
-  nq_ = probe.nq();
-  nv_ = probe.nv();
-  frame_time_ = reference.frame_time_s();
+// the constructor's working state: the probed model, the map resolved onto it, the clip's
+// rest skeleton and the work vectors of the per-frame fit
+struct RetargetedMotion::Build {
+  Build(const ReferenceMotion& r, const JointMap& m, Engine& p)
+      : reference(r), map(m), probe(p), sk(r.skeleton()) {}
 
-  std::vector<ModelBody> model = read_model_tree(probe);
+  const ReferenceMotion& reference;
+  const JointMap& map;
+  Engine& probe;
+  const MotionSkeleton& sk;
+  std::vector<RetargetModelBody> model;
+  std::vector<int> segment_body;  // per clip segment: its model body, or -1
+  int root_body = -1;             // the clip root's body
+  int free_body = -1;             // the character's floating body, at the top of its tree
+  const JointSlot* free_joint = nullptr;
+  std::vector<int> order;  // the character's bodies, parents first
+  Eigen::VectorXd q0, qp;  // the zero pose; scratch
+  Eigen::Matrix3d translation_inverse;
+  ReferencePose pose;
+  std::vector<Eigen::Vector3d> clip_pos, clip_rest;
+  std::vector<Eigen::Quaterniond> clip_rot;
+  Eigen::Quaterniond to_model = Eigen::Quaterniond::Identity();  // clip world -> model world
+  Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  std::vector<Eigen::Quaterniond> bone_fix;  // per mapped body
+  std::vector<Eigen::Vector3d> bone;         // per engine body, in its frame (zero: none)
+  // levelled feet: mapped indices, how planted per frame and foot, each sole's up (body frame)
+  std::vector<int> flat;
+  std::vector<double> planted;
+  std::vector<Eigen::Vector3d> sole_up_local;
+  // the per-frame fit: wanted and reached world rotations per engine body, the pose so far
+  std::vector<Eigen::Quaterniond> want, actual;
+  std::vector<double> angles = std::vector<double>(8);
+  Eigen::VectorXd q;
+  double fit_sum = 0;
+  long fit_count = 0;
 
+  void pose_at(const Eigen::VectorXd& x) { set_pose(probe, x); }
+};
+
+void RetargetedMotion::map_bodies(Build& b) {
+  const MotionSkeleton& sk = b.sk;
+  const JointMap& map = b.map;
+  Engine& probe = b.probe;
+  std::vector<RetargetModelBody>& model = b.model;
   // the map's entries, resolved
-  std::vector<int> segment_body(sk.segment_count(), -1);
+  b.segment_body.assign(sk.segment_count(), -1);
   for (size_t e = 0; e < map.joints.size(); ++e) {
     const JointMapEntry& entry = map.joints[e];
     auto where = [&](const std::string& msg) { return located(map.source, entry.line, msg); };
@@ -251,72 +285,76 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
       throw InputError(where(fmt::format("the clip has no joint '{}'{}", entry.segment,
                                          did_you_mean(entry.segment, names))));
     }
-    int b = probe.body_index(entry.body);
-    if (b < 0)
+    int body = probe.body_index(entry.body);
+    if (body < 0)
       throw InputError(where(fmt::format("the model has no body '{}'{}", entry.body,
                                          did_you_mean(entry.body, probe.body_names()))));
-    if (segment_body[s] >= 0)
+    if (b.segment_body[s] >= 0)
       throw InputError(where(fmt::format("clip joint '{}' is mapped twice", entry.segment)));
-    if (model[b].mapped >= 0)
+    if (model[body].mapped >= 0)
       throw InputError(where(fmt::format("model body '{}' is mapped twice", entry.body)));
-    segment_body[s] = b;
-    model[b].mapped = static_cast<int>(e);
-    bodies_.push_back({b, s, entry.segment + " -> " + entry.body});
+    b.segment_body[s] = body;
+    model[body].mapped = static_cast<int>(e);
+    bodies_.push_back({body, s, entry.segment + " -> " + entry.body});
   }
-  const int root_body = segment_body[0];
-  if (root_body < 0)
+  b.root_body = b.segment_body[0];
+  if (b.root_body < 0)
     throw InputError(located(
         map.source, 1,
         fmt::format("joints: map the clip's root '{}' onto a model body", sk.segments[0].name)));
+}
+
+void RetargetedMotion::find_character(Build& b) {
+  const JointMap& map = b.map;
+  Engine& probe = b.probe;
+  std::vector<RetargetModelBody>& model = b.model;
   // the character's free joint: at the top of the root body's tree
-  int free_body = root_body;
-  while (model[free_body].parent >= 0) free_body = model[free_body].parent;
-  const JointSlot* free_joint = nullptr;
-  for (const JointSlot& j : model[free_body].joints)
-    if (j.type == JointType::kFree) free_joint = &j;
-  if (!free_joint)
+  b.free_body = b.root_body;
+  while (model[b.free_body].parent >= 0) b.free_body = model[b.free_body].parent;
+  for (const JointSlot& j : model[b.free_body].joints)
+    if (j.type == JointType::kFree) b.free_joint = &j;
+  if (!b.free_joint)
     throw InputError(located(map.source, 1,
                              fmt::format("the model's body '{}' has no free joint: retargeting "
                                          "needs a floating base",
-                                         probe.body_name(free_body))));
-  std::vector<int> order;  // the character's bodies, parents first
-  for (int b = 0; b < nb; ++b) {
-    int top = b;
+                                         probe.body_name(b.free_body))));
+  for (int body = 0; body < probe.nbody(); ++body) {
+    int top = body;
     while (model[top].parent >= 0) top = model[top].parent;
-    if (top == free_body) order.push_back(b);
+    if (top == b.free_body) b.order.push_back(body);
   }
-  std::stable_sort(order.begin(), order.end(),
-                   [&](int a, int b) { return model[a].depth < model[b].depth; });
+  std::stable_sort(b.order.begin(), b.order.end(),
+                   [&](int x, int y) { return model[x].depth < model[y].depth; });
   for (const RetargetBody& rb : bodies_)
-    if (std::find(order.begin(), order.end(), rb.body) == order.end())
-      throw InputError(located(map.source, map.joints[model[rb.body].mapped].line,
-                               fmt::format("body '{}' is not part of the character under '{}'",
-                                           probe.body_name(rb.body), probe.body_name(free_body))));
+    if (std::find(b.order.begin(), b.order.end(), rb.body) == b.order.end())
+      throw InputError(
+          located(map.source, map.joints[model[rb.body].mapped].line,
+                  fmt::format("body '{}' is not part of the character under '{}'",
+                              probe.body_name(rb.body), probe.body_name(b.free_body))));
+}
 
-  // rest poses, hinge axes, joint frames and the root's translation, probed
-  Eigen::VectorXd q0(nq_), qp(nq_);
-  const Eigen::Matrix3d translation_inverse =
-      probe_kinematics(probe, model, order, free_body, *free_joint, q0);
-  auto pose_at = [&](const Eigen::VectorXd& q) { set_pose(probe, q); };
-
+void RetargetedMotion::fit_rest_skeletons(Build& b) {
+  const JointMap& map = b.map;
+  const std::vector<RetargetModelBody>& model = b.model;
   // clip -> model world: the up axis, then a yaw and scale from the rest skeletons
   const Eigen::Quaterniond up_turn =
       map.model_up == 'y'
           ? Eigen::Quaterniond(Eigen::AngleAxisd(-std::numbers::pi / 2, Eigen::Vector3d::UnitX()))
           : Eigen::Quaterniond::Identity();
-  const Eigen::Vector3d up = up_turn * Eigen::Vector3d::UnitZ();
-  ReferencePose pose = reference.make_pose();
-  for (auto& r : pose.rotations) r.setIdentity();
-  pose.root_position.setZero();
-  std::vector<Eigen::Vector3d> clip_pos(sk.segment_count());
-  std::vector<Eigen::Quaterniond> clip_rot(sk.segment_count());
-  reference.forward_kinematics(pose, clip_pos, clip_rot);
-  const std::vector<Eigen::Vector3d> clip_rest = clip_pos;
+  b.up = up_turn * Eigen::Vector3d::UnitZ();
+  b.pose = b.reference.make_pose();
+  for (auto& r : b.pose.rotations) r.setIdentity();
+  b.pose.root_position.setZero();
+  b.clip_pos.resize(b.sk.segment_count());
+  b.clip_rot.resize(b.sk.segment_count());
+  b.reference.forward_kinematics(b.pose, b.clip_pos, b.clip_rot);
+  b.clip_rest = b.clip_pos;
+  const std::vector<Eigen::Vector3d>& clip_rest = b.clip_rest;
   double cross = 0, dot = 0, clip_lo = 1e300, clip_hi = -1e300, model_lo = 1e300, model_hi = -1e300;
   for (const RetargetBody& rb : bodies_) {
     Eigen::Vector3d rs = clip_rest[rb.segment] - clip_rest[0];
     Eigen::Vector3d rm =
-        up_turn.conjugate() * (model[rb.body].rest_pos - model[root_body].rest_pos);
+        up_turn.conjugate() * (model[rb.body].rest_pos - model[b.root_body].rest_pos);
     cross += rs.x() * rm.y() - rs.y() * rm.x();
     dot += rs.x() * rm.x() + rs.y() * rm.y();
     clip_lo = std::min(clip_lo, rs.z());
@@ -330,12 +368,16 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
                      : (clip_hi - clip_lo > 1e-6 && model_hi - model_lo > 1e-6
                             ? (model_hi - model_lo) / (clip_hi - clip_lo)
                             : 1.0);
-  const Eigen::Quaterniond to_model =
-      up_turn * Eigen::Quaterniond(Eigen::AngleAxisd(yaw_, Eigen::Vector3d::UnitZ()));
+  b.to_model = up_turn * Eigen::Quaterniond(Eigen::AngleAxisd(yaw_, Eigen::Vector3d::UnitZ()));
+}
 
+void RetargetedMotion::fix_bones(Build& b) {
+  const MotionSkeleton& sk = b.sk;
+  const std::vector<RetargetModelBody>& model = b.model;
+  const std::vector<Eigen::Vector3d>& clip_rest = b.clip_rest;
   // rest-pose correction: a body with one mapped child bone turns onto the clip's bone
   const int nmapped = static_cast<int>(bodies_.size());
-  std::vector<Eigen::Quaterniond> bone_fix(nmapped, Eigen::Quaterniond::Identity());
+  b.bone_fix.assign(nmapped, Eigen::Quaterniond::Identity());
   std::vector<int> mapped_of_segment(sk.segment_count(), -1);
   for (int i = 0; i < nmapped; ++i) mapped_of_segment[bodies_[i].segment] = i;
   std::vector<std::vector<int>> mapped_children(nmapped);
@@ -346,270 +388,314 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
         break;
       }
   // each mapped body's bone towards its one mapped child, in its own frame (the hinge fit aims it)
-  std::vector<Eigen::Vector3d> bone(nb, Eigen::Vector3d::Zero());
+  b.bone.assign(b.probe.nbody(), Eigen::Vector3d::Zero());
   for (int i = 0; i < nmapped; ++i) {
     if (mapped_children[i].size() != 1) continue;
-    const int b = bodies_[i].body;
-    Eigen::Vector3d d = model[bodies_[mapped_children[i][0]].body].rest_pos - model[b].rest_pos;
-    if (d.norm() > 1e-6) bone[b] = model[b].rest_world.conjugate() * d.normalized();
+    const int body = bodies_[i].body;
+    Eigen::Vector3d d = model[bodies_[mapped_children[i][0]].body].rest_pos - model[body].rest_pos;
+    if (d.norm() > 1e-6) b.bone[body] = model[body].rest_world.conjugate() * d.normalized();
   }
-  if (map.align_bones) {
-    for (int i = 0; i < nmapped; ++i) {
-      const RetargetBody& rb = bodies_[i];
-      if (rb.segment == 0) continue;
-      // the bone: towards the one mapped child (leaves keep their rest offset: a one-hinge
-      // elbow cannot take a forearm turned onto the clip's)
-      Eigen::Vector3d bone_clip = Eigen::Vector3d::Zero(), bone_model = Eigen::Vector3d::Zero();
-      if (mapped_children[i].size() == 1) {
-        const RetargetBody& child = bodies_[mapped_children[i][0]];
-        bone_clip = clip_rest[child.segment] - clip_rest[rb.segment];
-        bone_model = model[child.body].rest_pos - model[rb.body].rest_pos;
-      }
-      bone_model = to_model.conjugate() * bone_model;
-      if (bone_clip.norm() > 1e-6 && bone_model.norm() > 1e-6)
-        bone_fix[i] = Eigen::Quaterniond::FromTwoVectors(bone_model, bone_clip);
+  if (!b.map.align_bones) return;
+  for (int i = 0; i < nmapped; ++i) {
+    const RetargetBody& rb = bodies_[i];
+    if (rb.segment == 0) continue;
+    // the bone: towards the one mapped child (leaves keep their rest offset: a one-hinge
+    // elbow cannot take a forearm turned onto the clip's)
+    Eigen::Vector3d bone_clip = Eigen::Vector3d::Zero(), bone_model = Eigen::Vector3d::Zero();
+    if (mapped_children[i].size() == 1) {
+      const RetargetBody& child = bodies_[mapped_children[i][0]];
+      bone_clip = clip_rest[child.segment] - clip_rest[rb.segment];
+      bone_model = model[child.body].rest_pos - model[rb.body].rest_pos;
     }
+    bone_model = b.to_model.conjugate() * bone_model;
+    if (bone_clip.norm() > 1e-6 && bone_model.norm() > 1e-6)
+      b.bone_fix[i] = Eigen::Quaterniond::FromTwoVectors(bone_model, bone_clip);
   }
+}
 
-  to_model_ = to_model;
-  up_ = up;
-  bone_fix_ = bone_fix;
+void RetargetedMotion::keep_rest(Build& b, double duration_s) {
+  to_model_ = b.to_model;
+  up_ = b.up;
+  bone_fix_ = b.bone_fix;
   for (const RetargetBody& rb : bodies_) {
-    rest_world_.push_back(model[rb.body].rest_world);
-    rest_local_.push_back(model[rb.body].rest_local);
-    joints_.push_back(model[rb.body].joints);
-    bone_.push_back(bone[rb.body]);
+    const RetargetModelBody& mb = b.model[rb.body];
+    rest_world_.push_back(mb.rest_world);
+    rest_local_.push_back(mb.rest_local);
+    joints_.push_back(mb.joints);
+    bone_.push_back(b.bone[rb.body]);
     int hinges = 0;
-    for (const JointSlot& j : model[rb.body].joints) hinges += j.type == JointType::kHinge;
+    for (const JointSlot& j : mb.joints) hinges += j.type == JointType::kHinge;
     if (hinges > kMaxHinges)
       throw InputError(fmt::format("retarget: body '{}' has {} hinges (at most {})",
-                                   probe.body_name(rb.body), hinges, kMaxHinges));
+                                   b.probe.body_name(rb.body), hinges, kMaxHinges));
   }
 
   // the table: one pose per clip frame over the run (at least one pass)
-  int frames = reference.frame_count();
-  if (reference.loops() && duration_s > 0) {
+  int frames = b.reference.frame_count();
+  if (b.reference.loops() && duration_s > 0) {
     if (duration_s > 3600)
       throw InputError("retarget: runs longer than an hour are not tabulated; shorten duration");
     frames = std::max(frames, static_cast<int>(std::ceil(duration_s / frame_time_)) + 2);
   }
   frames_ = std::max(frames, 2);
+  const size_t nmapped = bodies_.size();
   q_.resize(static_cast<size_t>(frames_) * nq_);
   local_.resize(static_cast<size_t>(frames_) * nmapped);
   world_.resize(static_cast<size_t>(frames_) * nmapped);
   position_.resize(static_cast<size_t>(frames_) * nmapped);
-  std::vector<Eigen::Quaterniond> want(nb), actual(nb);
+  b.want.resize(b.probe.nbody());
+  b.actual.resize(b.probe.nbody());
   body_fit_error_.assign(nmapped, 0.0);
   body_aim_error_.assign(nmapped, 0.0);
-  std::vector<double> angles(8);
-  Eigen::VectorXd q = q0;
-  double fit_sum = 0;
-  long fit_count = 0;
+  b.q = b.q0;
+}
+
+void RetargetedMotion::find_planted_feet(Build& b, const std::vector<int>& level_feet) {
+  const int nmapped = static_cast<int>(bodies_.size());
   // planted feet: per frame and levelled body, how planted the clip has it (1 within 2 cm of
   // its planted height and below 0.3 m/s; 0 from 5 cm above it or 0.8 m/s), on the model's scale
-  std::vector<int> flat;  // mapped indices
+  std::vector<int>& flat = b.flat;  // mapped indices
   for (int i = 0; i < nmapped; ++i)
     if (std::find(level_feet.begin(), level_feet.end(), bodies_[i].segment) != level_feet.end())
       flat.push_back(i);
-  std::vector<double> planted(static_cast<size_t>(frames_) * flat.size(), 0.0);
+  std::vector<double>& planted = b.planted;
+  planted.assign(static_cast<size_t>(frames_) * flat.size(), 0.0);
   // each levelled body's sole up, in its own frame: its up at the model's rest
-  std::vector<Eigen::Vector3d> sole_up_local(flat.size());
+  b.sole_up_local.resize(flat.size());
   for (size_t k = 0; k < flat.size(); ++k)
-    sole_up_local[k] = model[bodies_[flat[k]].body].rest_world.conjugate() * up;
-  if (!flat.empty()) {
-    std::vector<Eigen::Vector3d> seen(static_cast<size_t>(frames_) * flat.size());
-    std::vector<Eigen::Quaterniond> seen_rot(seen.size());
-    for (int f = 0; f < frames_; ++f) {
-      reference.sample(f * frame_time_, pose);
-      reference.forward_kinematics(pose, clip_pos, clip_rot);
-      for (size_t k = 0; k < flat.size(); ++k) {
-        const RetargetBody& rb = bodies_[flat[k]];
-        seen[f * flat.size() + k] = scale_ * clip_pos[rb.segment];
-        seen_rot[f * flat.size() + k] = to_model * clip_rot[rb.segment] * bone_fix[flat[k]] *
-                                        to_model.conjugate() * model[rb.body].rest_world;
-      }
-    }
-    // a body's planted height: the 20th percentile of its heights (a walk stands more than a
-    // fifth of the time; the lowest frame alone is a capture's noise or a crouch)
-    std::vector<double> lowest(flat.size()), heights(frames_);
-    for (size_t k = 0; k < flat.size(); ++k) {
-      for (int f = 0; f < frames_; ++f) heights[f] = seen[f * flat.size() + k].z();
-      std::nth_element(heights.begin(), heights.begin() + frames_ / 5, heights.end());
-      lowest[k] = heights[frames_ / 5];
-    }
-    for (int f = 0; f < frames_; ++f)
-      for (size_t k = 0; k < flat.size(); ++k) {
-        const int g = f + 1 < frames_ ? f + 1 : f - 1;
-        const Eigen::Vector3d d = seen[g * flat.size() + k] - seen[f * flat.size() + k];
-        const double speed = std::hypot(d.x(), d.y()) / frame_time_;
-        const double rise = seen[f * flat.size() + k].z() - lowest[k];
-        planted[f * flat.size() + k] =
-            std::clamp((0.05 - rise) / 0.03, 0.0, 1.0) * std::clamp((0.8 - speed) / 0.5, 0.0, 1.0);
-      }
-    // where the model's rest pose does not stand (a character built from a clip whose rest pose
-    // lies along X, as Bandai Namco's), the rest up is no sole's: the world's up as the planted
-    // body sees it, on the mean, is, where that is more than 45 deg from the rest up. A standing
-    // rest pose's feet (pitched at most some 30 deg while they stand) keep their rest up.
-    for (size_t k = 0; k < flat.size(); ++k) {
-      Eigen::Vector3d seen_up = Eigen::Vector3d::Zero();
-      for (int f = 0; f < frames_; ++f)
-        seen_up += planted[f * flat.size() + k] * (seen_rot[f * flat.size() + k].conjugate() * up);
-      if (seen_up.norm() > 1e-9 &&
-          seen_up.normalized().dot(sole_up_local[k]) < std::cos(std::numbers::pi / 4))
-        sole_up_local[k] = seen_up.normalized();
-    }
-  }
+    b.sole_up_local[k] = b.model[bodies_[flat[k]].body].rest_world.conjugate() * b.up;
+  if (flat.empty()) return;
+  std::vector<Eigen::Vector3d> seen(static_cast<size_t>(frames_) * flat.size());
+  std::vector<Eigen::Quaterniond> seen_rot(seen.size());
   for (int f = 0; f < frames_; ++f) {
-    reference.sample(f * frame_time_, pose);
-    reference.forward_kinematics(pose, clip_pos, clip_rot);
-    for (int i = 0; i < nmapped; ++i) {
-      const RetargetBody& rb = bodies_[i];
-      want[rb.body] = to_model * clip_rot[rb.segment] * bone_fix[i] * to_model.conjugate() *
-                      model[rb.body].rest_world;
-    }
-    // a planted foot turned level: its up at the model's rest onto the world's up
+    b.reference.sample(f * frame_time_, b.pose);
+    b.reference.forward_kinematics(b.pose, b.clip_pos, b.clip_rot);
     for (size_t k = 0; k < flat.size(); ++k) {
-      const double w = planted[f * flat.size() + k];
-      if (w <= 0) continue;
-      const int b = bodies_[flat[k]].body;
-      const Eigen::Vector3d sole_up = want[b] * sole_up_local[k];
-      const Eigen::Quaterniond level = Eigen::Quaterniond::FromTwoVectors(sole_up, up) * want[b];
-      want[b] = want[b].slerp(w, level).normalized();
-    }
-    for (int b : order) {
-      const ModelBody& mb = model[b];
-      const Eigen::Quaterniond parent =
-          mb.parent >= 0 ? actual[mb.parent] : Eigen::Quaterniond::Identity();
-      const Eigen::Quaterniond base = parent * mb.rest_local;
-      Eigen::Quaterniond target = base;  // unmapped: joints at zero
-      if (mb.mapped >= 0) {
-        target = want[b];
-      } else if (b == free_body) {
-        // an unmapped floating body follows the mapped body nearest below it, rigidly
-        for (int i = 0; i < nmapped; ++i) {
-          int a = bodies_[i].body;
-          while (a >= 0 && a != b) a = model[a].parent;
-          if (a == b) {
-            target = want[bodies_[i].body] * model[bodies_[i].body].rest_world.conjugate() *
-                     mb.rest_world;
-            break;
-          }
-        }
-      }
-      const Eigen::Quaterniond local_want = (base.conjugate() * target).normalized();
-      Eigen::Quaterniond local = Eigen::Quaterniond::Identity();
-      int hinges = 0;
-      for (const JointSlot& j : mb.joints) hinges += j.type == JointType::kHinge;
-      if (hinges > 0) {
-        if (static_cast<int>(angles.size()) < hinges) angles.resize(hinges);
-        int k = 0;
-        for (const JointSlot& j : mb.joints)
-          if (j.type == JointType::kHinge) angles[k++] = f > 0 ? q[j.qpos] : 0.0;
-        if (mb.mapped >= 0) solve_hinges(mb.joints, local_want, bone[b], angles.data(), hinges);
-        k = 0;
-        for (const JointSlot& j : mb.joints)
-          if (j.type == JointType::kHinge) q[j.qpos] = angles[k++];
-        local = hinge_rotation(mb.joints, angles.data());
-      }
-      for (const JointSlot& j : mb.joints)
-        if (j.type == JointType::kBall || j.type == JointType::kFree) {
-          Eigen::Matrix3d t = j.frame;
-          Eigen::Quaterniond joint_q(t.transpose() * local_want.toRotationMatrix() * t);
-          set_joint_rotation(j, joint_q.normalized(), q);
-          local = local_want;
-        }
-      actual[b] = (base * local).normalized();
-      if (mb.mapped >= 0) {
-        double e = geodesic_angle(actual[b], want[b]) * kRadToDeg;
-        body_fit_error_[mb.mapped] += e / frames_;
-        if (bone[b].squaredNorm() > 0) {
-          const Eigen::Vector3d got = actual[b] * bone[b], wanted = want[b] * bone[b];
-          body_aim_error_[mb.mapped] +=
-              std::atan2(got.cross(wanted).norm(), got.dot(wanted)) * kRadToDeg / frames_;
-        }
-        fit_sum += e;
-        ++fit_count;
-        fit_error_max_ = std::max(fit_error_max_, e);
-      }
-    }
-    // the root: put the clip root's body where the scaled clip root is
-    set_joint_translation(*free_joint, Eigen::Vector3d::Zero(), q);
-    pose_at(q);
-    const Eigen::Vector3d at = probe.body_pose(root_body).pos;
-    const Eigen::Vector3d goal =
-        to_model * (scale_ * pose.root_position) + up * map.height_offset_m.value_or(0.0);
-    set_joint_translation(*free_joint, translation_inverse * (goal - at), q);
-    Eigen::Map<Eigen::VectorXd>(q_.data() + static_cast<size_t>(f) * nq_, nq_) = q;
-    for (int i = 0; i < nmapped; ++i) {
-      const int b = bodies_[i].body;
-      const int p = model[b].parent;
-      local_[static_cast<size_t>(f) * nmapped + i] =
-          p >= 0 ? (actual[p].conjugate() * actual[b]).normalized() : actual[b];
-      world_[static_cast<size_t>(f) * nmapped + i] = actual[b];
-      position_[static_cast<size_t>(f) * nmapped + i] = probe.body_pose(b).pos + (goal - at);
+      const RetargetBody& rb = bodies_[flat[k]];
+      seen[f * flat.size() + k] = scale_ * b.clip_pos[rb.segment];
+      seen_rot[f * flat.size() + k] = b.to_model * b.clip_rot[rb.segment] * b.bone_fix[flat[k]] *
+                                      b.to_model.conjugate() * b.model[rb.body].rest_world;
     }
   }
-  fit_error_mean_ = fit_count ? fit_sum / fit_count : 0;
+  // a body's planted height: the 20th percentile of its heights (a walk stands more than a
+  // fifth of the time; the lowest frame alone is a capture's noise or a crouch)
+  std::vector<double> lowest(flat.size()), heights(frames_);
+  for (size_t k = 0; k < flat.size(); ++k) {
+    for (int f = 0; f < frames_; ++f) heights[f] = seen[f * flat.size() + k].z();
+    std::nth_element(heights.begin(), heights.begin() + frames_ / 5, heights.end());
+    lowest[k] = heights[frames_ / 5];
+  }
+  for (int f = 0; f < frames_; ++f)
+    for (size_t k = 0; k < flat.size(); ++k) {
+      const int g = f + 1 < frames_ ? f + 1 : f - 1;
+      const Eigen::Vector3d d = seen[g * flat.size() + k] - seen[f * flat.size() + k];
+      const double speed = std::hypot(d.x(), d.y()) / frame_time_;
+      const double rise = seen[f * flat.size() + k].z() - lowest[k];
+      planted[f * flat.size() + k] =
+          std::clamp((0.05 - rise) / 0.03, 0.0, 1.0) * std::clamp((0.8 - speed) / 0.5, 0.0, 1.0);
+    }
+  // where the model's rest pose does not stand (a character built from a clip whose rest pose
+  // lies along X, as Bandai Namco's), the rest up is no sole's: the world's up as the planted
+  // body sees it, on the mean, is, where that is more than 45 deg from the rest up. A standing
+  // rest pose's feet (pitched at most some 30 deg while they stand) keep their rest up.
+  for (size_t k = 0; k < flat.size(); ++k) {
+    Eigen::Vector3d seen_up = Eigen::Vector3d::Zero();
+    for (int f = 0; f < frames_; ++f)
+      seen_up += planted[f * flat.size() + k] * (seen_rot[f * flat.size() + k].conjugate() * b.up);
+    if (seen_up.norm() > 1e-9 &&
+        seen_up.normalized().dot(b.sole_up_local[k]) < std::cos(std::numbers::pi / 4))
+      b.sole_up_local[k] = seen_up.normalized();
+  }
+}
 
+void RetargetedMotion::solve_body(Build& b, int body, int f) {
+  const RetargetModelBody& mb = b.model[body];
+  const int nmapped = static_cast<int>(bodies_.size());
+  const Eigen::Quaterniond parent =
+      mb.parent >= 0 ? b.actual[mb.parent] : Eigen::Quaterniond::Identity();
+  const Eigen::Quaterniond base = parent * mb.rest_local;
+  Eigen::Quaterniond target = base;  // unmapped: joints at zero
+  if (mb.mapped >= 0) {
+    target = b.want[body];
+  } else if (body == b.free_body) {
+    // an unmapped floating body follows the mapped body nearest below it, rigidly
+    for (int i = 0; i < nmapped; ++i) {
+      int a = bodies_[i].body;
+      while (a >= 0 && a != body) a = b.model[a].parent;
+      if (a == body) {
+        target = b.want[bodies_[i].body] * b.model[bodies_[i].body].rest_world.conjugate() *
+                 mb.rest_world;
+        break;
+      }
+    }
+  }
+  const Eigen::Quaterniond local_want = (base.conjugate() * target).normalized();
+  Eigen::Quaterniond local = Eigen::Quaterniond::Identity();
+  int hinges = 0;
+  for (const JointSlot& j : mb.joints) hinges += j.type == JointType::kHinge;
+  if (hinges > 0) {
+    std::vector<double>& angles = b.angles;
+    if (static_cast<int>(angles.size()) < hinges) angles.resize(hinges);
+    int k = 0;
+    for (const JointSlot& j : mb.joints)
+      if (j.type == JointType::kHinge) angles[k++] = f > 0 ? b.q[j.qpos] : 0.0;
+    if (mb.mapped >= 0) solve_hinges(mb.joints, local_want, b.bone[body], angles.data(), hinges);
+    k = 0;
+    for (const JointSlot& j : mb.joints)
+      if (j.type == JointType::kHinge) b.q[j.qpos] = angles[k++];
+    local = hinge_rotation(mb.joints, angles.data());
+  }
+  for (const JointSlot& j : mb.joints)
+    if (j.type == JointType::kBall || j.type == JointType::kFree) {
+      Eigen::Matrix3d t = j.frame;
+      Eigen::Quaterniond joint_q(t.transpose() * local_want.toRotationMatrix() * t);
+      set_joint_rotation(j, joint_q.normalized(), b.q);
+      local = local_want;
+    }
+  b.actual[body] = (base * local).normalized();
+  if (mb.mapped < 0) return;
+  const Eigen::Quaterniond& actual = b.actual[body];
+  const Eigen::Quaterniond& want = b.want[body];
+  double e = geodesic_angle(actual, want) * kRadToDeg;
+  body_fit_error_[mb.mapped] += e / frames_;
+  if (b.bone[body].squaredNorm() > 0) {
+    const Eigen::Vector3d got = actual * b.bone[body], wanted = want * b.bone[body];
+    body_aim_error_[mb.mapped] +=
+        std::atan2(got.cross(wanted).norm(), got.dot(wanted)) * kRadToDeg / frames_;
+  }
+  b.fit_sum += e;
+  ++b.fit_count;
+  fit_error_max_ = std::max(fit_error_max_, e);
+}
+
+void RetargetedMotion::fit_frame(Build& b, int f) {
+  const int nmapped = static_cast<int>(bodies_.size());
+  const std::vector<int>& flat = b.flat;
+  b.reference.sample(f * frame_time_, b.pose);
+  b.reference.forward_kinematics(b.pose, b.clip_pos, b.clip_rot);
+  for (int i = 0; i < nmapped; ++i) {
+    const RetargetBody& rb = bodies_[i];
+    b.want[rb.body] = b.to_model * b.clip_rot[rb.segment] * b.bone_fix[i] * b.to_model.conjugate() *
+                      b.model[rb.body].rest_world;
+  }
+  // a planted foot turned level: its up at the model's rest onto the world's up
+  for (size_t k = 0; k < flat.size(); ++k) {
+    const double w = b.planted[f * flat.size() + k];
+    if (w <= 0) continue;
+    const int body = bodies_[flat[k]].body;
+    const Eigen::Vector3d sole_up = b.want[body] * b.sole_up_local[k];
+    const Eigen::Quaterniond level =
+        Eigen::Quaterniond::FromTwoVectors(sole_up, b.up) * b.want[body];
+    b.want[body] = b.want[body].slerp(w, level).normalized();
+  }
+  for (int body : b.order) solve_body(b, body, f);
+  // the root: put the clip root's body where the scaled clip root is
+  set_joint_translation(*b.free_joint, Eigen::Vector3d::Zero(), b.q);
+  b.pose_at(b.q);
+  const Eigen::Vector3d at = b.probe.body_pose(b.root_body).pos;
+  const Eigen::Vector3d goal =
+      b.to_model * (scale_ * b.pose.root_position) + b.up * b.map.height_offset_m.value_or(0.0);
+  set_joint_translation(*b.free_joint, b.translation_inverse * (goal - at), b.q);
+  Eigen::Map<Eigen::VectorXd>(q_.data() + static_cast<size_t>(f) * nq_, nq_) = b.q;
+  for (int i = 0; i < nmapped; ++i) {
+    const int body = bodies_[i].body;
+    const int p = b.model[body].parent;
+    local_[static_cast<size_t>(f) * nmapped + i] =
+        p >= 0 ? (b.actual[p].conjugate() * b.actual[body]).normalized() : b.actual[body];
+    world_[static_cast<size_t>(f) * nmapped + i] = b.actual[body];
+    position_[static_cast<size_t>(f) * nmapped + i] = b.probe.body_pose(body).pos + (goal - at);
+  }
+}
+
+void RetargetedMotion::put_on_ground(Build& b) {
   // ground: shift the whole table along up until the first frame's lowest point just touches
   // the floor (bisection on contacts with static geometry after one step from rest). A model
   // with no floor within 8 m keeps the clip's height.
-  height_offset_ = map.height_offset_m.value_or(0.0);
-  if (!map.height_offset_m) {
-    auto shifted = [&](double shift, Eigen::VectorXd& out) {
-      out = frame(0);
-      set_joint_translation(
-          *free_joint, frame_translation(*free_joint, out) + translation_inverse * (shift * up),
-          out);
-    };
-    auto touches = [&](double shift) {
-      shifted(shift, qp);
-      pose_at(qp);
-      probe.step();
-      for (int i = 0; i < probe.num_contacts(); ++i) {
-        Contact c = probe.contact(i);
-        if (c.body1 < 0 || c.body2 < 0) return true;
-      }
-      return false;
-    };
-    double lo = -0.25, hi = 0.25;  // m: touching at lo, clear at hi (widened as needed)
-    while (!touches(lo) && lo > -8) lo *= 2;
-    while (touches(hi) && hi < 8) hi *= 2;
-    if (touches(lo) && !touches(hi)) {
-      for (int i = 0; i < 40; ++i) {
-        double mid = 0.5 * (lo + hi);
-        (touches(mid) ? lo : hi) = mid;
-      }
-      height_offset_ = hi;
-      for (int f = 0; f < frames_; ++f) {
-        Eigen::Map<Eigen::VectorXd> qf(q_.data() + static_cast<size_t>(f) * nq_, nq_);
-        set_joint_translation(
-            *free_joint, frame_translation(*free_joint, qf) + translation_inverse * (hi * up), qf);
-        for (int i = 0; i < nmapped; ++i)
-          position_[static_cast<size_t>(f) * nmapped + i] += hi * up;
-      }
+  height_offset_ = b.map.height_offset_m.value_or(0.0);
+  if (b.map.height_offset_m) return;
+  const JointSlot& free_joint = *b.free_joint;
+  const Eigen::Vector3d up = b.up;
+  Engine& probe = b.probe;
+  auto shifted = [&](double shift, Eigen::VectorXd& out) {
+    out = frame(0);
+    set_joint_translation(
+        free_joint, frame_translation(free_joint, out) + b.translation_inverse * (shift * up), out);
+  };
+  auto touches = [&](double shift) {
+    shifted(shift, b.qp);
+    b.pose_at(b.qp);
+    probe.step();
+    for (int i = 0; i < probe.num_contacts(); ++i) {
+      Contact c = probe.contact(i);
+      if (c.body1 < 0 || c.body2 < 0) return true;
     }
+    return false;
+  };
+  double lo = -0.25, hi = 0.25;  // m: touching at lo, clear at hi (widened as needed)
+  while (!touches(lo) && lo > -8) lo *= 2;
+  while (touches(hi) && hi < 8) hi *= 2;
+  if (!touches(lo) || touches(hi)) return;
+  for (int i = 0; i < 40; ++i) {
+    double mid = 0.5 * (lo + hi);
+    (touches(mid) ? lo : hi) = mid;
   }
+  height_offset_ = hi;
+  const int nmapped = static_cast<int>(bodies_.size());
+  for (int f = 0; f < frames_; ++f) {
+    Eigen::Map<Eigen::VectorXd> qf(q_.data() + static_cast<size_t>(f) * nq_, nq_);
+    set_joint_translation(
+        free_joint, frame_translation(free_joint, qf) + b.translation_inverse * (hi * up), qf);
+    for (int i = 0; i < nmapped; ++i) position_[static_cast<size_t>(f) * nmapped + i] += hi * up;
+  }
+}
 
+void RetargetedMotion::finish(Build& b) {
+  Engine& probe = b.probe;
   // velocities: central differences in the engine's own tangent space
   v_.resize(static_cast<size_t>(frames_) * nv_);
   Eigen::VectorXd dv(nv_);
   for (int f = 0; f < frames_; ++f) {
-    int a = std::max(f - 1, 0), b = std::min(f + 1, frames_ - 1);
-    probe.difference_positions(frame(a), frame(b), dv);
+    int a = std::max(f - 1, 0), c = std::min(f + 1, frames_ - 1);
+    probe.difference_positions(frame(a), frame(c), dv);
     Eigen::Map<Eigen::VectorXd>(v_.data() + static_cast<size_t>(f) * nv_, nv_) =
-        dv / ((b - a) * frame_time_);
+        dv / ((c - a) * frame_time_);
   }
   // ends of the character: mapped bodies with no mapped body below them
+  const int nmapped = static_cast<int>(bodies_.size());
   for (int i = 0; i < nmapped; ++i) {
     bool leaf = true;
     for (int k = 0; k < nmapped; ++k)
-      for (int a = model[bodies_[k].body].parent; a >= 0 && k != i; a = model[a].parent)
+      for (int a = b.model[bodies_[k].body].parent; a >= 0 && k != i; a = b.model[a].parent)
         if (a == bodies_[i].body) leaf = false;
     if (leaf) end_bodies_.push_back(i);
   }
   probe.set_positions(frame(0));
   probe.forward();
+}
+
+RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const JointMap& map,
+                                   Engine& probe, double duration_s,
+                                   const std::vector<int>& level_feet) {
+  nq_ = probe.nq();
+  nv_ = probe.nv();
+  frame_time_ = reference.frame_time_s();
+  Build b(reference, map, probe);
+  b.model = read_model_tree(probe);
+  map_bodies(b);
+  find_character(b);
+  // rest poses, hinge axes, joint frames and the root's translation, probed
+  b.q0.resize(nq_);
+  b.qp.resize(nq_);
+  b.translation_inverse =
+      probe_kinematics(probe, b.model, b.order, b.free_body, *b.free_joint, b.q0);
+  fit_rest_skeletons(b);
+  fix_bones(b);
+  keep_rest(b, duration_s);
+  find_planted_feet(b, level_feet);
+  for (int f = 0; f < frames_; ++f) fit_frame(b, f);
+  fit_error_mean_ = b.fit_count ? b.fit_sum / b.fit_count : 0;
+  put_on_ground(b);
+  finish(b);
 }
 
 Eigen::Quaterniond RetargetedMotion::clip_world_rotation(

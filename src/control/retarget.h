@@ -134,6 +134,19 @@ class RetargetedMotion {
   std::vector<Eigen::Quaterniond> world_;  // frame-major, per mapped body
 
   void locate(double t, int& frame, double& alpha) const;
+
+  // the constructor's steps, in order, over its working state (retarget.cc)
+  struct Build;
+  void map_bodies(Build& b);          // the map's entries onto bodies_
+  void find_character(Build& b);      // the free joint and the bodies under it, parents first
+  void fit_rest_skeletons(Build& b);  // clip world -> model world: up, yaw_, scale_
+  void fix_bones(Build& b);           // rest-pose corrections and bone directions
+  void keep_rest(Build& b, double duration_s);  // the rest members; the table's size
+  void find_planted_feet(Build& b, const std::vector<int>& level_feet);
+  void fit_frame(Build& b, int f);             // table frame f
+  void solve_body(Build& b, int body, int f);  // one body's joints in frame f
+  void put_on_ground(Build& b);                // height_offset_
+  void finish(Build& b);                       // velocities, end bodies, the probe at frame 0
 };
 
 }  // namespace stance
