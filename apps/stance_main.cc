@@ -373,6 +373,7 @@ int main(int argc, char** argv) {
     if (stance::is_track_batch(track_batch.inputs) || track_batch.resume) {
       track_batch.track = track;
       track_batch.record = track_record;
+      track_batch.view = track_view;
       return stance::bvh_track_batch_command(track_batch);
     }
     track.bvh = track_batch.inputs.front();
