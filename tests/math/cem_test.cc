@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <numeric>
 #include <random>
 #include <stdexcept>
 
@@ -213,6 +215,55 @@ TEST(Cem, SampleWithItsOwnStreamLeavesTheStateAlone) {
   EXPECT_EQ(x, y);  // one stream, one point, whatever came before
   EXPECT_EQ(cem.state().mean, before.mean);
   EXPECT_EQ(cem.state().spread, before.spread);
+}
+
+// the settings the sampling planner's CEM needs (planner.cc: one stream per candidate, clamped
+// at once, elites of the last round, deviation over n, floor 0.1 noise) reproduce its draw and
+// refit bit for bit; written out here as the planner has them, dims x knots column-major
+TEST(Cem, PlannerSettingsReproduceThePlannersCem) {
+  const int dims = 5, knots = 4, n = dims * knots, k = 16, elites = 4;
+  const double noise = 1.3, limit = 3;
+  Eigen::MatrixXd mean = Eigen::MatrixXd::Constant(dims, knots, 0.2);
+  Eigen::MatrixXd deviation = Eigen::MatrixXd::Constant(dims, knots, noise);
+  CemParams p;
+  p.elites = elites;
+  p.initial_spread = noise;
+  p.min_spread = 0.1 * noise;
+  p.spread_memory = 0;
+  p.sample_deviation = false;
+  p.redraws = 0;
+  p.elites_from_all = false;
+  Cem cem(Eigen::VectorXd::Zero(n), Eigen::VectorXd::Constant(n, -limit),
+          Eigen::VectorXd::Constant(n, limit), p);
+  cem.restart(Eigen::Map<const Eigen::VectorXd>(mean.data(), n));
+  for (int round = 0; round < 5; ++round) {
+    std::vector<Eigen::MatrixXd> planned(k, Eigen::MatrixXd(dims, knots));
+    Eigen::MatrixXd points(n, k);
+    std::vector<double> cost(k);
+    for (int i = 0; i < k; ++i) {
+      std::mt19937_64 rng(1000 * round + i), rng_cem(1000 * round + i);
+      std::normal_distribution<double> normal(0.0, 1.0), normal_cem(0.0, 1.0);
+      for (int j = 0; j < knots; ++j)
+        for (int d = 0; d < dims; ++d)
+          planned[i](d, j) = std::clamp(mean(d, j) + deviation(d, j) * normal(rng), -limit, limit);
+      cem.sample(rng_cem, normal_cem, points.col(i));
+      ASSERT_EQ(Eigen::VectorXd(Eigen::Map<Eigen::VectorXd>(planned[i].data(), n)), points.col(i));
+      cost[i] = (planned[i].array() - 0.7).square().sum();
+    }
+    std::vector<int> order(k);
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](int a, int b) { return cost[a] < cost[b]; });
+    mean.setZero();
+    for (int e = 0; e < elites; ++e) mean += planned[order[e]];
+    mean /= elites;
+    deviation.setZero();
+    for (int e = 0; e < elites; ++e) deviation += (planned[order[e]] - mean).cwiseAbs2();
+    deviation = (deviation / elites).cwiseSqrt().cwiseMax(0.1 * noise);
+    cem.tell(points, cost);
+    EXPECT_EQ(Eigen::VectorXd(Eigen::Map<Eigen::VectorXd>(mean.data(), n)), cem.state().mean);
+    EXPECT_EQ(Eigen::VectorXd(Eigen::Map<Eigen::VectorXd>(deviation.data(), n)),
+              cem.state().spread);
+  }
 }
 
 TEST(Cem, RejectsBadArguments) {
