@@ -703,25 +703,25 @@ TrackBatchResult run_track_batch(const BvhTrackBatchCommand& cmd,
       fs::remove(out / f, ec);
     write_file_atomically(out / kBatchFile, dump_json({{"options", fingerprint}}, 2) + "\n");
   }
-  std::vector<int> todo;
-  for (int i = 0; i < n; ++i)
-    if (!result.rows[i].done) todo.push_back(i);
   // the threads of this process: `jobs` clips at once, the rest to their planners
+  const int todo = n - result.resumed;
   const int threads = cmd.track.threads > 0
                           ? cmd.track.threads
                           : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
-  const int jobs =
-      std::clamp(cmd.jobs > 0 ? cmd.jobs : threads, 1, std::max(1, static_cast<int>(todo.size())));
+  const int jobs = std::clamp(cmd.jobs > 0 ? cmd.jobs : threads, 1, std::max(1, todo));
   const int planner_threads = std::max(1, threads / jobs);
 
   std::mutex done_mutex;
   int done = result.resumed;
   bool cut = false;  // a clip of this process was interrupted or not started
   if (on_start) on_start(done, n);
+  // every clip is handed out, kept ones too: the rank given a clip decides from what it read of
+  // the folder before any clip of this batch ran, so one that another rank has just finished is
+  // never taken for an earlier run's
   ranks.distributed_for(
-      static_cast<int>(todo.size()), jobs,
-      [&](int k) {
-        const int i = todo[k];
+      n, jobs,
+      [&](int i) {
+        if (result.rows[i].done) return;  // kept from the earlier run
         TrackRow row;
         if (!interrupt || !interrupt->load())
           row = track_one_clip(cmd, result.clips[i], planner_threads, interrupt);
@@ -732,13 +732,12 @@ TrackBatchResult run_track_batch(const BvhTrackBatchCommand& cmd,
         ++done;
         if (on_done) on_done(result.rows[i], done, n);
       },
-      [&](int k) {
-        const TrackRow& row = result.rows[todo[k]];
+      [&](int i) {
+        const TrackRow& row = result.rows[i];
         return row.done ? dump_json(track_row_to_json(row)) : std::string();
       },
-      [&](int k, const std::string& text) {
+      [&](int i, const std::string& text) {
         if (text.empty()) return;
-        const int i = todo[k];
         result.rows[i] = track_row_from_json(nlohmann::json::parse(text));
         result.rows[i].clip = result.clips[i].name;
       });

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # mpirun -np 2 spreads `stance bvh track FOLDER` over two ranks: every clip's folder and
-# results.csv (its wall-clock column aside) equal a threaded single-process batch's.
+# results.csv (its wall-clock column aside) equal a threaded single-process batch's, and after
+# --resume too.
 set -u
 # shellcheck source=tests/cli/lib.sh
 . "$(dirname "$0")/../cli/lib.sh"
@@ -35,6 +36,20 @@ for clip in run walk walk_again; do
     cmp -s "$tmp/threads/$clip/$f" "$tmp/mpi/$clip/$f" || fail "$clip/$f differs under mpirun"
   done
 done
+
+# --resume under mpirun: a deleted clip is tracked again, the same
+rm -rf "$tmp/mpi/walk"
+"${mpi[@]}" "$stance" bvh track "$tmp/clips" --out "$tmp/mpi" "${opts[@]}" --resume \
+  >"$tmp/mpi.txt" 2>&1 || fail "mpirun --resume: $(tail -3 "$tmp/mpi.txt")"
+grep -q "(2 kept from the earlier run)" "$tmp/mpi.txt" || fail "resume: $(cat "$tmp/mpi.txt")"
+for f in track.yaml character.xml log.csv tracked.bvh; do
+  cmp -s "$tmp/threads/walk/$f" "$tmp/mpi/walk/$f" || fail "walk/$f differs after --resume"
+done
+python3 - "$tmp/threads/results.csv" "$tmp/mpi/results.csv" <<'PY' || fail "resumed results.csv"
+import csv, sys
+a, b = ([row[:-1] for row in csv.reader(open(p))] for p in sys.argv[1:3])
+assert a == b, (a, b)
+PY
 
 [ "$fails" -eq 0 ] && echo "mpi track_batch: all checks passed"
 exit $((fails > 0))
