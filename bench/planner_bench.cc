@@ -31,7 +31,7 @@ std::string scenario(const char* name) {
 }
 
 void measure_planner(benchmark::State& state, const std::string& file,
-                     const std::vector<std::string>& sets) {
+                     const std::vector<std::string>& sets, double sim_length_s = 0.2) {
   using namespace stance;
   const int threads = static_cast<int>(state.range(0));
   std::vector<std::string> all = sets;
@@ -49,11 +49,11 @@ void measure_planner(benchmark::State& state, const std::string& file,
     track.clear();
     state.ResumeTiming();
     const auto t0 = bench::Clock::now();
-    const double t_end = sim.time() + 0.2;
+    const double t_end = sim.time() + sim_length_s;
     while (sim.time() < t_end - 1e-9 && sim.step())
       sim.engine().save_state(track.emplace_back());  // ~1 us against a planning step's ms
     wall_s += bench::seconds_since(t0);
-    sim_s += 0.2;
+    sim_s += sim_length_s;
     plan_s += sim.planner()->plan_seconds();
     rollout_steps += sim.planner()->rollout_steps();
   }
@@ -123,29 +123,47 @@ void BM_PlannerMocap(benchmark::State& state) {
 }
 BENCHMARK(BM_PlannerMocap)->Arg(1)->Arg(2)->Unit(benchmark::kSecond)->UseRealTime()->Iterations(2);
 
-// the synthetic run (a flight phase) as `stance bvh track` runs it: its character and scenario
-void BM_PlannerMocapRun(benchmark::State& state) {
+// a synthetic clip as `stance bvh track` runs it (its character and scenario), for 1 s: long
+// enough that the planner's budget on track and in trouble both show, not only the start
+std::string bvh_track_scenario(const std::string& name, const stance::SyntheticWalkOptions& o) {
   using namespace stance;
-  static const std::string file = [] {
-    const auto dir = std::filesystem::temp_directory_path() / "stance_bench_run";
-    std::filesystem::create_directories(dir);
-    const std::string bvh = (dir / "synthetic_run.bvh").string();
-    write_bvh(make_synthetic_walk_clip(synthetic_run_options()), bvh);
-    BvhTrackCommand cmd;
-    cmd.bvh = bvh;
-    cmd.loop = true;
-    cmd.duration = 3.0;
-    cmd.out_dir = (dir / "track").string();
-    return write_bvh_track_scenario(cmd);
-  }();
-  measure_planner(state, file, {});
-  state.SetLabel("bvh track of the synthetic run, MuJoCo");
+  const auto dir = std::filesystem::temp_directory_path() / ("stance_bench_" + name);
+  std::filesystem::create_directories(dir);
+  const std::string bvh = (dir / (name + ".bvh")).string();
+  write_bvh(make_synthetic_walk_clip(o), bvh);
+  BvhTrackCommand cmd;
+  cmd.bvh = bvh;
+  cmd.loop = true;
+  cmd.duration = 3.0;
+  cmd.out_dir = (dir / "track").string();
+  return write_bvh_track_scenario(cmd);
+}
+
+void BM_PlannerTrackedWalk(benchmark::State& state) {
+  static const std::string file =
+      bvh_track_scenario("synthetic_walk", stance::SyntheticWalkOptions{});
+  measure_planner(state, file, {}, 1.0);
+  state.SetLabel("bvh track of the synthetic walk, MuJoCo, 1 s");
+}
+BENCHMARK(BM_PlannerTrackedWalk)
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kSecond)
+    ->UseRealTime()
+    ->Iterations(1);
+
+// the synthetic run: a flight phase
+void BM_PlannerMocapRun(benchmark::State& state) {
+  static const std::string file =
+      bvh_track_scenario("synthetic_run", stance::synthetic_run_options());
+  measure_planner(state, file, {}, 1.0);
+  state.SetLabel("bvh track of the synthetic run, MuJoCo, 1 s");
 }
 BENCHMARK(BM_PlannerMocapRun)
     ->Arg(1)
     ->Arg(2)
     ->Unit(benchmark::kSecond)
     ->UseRealTime()
-    ->Iterations(2);
+    ->Iterations(1);
 
 }  // namespace

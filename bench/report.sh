@@ -190,8 +190,9 @@ def planner(prefix):
             found[key.split("/")[1]] = key
     return found
 for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 ms step, 2 ms rollouts"),
-                      ("BM_PlannerMocap", "planner tracking the synthetic walk, MuJoCo"),
-                      ("BM_PlannerMocapRun", "planner tracking the synthetic run, MuJoCo")):
+                      ("BM_PlannerMocap", "mocap_track_planner, the synthetic walk, MuJoCo, 0.2 s"),
+                      ("BM_PlannerTrackedWalk", "bvh track of the synthetic walk, MuJoCo, 1 s"),
+                      ("BM_PlannerMocapRun", "bvh track of the synthetic run, MuJoCo, 1 s")):
     p = planner(prefix)
     if "1" in p and "2" in p:
         one, two = p["1"], p["2"]

@@ -291,9 +291,28 @@ double Planner::balance_error(const Simulation& sim) const {
   return tracking_error(sim, e) ? e.body_m : capture_offset(sim).norm();
 }
 
-double Planner::rollout(Simulation& sim, Candidate& c) const {
+double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
   const PlannerParams& p = model_->params;
   const PlannerCostWeights& w = p.cost;
+  // the knots' terms are known before the rollout; with the stage costs (>= 0) averaged over at
+  // most `most_samples`, they bound the final cost from below: once that bound passes `bound`
+  // (a cost already rolled out), the candidate cannot win and is stopped
+  const double size = static_cast<double>(std::max<Eigen::Index>(1, c.knots.size()));
+  const double effort = c.knots.squaredNorm() / size;
+  // what holding a correction costs (effort) apart from what changing it costs (change): a
+  // stance the planner stepped into needs its offsets kept, not pulled back to none
+  const double change = w.change > 0 ? (c.knots - nominal_).squaredNorm() / size : 0.0;
+  const double knots_cost = w.effort * effort + w.change * change;
+  // at most one cost sample a step (a margin of two for the clock's rounding)
+  const double sample_dt = std::max(p.cost_interval_s, sim.engine().timestep());
+  const double most_samples = std::floor(p.horizon_s / sample_dt) + 2;
+  c.stopped = false;
+  if (knots_cost > bound) {
+    c.stopped = true;
+    c.steps = 0;
+    c.path.clear();
+    return knots_cost;
+  }
   sim.restore(*start_);
   for (size_t i = 0; i < horizons_.size(); ++i)
     sim.controllers()[i]->use_reference_horizon(sim.controller_state(i), horizons_[i].get());
@@ -346,13 +365,13 @@ double Planner::rollout(Simulation& sim, Candidate& c) const {
     ++samples;
     if (model_->root_body >= 0 && c.path.size() < c.path.capacity())
       c.path.push_back(e.body_pose(model_->root_body).pos);
+    const double lower = knots_cost + stage / most_samples;
+    if (lower > bound) {
+      c.stopped = true;
+      return lower;
+    }
   }
-  const double size = static_cast<double>(std::max<Eigen::Index>(1, c.knots.size()));
-  const double effort = c.knots.squaredNorm() / size;
-  // what holding a correction costs (effort) apart from what changing it costs (change): a
-  // stance the planner stepped into needs its offsets kept, not pulled back to none
-  const double change = w.change > 0 ? (c.knots - nominal_).squaredNorm() / size : 0.0;
-  return (samples ? stage / samples : 0.0) + penalty + w.effort * effort + w.change * change;
+  return (samples ? stage / samples : 0.0) + penalty + knots_cost;
 }
 
 void Planner::sample_horizons() {
@@ -397,7 +416,13 @@ void Planner::plan(Simulation& sim) {
   sim.save(*start_);
   sample_horizons();
 
-  const int k = p.samples;
+  // tracking on track, fewer candidates: the shifted plan mostly holds there
+  TrackingError error;
+  const bool steady =
+      p.steady_error_m > 0 && tracking_error(sim, error) && error.body_m < p.steady_error_m;
+  const int k = steady ? std::clamp(p.steady_samples, 1, p.samples) : p.samples;
+  if (steady) ++plan.steady;
+  order_.resize(k);
   const int rounds = p.method == "cem" ? p.iterations : 1;
   mean_ = nominal_;
   deviation_.setConstant(dims, n, p.noise);
@@ -419,20 +444,31 @@ void Planner::plan(Simulation& sim) {
     // after round 0, candidate 0 is best_, whose cost is known (rollouts are deterministic)
     const int first = round == 0 ? 0 : 1;
     if (first == 1) candidates_[0].cost = best_cost;
-    pool_->run(k - first, [&](int worker, int task) {
-      Candidate& c = candidates_[first + task];
-      c.cost = rollout(*workers_[worker], c);
-    });
-    for (int i = first; i < k; ++i) rollout_steps_ += candidates_[i].steps;
-    // the cheapest, the lower index on a tie: the same for any thread count
-    for (int i = first; i < k; ++i)
-      if (candidates_[i].cost < best_cost) {
-        best_cost = candidates_[i].cost;
-        best_ = candidates_[i].knots;
-        best_round = round;
-        best_index = i;
-        best_path_.assign(candidates_[i].path.begin(), candidates_[i].path.end());
+    // batches of 2, 4, 8, ... candidates: a batch's rollouts stop once they cannot beat the
+    // cheapest of the batches before it. The batches are fixed, so the bound (and the plan) is
+    // the same for any thread count. CEM refits to every cost: it rolls all out in one batch.
+    const bool stop_early = p.method == "sampling";
+    for (int begin = first, size = 2; begin < k; size *= 2) {
+      const int end = stop_early ? std::min(k, begin + size) : k;
+      const double bound = stop_early ? best_cost : std::numeric_limits<double>::infinity();
+      pool_->run(end - begin, [&](int worker, int task) {
+        Candidate& c = candidates_[begin + task];
+        c.cost = rollout(*workers_[worker], c, bound);
+      });
+      // the cheapest, the lower index on a tie: the same for any thread count
+      for (int i = begin; i < end; ++i) {
+        rollout_steps_ += candidates_[i].steps;
+        plan.rollout_steps += candidates_[i].steps;
+        if (candidates_[i].cost < best_cost) {
+          best_cost = candidates_[i].cost;
+          best_ = candidates_[i].knots;
+          best_round = round;
+          best_index = i;
+          best_path_.assign(candidates_[i].path.begin(), candidates_[i].path.end());
+        }
       }
+      begin = end;
+    }
   };
   for (int round = 0; round < rounds; ++round) {
     run_round(round);

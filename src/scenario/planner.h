@@ -40,14 +40,16 @@ struct PlanDimension {
 // the correction a run applies: a piecewise-linear spline in units of each dimension's scale.
 // Part of the run's state (it is saved, restored and written to the state file with it).
 struct CorrectionPlan {
-  Eigen::MatrixXd knots;  // dims x knots; empty: no correction
-  double t0 = 0;          // s, time of the first knot
-  double knot_dt = 0;     // s between knots
-  double next_plan = 0;   // s, when the planner plans again
-  long plans = 0;         // planning steps so far: the noise streams' index
-  double cost_sum = 0;    // the chosen candidates' costs, summed (a metric)
-  long kept_nominal = 0;  // planning steps whose choice was the shifted plan or no correction
-  long rescues = 0;       // planning steps that ran rescue rounds
+  Eigen::MatrixXd knots;   // dims x knots; empty: no correction
+  double t0 = 0;           // s, time of the first knot
+  double knot_dt = 0;      // s between knots
+  double next_plan = 0;    // s, when the planner plans again
+  long plans = 0;          // planning steps so far: the noise streams' index
+  double cost_sum = 0;     // the chosen candidates' costs, summed (a metric)
+  long kept_nominal = 0;   // planning steps whose choice was the shifted plan or no correction
+  long rescues = 0;        // planning steps that ran rescue rounds
+  long steady = 0;         // planning steps on track (with steady_samples candidates)
+  long rollout_steps = 0;  // model steps the rollouts took (the planner's compute)
 
   // the correction at time t in plan units (dim knots.rows()); beyond the last knot it holds
   void evaluate(double t, Eigen::Ref<Eigen::VectorXd> out) const;
@@ -55,6 +57,7 @@ struct CorrectionPlan {
   template <class A>
   void serialize(A& a) {
     a(knots), a(t0), a(knot_dt), a(next_plan), a(plans), a(cost_sum), a(kept_nominal), a(rescues);
+    a(steady), a(rollout_steps);
   }
 };
 
@@ -116,11 +119,14 @@ class Planner {
     Eigen::MatrixXd knots;
     double cost = 0;
     long steps = 0;
+    bool stopped = false;  // stopped early: `cost` is a lower bound above the best's
     std::vector<Eigen::Vector3d> path;
   };
   void draw(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& deviation, long plan, int round,
             int index, Eigen::MatrixXd& knots) const;
-  double rollout(Simulation& sim, Candidate& c) const;
+  // the candidate's cost from start_; stopped early (at a lower bound of it) once it exceeds
+  // `bound`
+  double rollout(Simulation& sim, Candidate& c, double bound) const;
   // the controllers' references over the horizon from the current start, once per planning step
   void sample_horizons();
   // how far off the run is: a tracked reference's mean body error, or with nothing tracked, the

@@ -53,7 +53,7 @@ struct PlannerParams {
   std::string method = "sampling";  // sampling (predictive sampling) or cem
   int iterations = 2;               // cem: refits of the mean and deviation
   int elites = 4;                   // cem: candidates the refit keeps
-  double timestep = 0;              // s, the rollouts' step; 0: the scenario's
+  double timestep = 0;              // s, the rollouts' step if coarser than the run's; 0: the run's
   double cost_interval_s = 0.01;    // s between cost samples in a rollout
   int threads = 0;                  // rollout threads; 0: every core
   // in trouble, plan harder: while the run is at least `rescue_error_m` off (a tracked
@@ -61,6 +61,10 @@ struct PlannerParams {
   // more rounds of `samples` around the best
   double rescue_error_m = 0.15;  // m
   int rescue_rounds = 2;
+  // on track, plan with fewer candidates: while a tracked reference's mean body error is under
+  // `steady_error_m` (0: never; nothing tracked: never), `steady_samples` of them
+  double steady_error_m = 0;  // m (off: measured, it cost more accuracy than it saved)
+  int steady_samples = 16;
   // where no controller offers a correction: residual torques on these dofs (empty: every dof
   // of a hinge, slide or ball joint), `residual_torque` N m per unit
   std::vector<std::string> residual_dofs;
@@ -80,13 +84,18 @@ struct PlannerParams {
     v("method", method, {.help = "sampling or cem"});
     v("iterations", iterations, {.min = 1, .max = 100, .help = "cem iterations"});
     v("elites", elites, {.min = 1, .max = 4096, .help = "cem: candidates kept per refit"});
-    v("timestep", timestep, {.unit = "s", .min = 0, .max = 1, .help = "rollout step; 0: same"});
+    v("timestep", timestep,
+      {.unit = "s", .min = 0, .max = 1, .help = "rollout step, if coarser; 0: the run's"});
     v("cost_interval_s", cost_interval_s, {.unit = "s", .min = 0, .max = 1});
     v("threads", threads, {.min = 0, .max = 1024, .help = "rollout threads; 0: every core"});
     v("rescue_error_m", rescue_error_m,
       {.unit = "m", .min = 0, .max = 10, .help = "error that brings rescue rounds; 0: never"});
     v("rescue_rounds", rescue_rounds,
       {.min = 0, .max = 100, .help = "extra rounds of samples around the best, in trouble"});
+    v("steady_error_m", steady_error_m,
+      {.unit = "m", .min = 0, .max = 10, .help = "error under which fewer samples; 0: never"});
+    v("steady_samples", steady_samples,
+      {.min = 1, .max = 4096, .help = "candidates per planning step while on track"});
     v("residual_dofs", residual_dofs, {.help = "dofs of residual torques; empty: all joints"});
     v("residual_torque", residual_torque,
       {.unit = "N m", .min = 0, .max = 1e5, .help = "residual torque per unit of noise"});

@@ -139,6 +139,72 @@ TEST(Planner, CemRoundsOnlyLowerTheChosenCost) {
   EXPECT_TRUE(lower) << "the refits never found a cheaper plan";
 }
 
+// rollouts stop once they cannot beat the cheapest known: the plans are those of rollouts run
+// in full (CEM with one round draws the same candidates and rolls every one out in full), for
+// fewer model steps
+TEST(Planner, RolloutsStoppedEarlyChooseThePlansFullRolloutsWould) {
+  auto run = [](const std::string& method) {
+    Simulation sim(
+        load_scenario(test::scenario_path("biped_stand.yaml"),
+                      {"planner.enabled=true", "planner.samples=8", "planner.horizon_s=0.2",
+                       "planner.interval_s=0.05", "planner.threads=2", "planner.method=" + method,
+                       "planner.iterations=1", "planner.rescue_error_m=0.02",
+                       "perturbations=[{body: h_spine, force: [80, 0, 0], start: 0.05, "
+                       "duration: 0.1}]"}),
+        test::quiet());
+    std::vector<double> trace;
+    Eigen::VectorXd q(sim.engine().nq());
+    for (int k = 0; k < 300; ++k) {
+      EXPECT_TRUE(sim.step());
+      sim.engine().get_positions(q);
+      trace.insert(trace.end(), q.data(), q.data() + q.size());
+    }
+    return std::make_pair(trace, sim.progress().plan);
+  };
+  const auto [stopped, stopped_plan] = run("sampling");
+  const auto [full, full_plan] = run("cem");
+  EXPECT_EQ(stopped, full);
+  EXPECT_EQ(stopped_plan.cost_sum, full_plan.cost_sum);
+  EXPECT_GT(stopped_plan.rescues, 0);
+  EXPECT_LT(stopped_plan.rollout_steps, full_plan.rollout_steps);
+}
+
+// the planner's rollouts run the model's torque limits as the run does: a pendulum held by PD
+// against gravity (9.81 N m) with a 5 N m effort limit, clamped in the rollouts' own steps
+TEST(Planner, RolloutsClampTorquesToTheLimitsAsTheRunDoes) {
+  const std::string urdf = test::write_temp_file("planner_pendulum.urdf", R"(<robot name="p">
+  <link name="base"/>
+  <link name="rod">
+    <inertial><origin xyz="0.5 0 0"/><mass value="2"/>
+      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.01" iyz="0" izz="0.01"/></inertial>
+  </link>
+  <joint name="hinge" type="revolute"><parent link="base"/><child link="rod"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="5" velocity="10"/>
+    <dynamics damping="2"/></joint>
+</robot>
+)");
+  const std::string yaml = "name: planner_pendulum\nmodel:\n  - {file: " + urdf +
+                           ", fixed_base: true}\nduration: 1\ntimestep: 0.002\n"
+                           "torque_limits: on\nfall: {enabled: false}\n"
+                           "controllers:\n  - {type: pd, kp: 200, kd: 20}\n"
+                           "planner: {enabled: true, samples: 4, horizon_s: 0.1, "
+                           "interval_s: 0.05, threads: 1, residual_torque: 50}\n";
+  Simulation run(parse_scenario(YAML::Load(yaml), "planner_pendulum.yaml", ""), test::quiet());
+  const auto& rollout_model = run.model().planner->rollout;
+  ASSERT_TRUE(rollout_model);
+  EXPECT_TRUE(rollout_model->clamp_torques);
+  EXPECT_EQ(rollout_model->force_limit, run.model().force_limit);
+  // a rollout simulation steps the rollout model: its torques never pass the limit
+  Simulation rollout(rollout_model);
+  for (int k = 0; k < 200; ++k) {
+    ASSERT_TRUE(rollout.step());
+    EXPECT_LE(std::abs(rollout.last_output().tau[0]), 5.0 + 1e-12) << k;
+  }
+  EXPECT_GT(rollout.progress().clamped_steps, 100);
+  const RunResult r = run.run();
+  EXPECT_LE(r.metrics["max_abs_torque"].get<double>(), 5.0 + 1e-12);
+}
+
 TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
   Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml"),
                                {"planner.enabled=true", "planner.samples=2",
