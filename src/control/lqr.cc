@@ -131,10 +131,7 @@ LqrDesign design_lqr(const LqrParams& params, Engine& engine) {
   const auto t0 = std::chrono::steady_clock::now();
   LqrDesign design;
   const int nv = engine.nv(), nu = engine.nu();
-  design.foot_body = engine.body_index(params.stance_foot);
-  if (design.foot_body < 0)
-    throw InputError(fmt::format("lqr: stance_foot: unknown body '{}'{}", params.stance_foot,
-                                 did_you_mean(params.stance_foot, engine.body_names())));
+  design.foot_bodies = find_stance_feet(params.stance_foot, engine);
   design.balance_dofs = match_dofs(engine, params.balance_dofs);
   design.actuator_names = engine.actuator_names();
   design.dof_names = engine.dof_names();
@@ -146,6 +143,7 @@ LqrDesign design_lqr(const LqrParams& params, Engine& engine) {
   auto t = std::chrono::steady_clock::now();
   design.setpoint = find_lqr_setpoint(params, engine);
   design.setpoint_ms = ms_since(t);
+  check_lqr_setpoint(params, engine, design.setpoint);
 
   // 2-3. Jacobians, A and B
   t = std::chrono::steady_clock::now();
@@ -191,10 +189,10 @@ void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engi
     s.u.noalias() = design.K * s.x;
     out.ctrl -= s.u;
   }
-  // the COM's horizontal distance from the stance foot
+  // the COM's horizontal distance from the stance feet's centre
   Eigen::Vector3d g = engine.gravity();
   Eigen::Vector3d up = g.norm() > 0 ? Eigen::Vector3d(-g.normalized()) : Eigen::Vector3d::UnitZ();
-  Eigen::Vector3d diff = engine.com() - engine.body_com(design.foot_body);
+  Eigen::Vector3d diff = engine.com() - feet_centre(engine, design.foot_bodies);
   s.com_foot_distance_m = (diff - up * up.dot(diff)).norm();
   s.max_com_foot_distance_m = std::max(s.max_com_foot_distance_m, s.com_foot_distance_m);
 }

@@ -1,11 +1,17 @@
-// LQR balance about a static pose (after DeepMind's humanoid LQR tutorial, seed 002):
+// LQR balance about a static pose on one foot or several (after DeepMind's humanoid LQR
+// tutorial, seed 002):
 //
 //  1. set-point: the target pose with qacc = 0, the root shifted along the up axis until inverse
-//     dynamics needs no fictitious vertical root force (bracket, then Brent's method), then
-//     ctrl0 = pinv(actuator_moment)^T qfrc0, checked by forward dynamics;
-//  2. cost: Q = blkdiag(balance_cost (J_com - J_foot)^T (J_com - J_foot) + Q_joint, 0) + eps I,
-//     R = I, with J_com the subtree-COM Jacobian of the root body and J_foot the COM Jacobian of
-//     the stance foot;
+//     dynamics needs no fictitious vertical root force (bracket, then Brent's method); when the
+//     root still needs more than root_tolerance_N (a two-foot stance whose COM is not where the
+//     flat feet's pressure puts it), the whole body is also tilted about the stance feet's centre
+//     (Gauss-Newton on height and two tilts) so that the contacts carry it. Then
+//     ctrl0 = pinv(actuator_moment)^T qfrc0, checked by forward dynamics. A set-point that leaves
+//     more than max_root_residual_N on the root, or that rests on a body that is not a stance
+//     foot, is an error naming the force and the feet;
+//  2. cost: Q = blkdiag(balance_cost (J_com - J_feet)^T (J_com - J_feet) + Q_joint, 0) + eps I,
+//     R = I, with J_com the subtree-COM Jacobian of the root body and J_feet the mean COM
+//     Jacobian of the stance feet;
 //  3. A, B by centred finite differences of one step;
 //  4. the DARE (math/dare.h) and K = (R + B'PB)^-1 B'PA;
 //  5. per step, ctrl = ctrl0 - K [q (-) q0; v], allocation-free.
@@ -27,24 +33,29 @@
 namespace stance {
 
 struct LqrParams {
-  std::string root_body = "torso";        // its subtree COM is balanced; has the free joint
-  std::string stance_foot = "left_foot";  // the COM is kept above this body's COM
-  double balance_cost = 1000;             // weight of |COM - foot| (m^-2)
-  double balance_joint_cost = 3;          // stance leg and abdomen (rad^-2)
-  double other_joint_cost = 0.3;          // all other non-root joints (rad^-2)
+  std::string root_body = "torso";  // its subtree COM is balanced; has the free joint
+  // the COM is kept above the centre of these bodies' COMs: a body name, several separated by
+  // commas, or "left", "right", "both" (the bodies named like a foot on that side)
+  std::string stance_foot = "left_foot";
+  double balance_cost = 1000;     // weight of |COM - foot| (m^-2)
+  double balance_joint_cost = 3;  // stance leg and abdomen (rad^-2)
+  double other_joint_cost = 0.3;  // all other non-root joints (rad^-2)
   // dofs with balance_joint_cost: regular expressions matched against whole dof names
   std::vector<std::string> balance_dofs = {"abdomen_.*", "left_(hip_.*|knee|ankle_.*)"};
   double velocity_cost = 1e-10;       // eps I on the whole of Q (the velocity block is 0 otherwise)
   double fd_eps = 1e-6;               // finite-difference perturbation
   double offset_tolerance_m = 1e-9;   // height offset bracket width at convergence
   double offset_first_step_m = 1e-4;  // first bracketing step, doubled until the sign changes
+  double root_tolerance_N = 0.1;      // above it after the height search: tilt the pose too
+  double max_root_residual_N = 5;     // a set-point leaving more on the root is an error
   bool feedback = true;               // false: ctrl0 only (shows that the pose is unstable)
   bool force_plot = false;  // write force_offset.png with gnuplot (force_offset.csv always)
 
   template <class V>
   void visit(V& v) {
     v("root_body", root_body, {.help = "body whose subtree COM is balanced (free joint)"});
-    v("stance_foot", stance_foot, {.help = "body the COM is kept above"});
+    v("stance_foot", stance_foot,
+      {.help = "body (or a,b or left, right, both) the COM is kept above"});
     v("balance_cost", balance_cost, {.unit = "1/m^2", .min = 0, .max = 1e9});
     v("balance_joint_cost", balance_joint_cost, {.unit = "1/rad^2", .min = 0, .max = 1e9});
     v("other_joint_cost", other_joint_cost, {.unit = "1/rad^2", .min = 0, .max = 1e9});
@@ -53,6 +64,10 @@ struct LqrParams {
     v("fd_eps", fd_eps, {.min = 1e-12, .max = 1e-2, .help = "finite-difference step"});
     v("offset_tolerance_m", offset_tolerance_m, {.unit = "m", .min = 1e-15, .max = 1e-6});
     v("offset_first_step_m", offset_first_step_m, {.unit = "m", .min = 1e-9, .max = 0.1});
+    v("root_tolerance_N", root_tolerance_N,
+      {.unit = "N", .min = 1e-9, .max = 1e3, .help = "root force left before the pose is tilted"});
+    v("max_root_residual_N", max_root_residual_N,
+      {.unit = "N", .min = 0, .max = 1e6, .help = "largest root force the set-point may leave"});
     v("feedback", feedback, {.help = "false: open loop ctrl0"});
     v("force_plot", force_plot, {.help = "write force_offset.png (needs gnuplot)"});
   }
@@ -69,6 +84,13 @@ struct LqrSetPoint {
   int offset_evaluations = 0;            // inverse-dynamics calls of the search
   double mismatch_actuated_N = 0;        // max |qfrc_actuator(ctrl0) - qfrc0| on actuated dofs
   double mismatch_root_N = 0;            // max |qfrc_actuator(ctrl0) - qfrc0| on root dofs
+  double root_residual_N = 0;            // max |qfrc0| on the root dofs (what no motor gives)
+  Eigen::Vector2d tilt_rad = Eigen::Vector2d::Zero();  // about two horizontal axes at the feet
+  int tilt_iterations = 0;                             // Gauss-Newton steps; 0: not tilted
+  // the body other than the stance feet (and their children) that carries the most contact
+  // force at the set-point, and that force's component along up; empty: none touches
+  std::string other_support_body;
+  double other_support_force_N = 0;
   // the force-versus-offset curve around the solution, for the plot
   std::vector<double> curve_offset_m, curve_force_N;
 };
@@ -76,7 +98,7 @@ struct LqrSetPoint {
 // the linear model at the set-point
 struct LqrPlant {
   Eigen::MatrixXd jac_com;   // 3 x nv: subtree COM of the root body
-  Eigen::MatrixXd jac_foot;  // 3 x nv: COM of the stance foot
+  Eigen::MatrixXd jac_foot;  // 3 x nv: mean COM of the stance feet
   Eigen::MatrixXd A;         // 2nv x 2nv: d x+/d x, x = [dq; v]
   Eigen::MatrixXd B;         // 2nv x nu: d x+/d ctrl
 };
@@ -91,14 +113,21 @@ struct LqrDesign {
   double spectral_radius = 0;                          // of A - BK
   std::vector<int> balance_dofs;                       // dofs with balance_joint_cost
   std::vector<std::string> actuator_names, dof_names;  // rows and (half the) columns of K
-  int foot_body = -1;                                  // engine body index of the stance foot
+  std::vector<int> foot_bodies;                        // engine body indices of the feet
   double setpoint_ms = 0, linearize_ms = 0, dare_ms = 0, design_ms = 0;  // wall times
 };
+
+// the stance feet that params.stance_foot names, in order, without repeats; throws InputError
+// naming the bodies it saw when a name or a side is not found
+std::vector<int> find_stance_feet(const std::string& stance_foot, const Engine& engine);
 
 // the design's steps (control/lqr_design.cc). `engine` is at the target pose; they move it and
 // restore its state on return. Throw InputError for unknown bodies, a root without a free
 // joint, no sign change of the vertical force, or a model without actuators (DART).
 LqrSetPoint find_lqr_setpoint(const LqrParams& params, Engine& engine);
+// throws InputError when the set-point leaves more than max_root_residual_N on the root or
+// rests more than that on a body that is not a stance foot, naming the force and the feet
+void check_lqr_setpoint(const LqrParams& params, const Engine& engine, const LqrSetPoint& sp);
 void linearize_lqr_plant(const LqrParams& params, Engine& engine, const LqrSetPoint& sp,
                          LqrPlant& plant);
 
@@ -145,6 +174,9 @@ struct LqrState {
         a(computes);
   }
 };
+
+// the mean of the feet's COMs (world); allocation-free
+Eigen::Vector3d feet_centre(const Engine& engine, const std::vector<int>& feet);
 
 // writes ctrl0 - K [q (-) q0; v] into out.ctrl
 void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engine& engine,

@@ -1,9 +1,12 @@
 // LQR balance on one leg: the root finder, the cost, the set-point on MuJoCo's humanoid, the
 // design's DARE and closed loop, and the scenario's own checks (stands with LQR, falls with
-// ctrl0 only, stands under seeded smoothed noise with identical summaries).
+// ctrl0 only, stands under seeded smoothed noise with identical summaries). On two feet: the
+// feet by side, the set-point's tilt, the error for a pose the named feet cannot hold, and the
+// humanoid and Atlas standing 30 s at the defaults and nearby.
 #include "control/lqr.h"
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -237,6 +240,175 @@ TEST(LqrBalance, StandsUnderSmoothedNoiseDeterministically) {
   RunResult r = run.run();
   EXPECT_NE(r.metrics.at("max_com_foot_distance_m").get<double>(),
             summaries[0]["metrics"]["max_com_foot_distance_m"].get<double>());
+}
+
+// ---- on two feet (issue 45): the humanoid's two-foot scenario and Atlas's ----
+
+LoadedScenario two_feet(const std::vector<std::string>& sets = {}) {
+  return load_scenario(test::scenario_path("lqr_two_feet.yaml"), sets);
+}
+
+std::string design_error(const std::vector<std::string>& sets) {
+  try {
+    LoadedScenario l = two_feet(sets);
+    Simulation run(l, {});
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(LqrStanceFeet, NamesSidesBothAndLists) {
+  REQUIRE_HUMANOID();
+  LoadedScenario l = one_leg();
+  auto engine = make_scenario_engine(l.scenario, "mujoco");
+  const int left = engine->body_index("left_foot"), right = engine->body_index("right_foot");
+  EXPECT_EQ(find_stance_feet("left_foot", *engine), std::vector<int>({left}));
+  EXPECT_EQ(find_stance_feet("left", *engine), std::vector<int>({left}));
+  EXPECT_EQ(find_stance_feet("right", *engine), std::vector<int>({right}));
+  EXPECT_EQ(find_stance_feet("both", *engine), std::vector<int>({left, right}));
+  EXPECT_EQ(find_stance_feet(" right_foot , left", *engine), std::vector<int>({right, left}));
+  EXPECT_EQ(find_stance_feet("left_foot,left", *engine), std::vector<int>({left}));
+  EXPECT_THROW(find_stance_feet("left_foot,", *engine), InputError);
+  EXPECT_THROW(find_stance_feet("middle", *engine), InputError);
+  // "left" and its body name design the same controller, bit for bit
+  LqrParams by_side;
+  by_side.stance_foot = "left";
+  const LqrDesign a = design_lqr(LqrParams{}, *engine), b = design_lqr(by_side, *engine);
+  EXPECT_EQ(a.K, b.K);
+  EXPECT_EQ(a.setpoint.ctrl0, b.setpoint.ctrl0);
+}
+
+// the issue's fall: a two-foot pose designed on one foot was a silent fall at 1 s; now the
+// design stops and names the force and the feet
+TEST(LqrTwoFeet, OneFootOnATwoFootPoseIsAnErrorNamingTheFeet) {
+  REQUIRE_HUMANOID();
+  const std::string one = design_error({"controllers.0.stance_foot=left_foot"});
+  EXPECT_NE(one.find("right_foot"), std::string::npos) << one;
+  EXPECT_NE(one.find("left_foot"), std::string::npos) << one;
+  EXPECT_NE(one.find("200 N"), std::string::npos) << one;
+  // without the tilt the root keeps 47 N m: an error naming it and both feet
+  const std::string flat = design_error({"controllers.0.root_tolerance_N=1000"});
+  EXPECT_NE(flat.find("47.4 N on the root"), std::string::npos) << flat;
+  EXPECT_NE(flat.find("left_foot, right_foot"), std::string::npos) << flat;
+  // and, allowed, that set-point falls: what the error prevents
+  LoadedScenario l =
+      two_feet({"controllers.0.root_tolerance_N=1000", "controllers.0.max_root_residual_N=1000"});
+  RunResult r = Simulation(l, {.duration = 5.0}).run();
+  EXPECT_TRUE(r.fell);
+}
+
+TEST(LqrTwoFeet, SetPointTiltsOntoBothFeet) {
+  REQUIRE_HUMANOID();
+  LoadedScenario l = two_feet();
+  auto engine = make_scenario_engine(l.scenario, "mujoco");
+  LqrParams p;
+  p.stance_foot = "both";
+  p.balance_dofs = {"abdomen_.*", "(left|right)_(hip_.*|knee|ankle_.*)"};
+  const LqrDesign d = design_lqr(p, *engine);
+  const LqrSetPoint& sp = d.setpoint;
+  EXPECT_GT(sp.tilt_iterations, 0);
+  EXPECT_LT(sp.root_residual_N, 1.0);
+  EXPECT_GT(sp.tilt_rad.norm(), 1e-3);  // the arms put the COM ahead: a visible tilt
+  EXPECT_LT(sp.tilt_rad.norm(), 0.02);  // but the feet stay flat
+  EXPECT_TRUE(sp.other_support_body.empty()) << sp.other_support_body;
+  EXPECT_EQ(d.foot_bodies.size(), 2u);
+  EXPECT_EQ(d.balance_dofs.size(), 3u + 12u);
+  EXPECT_LE(d.dare_residual, 1e-9);
+  EXPECT_LT(d.spectral_radius, 1.0);
+  // the cost's foot Jacobian is the feet's mean
+  Eigen::MatrixXd left(3, engine->nv()), right(3, engine->nv()), none(3, 0);
+  engine->set_positions(sp.q0);
+  engine->forward();
+  const int lf = engine->body_index("left_foot"), rf = engine->body_index("right_foot");
+  engine->point_jacobian(lf, engine->body_com(lf), left, none);
+  engine->point_jacobian(rf, engine->body_com(rf), right, none);
+  EXPECT_TRUE(d.plant.jac_foot.isApprox(0.5 * (left + right), 1e-12));
+}
+
+// the chaos rule: 30 s at the defaults, at Q +-20 %, at other timesteps and under pushes
+TEST(LqrTwoFeet, HumanoidHoldsThirtySecondsAtTheDefaultsAndNearby) {
+  REQUIRE_HUMANOID();
+  struct Case {
+    std::vector<std::string> sets;
+    const char* push;
+  };
+  const std::string c = "controllers.0.";
+  const std::vector<Case> cases = {
+      {{}, nullptr},
+      {{c + "balance_cost=800", c + "balance_joint_cost=2.4", c + "other_joint_cost=0.24"},
+       nullptr},
+      {{c + "balance_cost=1200", c + "balance_joint_cost=3.6", c + "other_joint_cost=0.36"},
+       nullptr},
+      {{c + "balance_cost=800"}, nullptr},
+      {{c + "balance_cost=1200"}, nullptr},
+      {{"timestep=0.001"}, nullptr},
+      {{"timestep=0.005"}, nullptr},
+      {{}, "torso,40,0,0,3,0.1"},
+      {{}, "torso,0,40,0,3,0.1"},
+  };
+  for (const Case& k : cases) {
+    LoadedScenario l = two_feet(k.sets);
+    RunOptions o;
+    o.quiet = true;
+    if (k.push) o.extra_pushes = {parse_push(k.push)};
+    RunResult r = Simulation(l, o).run();
+    const std::string what = fmt::format("{} {}", fmt::join(k.sets, " "), k.push ? k.push : "");
+    ASSERT_FALSE(r.diverged) << what << ": " << r.divergence;
+    EXPECT_FALSE(r.fell) << what << ": fell at " << r.fall_time.value_or(-1);
+    EXPECT_NEAR(r.sim_time, 30.0, 1e-6) << what;
+    EXPECT_LT(r.metrics.at("com_displacement_m").get<double>(), 0.02) << what;
+  }
+}
+
+// the pose written as a keyframe into a copy of humanoid.xml designs the same controller
+TEST(LqrTwoFeet, KeyframeGivesTheSameDesignAsInitialPose) {
+  REQUIRE_HUMANOID();
+  LoadedScenario l = two_feet();
+  auto engine = make_scenario_engine(l.scenario, "mujoco");
+  Eigen::VectorXd q(engine->nq());
+  engine->get_positions(q);
+  std::string xml = test::read_file(test::kHumanoidXml);
+  std::string key = "<keyframe><key name=\"stand_two_feet\" qpos=\"";
+  for (int i = 0; i < q.size(); ++i) key += fmt::format("{}{:.17g}", i ? " " : "", q[i]);
+  key += "\"/></keyframe>\n</mujoco>";
+  xml.replace(xml.rfind("</mujoco>"), 9, key);
+  Scenario s = l.scenario;
+  s.model = {ModelEntry{test::write_temp_file("humanoid_two_feet.xml", xml)}};
+  s.initial_pose.clear();
+  s.keyframe = "stand_two_feet";
+  auto keyed = make_scenario_engine(s, "mujoco");
+  LqrParams p;
+  p.stance_foot = "both";
+  LqrDesign a = design_lqr(p, *engine), b = design_lqr(p, *keyed);
+  EXPECT_NEAR(a.setpoint.height_offset_m, b.setpoint.height_offset_m, 1e-12);
+  EXPECT_TRUE(a.setpoint.tilt_rad.isApprox(b.setpoint.tilt_rad, 1e-9));
+  EXPECT_TRUE(a.K.isApprox(b.K, 1e-8));
+}
+
+// DART's Atlas on MuJoCo (its URDF's motors), both feet by side: 30 s at the scenario's costs,
+// at +-20 % and at another timestep
+TEST(LqrTwoFeet, AtlasHoldsOnMujocoAtTheDefaultsAndNearby) {
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  const std::string c = "controllers.0.";
+  const std::vector<std::vector<std::string>> cases = {
+      {},
+      {c + "balance_cost=8e5", c + "balance_joint_cost=2400", c + "other_joint_cost=240"},
+      {c + "balance_cost=1.2e6", c + "balance_joint_cost=3600", c + "other_joint_cost=360"},
+      {"timestep=0.004"},
+  };
+  for (const auto& sets : cases) {
+    LoadedScenario l = load_scenario(test::scenario_path("lqr_two_feet_atlas.yaml"), sets);
+    RunResult r = Simulation(l, {.quiet = true}).run();
+    const std::string what = fmt::format("{}", fmt::join(sets, " "));
+    ASSERT_FALSE(r.diverged) << what << ": " << r.divergence;
+    EXPECT_FALSE(r.fell) << what << ": fell at " << r.fall_time.value_or(-1);
+    EXPECT_LT(r.metrics.at("com_displacement_m").get<double>(), 0.02) << what;
+  }
+  // on DART the URDF has no actuators: a clear error at load
+  LoadedScenario l = load_scenario(test::scenario_path("lqr_two_feet_atlas.yaml"));
+  l.scenario.engine = "dart";
+  EXPECT_THROW(Simulation(l, {}), InputError);
 }
 
 TEST(ControlNoise, KernelUnitNormStdPerActuatorAndReplay) {
