@@ -178,7 +178,8 @@ int main(int argc, char** argv) {
                             "(the scenario's camera.*; default side)");
   bvh_track_cmd->add_option("--size", track_size, "--record: frame size WxH (default 640x360)");
   bvh_track_cmd->add_option("--debug-draw", track_debug_draw,
-                            "--record: on draws the COM, contacts and planner path (default off)");
+                            "--record: on draws the COM, contacts, planner path and reference "
+                            "ghost (default off)");
   bvh_track_cmd->add_flag("--view", track_view, "watch the tracking run in the viewer instead");
   double track_quit_after = 0;
   bvh_track_cmd->add_option("--quit-after", track_quit_after,

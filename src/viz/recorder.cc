@@ -3,6 +3,9 @@
 #include <fmt/format.h>
 #include <stb/stb_image_write.h>
 
+#include <fcntl.h>
+
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -31,6 +34,8 @@ void apply_view_options(SceneView& view, const RecordOptions& o) {
   if (o.camera) view.options.camera = *o.camera;
   if (o.azimuth_deg && std::isfinite(*o.azimuth_deg)) view.camera().azimuth = *o.azimuth_deg;
   view.options.com = view.options.contacts = view.options.markers = o.debug_draw;
+  // the ghost too: its second pose costs a third of a software-rendered frame
+  view.options.ghost = o.debug_draw;
 }
 
 // a file-axes direction turned as bvh track turns the clip: its up axis to +z
@@ -85,7 +90,7 @@ void write_png(const std::string& path, int width, int height, const unsigned ch
   rename_into_place(tmp, path);
 }
 
-VideoWriter::VideoWriter(const std::string& path, int width, int height, double fps)
+VideoWriter::VideoWriter(const std::string& path, int width, int height, double fps, bool quick)
     : path_(path),
       tmp_(temporary_path_for(path)),
       frame_bytes_(static_cast<size_t>(width) * height * 3) {
@@ -108,12 +113,16 @@ VideoWriter::VideoWriter(const std::string& path, int width, int height, double 
   } else {
     // one encoder thread and bitexact flags: the same frames give the same file
     cmd = input + fmt::format(
-                      "-c:v libx264 -preset veryfast -crf 20 -pix_fmt yuv420p -threads 1 "
+                      "-c:v libx264 -preset {} -crf 20 -pix_fmt yuv420p -threads 1 "
                       "-fflags +bitexact -flags:v +bitexact -movflags +faststart -f mp4 '{}'",
-                      tmp_.string());
+                      quick ? "ultrafast" : "veryfast", tmp_.string());
   }
   pipe_ = popen(cmd.c_str(), "w");
   if (!pipe_) throw EnvironmentError("cannot start ffmpeg (is it installed?)");
+  // room for a whole frame or two in the pipe (the default is 64 KiB): write() then returns while
+  // ffmpeg encodes the frame before, and the encoding overlaps the simulation; best effort (the
+  // system's pipe-max-size caps it)
+  fcntl(fileno(pipe_), F_SETPIPE_SZ, static_cast<int>(std::min<size_t>(2 * frame_bytes_, 1 << 20)));
 }
 
 VideoWriter::~VideoWriter() {
@@ -159,7 +168,7 @@ VideoRecorder::VideoRecorder(Simulation& run, const RecordOptions& o) : run_(run
   view_ = std::make_unique<SceneView>(run, o.width, o.height, o.scene_look, o.draft_look);
   apply_view_options(*view_, o);
   video_ = std::make_unique<VideoWriter>(o.video, o.width, o.height,
-                                         o.playback_fps > 0 ? o.playback_fps : o.fps);
+                                         o.playback_fps > 0 ? o.playback_fps : o.fps, o.draft_look);
   // frames at k / fps for video_start <= k / fps < duration
   next_frame_ = std::lround(std::ceil(o.video_start * o.fps - 1e-9));
   end_frame_ = std::lround(std::floor(duration * o.fps + 1e-9));

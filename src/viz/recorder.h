@@ -31,10 +31,11 @@ struct RecordOptions {
   // deg, the camera's azimuth instead of the scenario's (side_view_azimuth_deg); empty: its
   std::optional<double> azimuth_deg;
   bool scene_look = true;  // stance's sky, floor and shadows (viz/scene_look.h)
-  // no shadows and no multisampling: a third of a frame's time in software rendering
+  // no shadows and no multisampling, and x264's quickest preset: a third of a frame's time in
+  // software rendering
   bool draft_look = false;
-  // the COM ball, the contacts and their forces, the controllers' markers and the planner's
-  // path (the pushes and the reference's ghost are drawn either way)
+  // the COM ball, the contacts and their forces, the controllers' markers, the planner's path and
+  // the reference's ghost (the pushes are drawn either way)
   bool debug_draw = true;
 };
 
@@ -109,8 +110,9 @@ void check_video_options(const RecordOptions& options);
 // for a .gif a looping GIF with a palette made from all its frames
 class VideoWriter {
  public:
-  // throws EnvironmentError when ffmpeg cannot be started, InputError for a bad path
-  VideoWriter(const std::string& path, int width, int height, double fps);
+  // throws EnvironmentError when ffmpeg cannot be started, InputError for a bad path.
+  // quick: x264's ultrafast preset (a larger file) instead of veryfast
+  VideoWriter(const std::string& path, int width, int height, double fps, bool quick = false);
   ~VideoWriter();
   VideoWriter(const VideoWriter&) = delete;
   VideoWriter& operator=(const VideoWriter&) = delete;

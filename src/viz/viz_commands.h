@@ -23,7 +23,7 @@ struct TrackVideoOptions {
   std::string camera = "side";
   // small enough that rendering in software (llvmpipe) adds under a third to the run's time
   std::string size = "640x360";
-  std::string debug_draw = "off";  // on: the COM ball, contacts, markers, the planner's path
+  std::string debug_draw = "off";  // on: the COM ball, contacts, markers, planner path, ghost
   double fps = 30;                 // frames per simulated second
 };
 // the recording options of that video (the camera from the clip's heading); throws InputError
