@@ -115,7 +115,7 @@ struct Scenario {
   std::string keyframe;         // MuJoCo keyframe name (MuJoCo only)
   // "auto": lean the legs so that the COM is over the feet (control/standing_pose.h); "" or off
   std::string stand_pose;
-  double duration = 10;         // s
+  double duration = 10;  // s
   int seed = 0;
   double torque_scale = 1;  // multiplies the summed controller torques (seed: 0.8)
   // clamp the summed generalised forces to the model's limits (engine.h: force_limit): "auto"

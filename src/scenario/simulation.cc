@@ -13,10 +13,10 @@
 #include <sstream>
 #include <typeinfo>
 
+#include "control/standing_pose.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "core/model_format.h"
-#include "control/standing_pose.h"
 #include "core/timestep.h"
 #include "engine/world_spec.h"
 #include "model/model_path.h"
@@ -190,8 +190,8 @@ void warn_when_no_ground(const Scenario& s) {
     const std::string path = resolve_model_path(m.file);
     const ModelFormat format = model_format(path);
     if (format != ModelFormat::kUrdf && format != ModelFormat::kSdf) return;
-    robots.push_back(read_robot(m.file, path,
-                                {m.fixed_base, m.package_path, m.mesh_collision, m.lock_joints}));
+    robots.push_back(
+        read_robot(m.file, path, {m.fixed_base, m.package_path, m.mesh_collision, m.lock_joints}));
   }
   if (robots_need_ground(robots))
     std::cerr << "warning: " << s.model.front().file
@@ -348,8 +348,7 @@ void build_controllers(const LoadedScenario& loaded, const RunOptions& options,
   }
 }
 
-void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m,
-                 double timestep);
+void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m);
 
 std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
                                              const RunOptions& options,
@@ -424,21 +423,19 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
     throw InputError(loaded.source + ": " + problem);
   m->total_steps = std::lround(sc.duration / dt);
   m->log_every = std::max<long>(1, std::lround(1.0 / (sc.log.rate_hz * dt)));
-  if (sc.planner.enabled) add_planner(loaded, options, *m, dt);
+  if (sc.planner.enabled) add_planner(loaded, options, *m);
   return m;
 }
 
 // the planner's rollouts run the same scenario without planning, at the planner's timestep,
 // without the scheduled pushes (the planner reacts to a push; it does not foresee it) and
-// without the controllers' output files. The planner's step is only ever coarser than the
-// run's (`timestep`): a finer one would cost more for nothing the run could follow.
-void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m,
-                 double timestep) {
+// without the controllers' output files
+void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m) {
   const PlannerParams& p = m.scenario.planner;
   LoadedScenario r = loaded;
   r.scenario.planner.enabled = false;
   r.scenario.perturbations.clear();
-  if (p.timestep > timestep) r.scenario.timestep = p.timestep;
+  if (p.timestep > 0) r.scenario.timestep = p.timestep;
   for (YAML::Node& node : r.controllers) {
     node = YAML::Clone(node);
     if (node["export_bvh"]) node.remove("export_bvh");
@@ -870,8 +867,6 @@ RunResult Simulation::result() const {
     pm["mean_cost"] = plan.plans ? plan.cost_sum / plan.plans : 0.0;
     pm["kept_nominal_share"] = plan.plans ? double(plan.kept_nominal) / plan.plans : 0.0;
     pm["rescues"] = plan.rescues;
-    pm["steady"] = plan.steady;
-    pm["model_steps_per_sim_s"] = s.steps ? plan.rollout_steps / time() : 0.0;
   }
   return r;
 }
@@ -984,8 +979,8 @@ std::unique_ptr<Simulation> Simulation::clone() const {
 }
 
 namespace {
-// 3: the plan counts its rescue rounds; 4: and its steps on track and rollout steps
-constexpr char kStateMagic[] = "stance-state 4\n";
+// 3: the plan counts its rescue rounds
+constexpr char kStateMagic[] = "stance-state 3\n";
 }  // namespace
 
 void Simulation::write_state(const std::string& path) const {
