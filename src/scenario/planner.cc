@@ -281,7 +281,7 @@ Eigen::Vector3d Planner::capture_offset(const Simulation& sim) const {
   const double h = std::max(1e-3, up.dot(com) - sim.model().scenario.fall.ground_height);
   const double g = std::max(1e-6, e.gravity().norm());
   const Eigen::Vector3d anchor = model_->support_bodies.empty()
-                                     ? sim.progress_.com0
+                                     ? sim.progress().com0
                                      : support_center(*model_, e) + model_->com_over_support0;
   return horizontal(com - anchor, up) + std::sqrt(h / g) * vel;
 }
@@ -316,7 +316,7 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
   sim.restore(*start_);
   for (size_t i = 0; i < horizons_.size(); ++i)
     sim.controllers()[i]->use_reference_horizon(sim.controller_state(i), horizons_[i].get());
-  CorrectionPlan& plan = sim.progress_.plan;
+  CorrectionPlan& plan = sim.correction_plan();
   const double t0 = plan.t0, t_end = t0 + p.horizon_s;
   plan.knots = c.knots;
   plan.next_plan = std::numeric_limits<double>::infinity();
@@ -334,7 +334,7 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
       break;
     }
     const double t = sim.time();
-    if (sim.progress_.fell) {
+    if (sim.progress().fell) {
       penalty = w.fall * (1 + std::max(0.0, t_end - t) / p.horizon_s);
       break;
     }
@@ -357,7 +357,7 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
         const Eigen::Vector3d root_up = e.body_pose(model_->root_body).quat * model_->root_up_local;
         tilt = std::acos(std::clamp(root_up.dot(up), -1.0, 1.0));
       }
-      const double drop = std::max(0.0, up.dot(sim.progress_.com0 - com));
+      const double drop = std::max(0.0, up.dot(sim.progress().com0 - com));
       cost = w.capture * offset.squaredNorm() + w.com_velocity * vel.squaredNorm() +
              w.upright * tilt * tilt + w.height * drop * drop;
     }
@@ -389,7 +389,7 @@ void Planner::sample_horizons() {
 
 void Planner::plan(Simulation& sim) {
   const PlannerParams& p = model_->params;
-  CorrectionPlan& plan = sim.progress_.plan;
+  CorrectionPlan& plan = sim.correction_plan();
   const double now = sim.time();
   const int dims = static_cast<int>(model_->dimensions.size());
   const int n = p.knots;
@@ -398,7 +398,7 @@ void Planner::plan(Simulation& sim) {
   nominal_.resize(dims, n);
   for (int j = 0; j < n; ++j) plan.evaluate(now + j * knot_dt, nominal_.col(j));
   plan.next_plan = now + p.interval_s;
-  if (sim.progress_.fell || sim.progress_.diverged) {
+  if (sim.progress().fell || sim.progress().diverged) {
     // nothing left to save: hold the plan
     plan.knots = nominal_;
     plan.t0 = now;

@@ -304,6 +304,9 @@ class Simulation {
   // rollout model (timestep); the parameters are checked as the scenario's are.
   void set_planner_params(const PlannerParams& params);
   const RunProgress& progress() const { return progress_; }
+  // the planner's handle (with save, restore and step, its rollout interface): the correction
+  // plan the next steps apply, part of the run's state
+  CorrectionPlan& correction_plan() { return progress_.plan; }
   // set between steps by the viewer; reset() clears them
   ExternalForces& external_forces() { return progress_.external; }
   // what the controllers commanded in the last step (tau already scaled by torque_scale)
@@ -341,7 +344,6 @@ class Simulation {
   std::vector<double>* controller_seconds_ = nullptr;
   Eigen::VectorXd correction_;        // this step's correction, dim planner dimensions
   std::unique_ptr<Planner> planner_;  // made when the model plans
-  friend class Planner;               // rollouts set their candidate plan and read the state
 };
 
 // build the engine of a scenario with its initial pose applied (no controllers)
