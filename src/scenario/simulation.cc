@@ -348,7 +348,8 @@ void build_controllers(const LoadedScenario& loaded, const RunOptions& options,
   }
 }
 
-void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m);
+void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m,
+                 double timestep);
 
 std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
                                              const RunOptions& options,
@@ -423,19 +424,21 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
     throw InputError(loaded.source + ": " + problem);
   m->total_steps = std::lround(sc.duration / dt);
   m->log_every = std::max<long>(1, std::lround(1.0 / (sc.log.rate_hz * dt)));
-  if (sc.planner.enabled) add_planner(loaded, options, *m);
+  if (sc.planner.enabled) add_planner(loaded, options, *m, dt);
   return m;
 }
 
 // the planner's rollouts run the same scenario without planning, at the planner's timestep,
 // without the scheduled pushes (the planner reacts to a push; it does not foresee it) and
-// without the controllers' output files
-void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m) {
+// without the controllers' output files. The planner's step is only ever coarser than the
+// run's (`timestep`): a finer one would cost more for nothing the run could follow.
+void add_planner(const LoadedScenario& loaded, const RunOptions& options, SimulationModel& m,
+                 double timestep) {
   const PlannerParams& p = m.scenario.planner;
   LoadedScenario r = loaded;
   r.scenario.planner.enabled = false;
   r.scenario.perturbations.clear();
-  if (p.timestep > 0) r.scenario.timestep = p.timestep;
+  if (p.timestep > timestep) r.scenario.timestep = p.timestep;
   for (YAML::Node& node : r.controllers) {
     node = YAML::Clone(node);
     if (node["export_bvh"]) node.remove("export_bvh");
@@ -867,6 +870,8 @@ RunResult Simulation::result() const {
     pm["mean_cost"] = plan.plans ? plan.cost_sum / plan.plans : 0.0;
     pm["kept_nominal_share"] = plan.plans ? double(plan.kept_nominal) / plan.plans : 0.0;
     pm["rescues"] = plan.rescues;
+    pm["steady"] = plan.steady;
+    pm["model_steps_per_sim_s"] = s.steps ? plan.rollout_steps / time() : 0.0;
   }
   return r;
 }
@@ -979,8 +984,8 @@ std::unique_ptr<Simulation> Simulation::clone() const {
 }
 
 namespace {
-// 3: the plan counts its rescue rounds
-constexpr char kStateMagic[] = "stance-state 3\n";
+// 3: the plan counts its rescue rounds; 4: and its steps on track and rollout steps
+constexpr char kStateMagic[] = "stance-state 4\n";
 }  // namespace
 
 void Simulation::write_state(const std::string& path) const {
