@@ -16,6 +16,17 @@ LqrParams lqr_params(const py::kwargs& kw) {
   return read_params<LqrParams>(node, ctx, {});
 }
 
+// a design step of the lqr controller at the engine's pose, the keyword arguments its parameters,
+// the GIL released; the engine forwarded again after it
+template <class Result, Result (*step)(const LqrParams&, Engine&)>
+Result with_lqr_params(Engine& e, py::kwargs kw) {
+  LqrParams p = lqr_params(kw);
+  py::gil_scoped_release release;
+  Result r = step(p, e);
+  e.forward();
+  return r;
+}
+
 // linearize_fd, linearize_fd_forces
 void bind_linearization(py::module_& m) {
   m.def(
@@ -109,30 +120,12 @@ void bind_lqr(py::module_& m) {
       .def_readonly("balance_dofs", &LqrDesign::balance_dofs)
       .def_readonly("actuator_names", &LqrDesign::actuator_names)
       .def_readonly("dof_names", &LqrDesign::dof_names);
-  m.def(
-      "find_lqr_setpoint",
-      [](Engine& e, py::kwargs kw) {
-        LqrParams p = lqr_params(kw);
-        py::gil_scoped_release release;
-        LqrSetPoint sp = find_lqr_setpoint(p, e);
-        e.forward();
-        return sp;
-      },
-      py::arg("engine"),
-      "the lqr controller's set-point search at the engine's pose; keyword arguments are the "
-      "lqr controller's parameters (root_body, stance_foot, ...)");
-  m.def(
-      "design_lqr",
-      [](Engine& e, py::kwargs kw) {
-        LqrParams p = lqr_params(kw);
-        py::gil_scoped_release release;
-        LqrDesign d = design_lqr(p, e);
-        e.forward();
-        return d;
-      },
-      py::arg("engine"),
-      "the lqr controller's whole design (set-point, Q, FD linearisation, DARE) at the engine's "
-      "pose; keyword arguments are the lqr controller's parameters");
+  m.def("find_lqr_setpoint", &with_lqr_params<LqrSetPoint, &find_lqr_setpoint>, py::arg("engine"),
+        "the lqr controller's set-point search at the engine's pose; keyword arguments are the "
+        "lqr controller's parameters (root_body, stance_foot, ...)");
+  m.def("design_lqr", &with_lqr_params<LqrDesign, &design_lqr>, py::arg("engine"),
+        "the lqr controller's whole design (set-point, Q, FD linearisation, DARE) at the engine's "
+        "pose; keyword arguments are the lqr controller's parameters");
   m.def(
       "lqr_state_cost",
       [](Engine& e, const Mat& jac_com, const Mat& jac_foot, py::kwargs kw) {

@@ -17,43 +17,33 @@ struct PyTrackBatchResult {
   py::object out = py::none();  // the folder kept, or None
 };
 
-// results.csv's columns: numbers as numpy arrays, the clip names and errors as lists
+// one value of each row as a numpy array
+template <class T, class Get>
+py::array_t<T> column(const std::vector<TrackRow>& rows, Get get) {
+  py::array_t<T> a(static_cast<py::ssize_t>(rows.size()));
+  for (size_t i = 0; i < rows.size(); ++i) a.mutable_at(i) = get(rows[i]);
+  return a;
+}
+
+// results.csv's columns, in its order: numbers as numpy arrays, the clip names and errors as lists
 py::dict rows_table(const std::vector<TrackRow>& rows) {
-  const py::ssize_t n = rows.size();
-  py::array_t<int> frames(n);
-  py::array_t<bool> fell(n), diverged(n), success(n);
-  py::array_t<double> clip_s(n), sim_s(n), g_mpjpe(n), root(n), joint(n), skate(n), compute(n);
-  py::list clip, error;
-  for (py::ssize_t i = 0; i < n; ++i) {
-    const TrackRow& r = rows[i];
-    clip.append(r.clip);
-    error.append(r.error);
-    frames.mutable_at(i) = r.frames;
-    fell.mutable_at(i) = r.fell;
-    diverged.mutable_at(i) = r.diverged;
-    success.mutable_at(i) = r.success;
-    clip_s.mutable_at(i) = r.clip_s;
-    sim_s.mutable_at(i) = r.sim_s;
-    g_mpjpe.mutable_at(i) = r.g_mpjpe_m;
-    root.mutable_at(i) = r.root_error_m;
-    joint.mutable_at(i) = r.joint_error_deg;
-    skate.mutable_at(i) = r.foot_skate_m_per_s;
-    compute.mutable_at(i) = r.compute_s_per_sim_s;
-  }
+  std::vector<std::string> clip, error;
+  for (const TrackRow& r : rows) clip.push_back(r.clip), error.push_back(r.error);
+  using R = const TrackRow&;
   py::dict d;
   d["clip"] = clip;
-  d["frames"] = frames;
-  d["clip_s"] = clip_s;
-  d["sim_s"] = sim_s;
-  d["fell"] = fell;
-  d["diverged"] = diverged;
-  d["success"] = success;
-  d["g_mpjpe_m"] = g_mpjpe;
-  d["root_error_m"] = root;
-  d["joint_error_deg"] = joint;
-  d["foot_skate_m_per_s"] = skate;
+  d["frames"] = column<int>(rows, [](R r) { return r.frames; });
+  d["clip_s"] = column<double>(rows, [](R r) { return r.clip_s; });
+  d["sim_s"] = column<double>(rows, [](R r) { return r.sim_s; });
+  d["fell"] = column<bool>(rows, [](R r) { return r.fell; });
+  d["diverged"] = column<bool>(rows, [](R r) { return r.diverged; });
+  d["success"] = column<bool>(rows, [](R r) { return r.success; });
+  d["g_mpjpe_m"] = column<double>(rows, [](R r) { return r.g_mpjpe_m; });
+  d["root_error_m"] = column<double>(rows, [](R r) { return r.root_error_m; });
+  d["joint_error_deg"] = column<double>(rows, [](R r) { return r.joint_error_deg; });
+  d["foot_skate_m_per_s"] = column<double>(rows, [](R r) { return r.foot_skate_m_per_s; });
   d["error"] = error;
-  d["compute_s_per_sim_s"] = compute;
+  d["compute_s_per_sim_s"] = column<double>(rows, [](R r) { return r.compute_s_per_sim_s; });
   return d;
 }
 
