@@ -197,6 +197,8 @@ int main(int argc, char** argv) {
   bvh2mjcf_cmd->add_option("--first-frame", bvh2mjcf.first_frame,
                            "frame of the start keyframe (default: after a leading T-pose)");
   bvh2mjcf_cmd->add_option("--timestep", bvh2mjcf.timestep_s, "simulation timestep, s");
+  bvh2mjcf_cmd->add_flag("--human-limits", bvh2mjcf.human_limits,
+                         "human-like joint torque limits, scaled by --mass (docs/mocap.md)");
   bvh2mjcf_cmd->add_option("--scale-to-meters", bvh2mjcf.scale_to_meters,
                            "metres per file unit (default: detected from the legs)");
   // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion

@@ -274,6 +274,7 @@ int bvh2mjcf_command(const Bvh2MjcfCommand& cmd) {
     BvhCharacterOptions o;
     o.total_mass_kg = cmd.mass_kg;
     o.timestep_s = cmd.timestep_s;
+    o.human_limits = cmd.human_limits;
     check_option_number("--scale-to-meters", cmd.scale_to_meters, kScaleRange);
     o.skeleton.scale_to_meters = cmd.scale_to_meters;
     BvhClip clip = read_bvh(cmd.bvh);

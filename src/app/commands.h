@@ -90,6 +90,7 @@ struct Bvh2MjcfCommand {
   int first_frame = 0;  // 0: the first frame of the motion (detect_bvh_first_motion_frame)
   double timestep_s = 0.002;
   double scale_to_meters = 0;  // metres per file unit; 0: detect from the legs
+  bool human_limits = false;   // human-like torque limits on the joints (docs/mocap.md)
 };
 int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
 

@@ -63,6 +63,43 @@ Geom foot_box(const MotionSegment& seg, const BvhCharacterOptions& o) {
   return g;
 }
 
+std::string joint_limit_attribute(const std::string& segment, const BvhCharacterOptions& o);
+
+}  // namespace
+
+double human_peak_torque_nm_per_kg(const std::string& segment_name) {
+  std::string n = segment_name;
+  for (char& c : n) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const auto has = [&](std::initializer_list<const char*> words) {
+    for (const char* w : words)
+      if (n.find(w) != std::string::npos) return true;
+    return false;
+  };
+  // the order matters: "upleg" before "leg", "forearm" before "arm", "toe" before "foot"
+  if (has({"toe"})) return 0.3;                                     // toe flexion
+  if (has({"foot", "ankle"})) return 2.7;                           // ankle plantarflexion
+  if (has({"upleg", "thigh", "hip", "upperleg"})) return 3.5;       // hip extension
+  if (has({"leg", "knee", "shin", "calf"})) return 3.3;             // knee extension
+  if (has({"forearm", "elbow", "lowarm", "lowerarm"})) return 0.9;  // elbow flexion
+  if (has({"hand", "wrist", "finger", "thumb"})) return 0.2;        // wrist flexion
+  if (has({"shoulder", "collar", "clavicle", "arm", "humerus"})) return 1.2;  // shoulder flexion
+  if (has({"neck", "head"})) return 0.4;                                      // neck extension
+  if (has({"spine", "chest", "back", "abdomen", "torso", "waist", "lumbar", "thorax", "pelvis"}))
+    return 3.3;  // trunk extension
+  return 0;
+}
+
+double human_torque_limit_nm(const std::string& segment_name, double total_mass_kg) {
+  return human_peak_torque_nm_per_kg(segment_name) * total_mass_kg;
+}
+
+namespace {
+// a ball joint's human limit as its actuatorfrcrange (stance reads it: model/mjcf_newer.h)
+std::string joint_limit_attribute(const std::string& segment, const BvhCharacterOptions& o) {
+  const double limit = o.human_limits ? human_torque_limit_nm(segment, o.total_mass_kg) : 0;
+  if (!(limit > 0)) return "";
+  return fmt::format(" actuatorfrcrange=\"{:.6g} {:.6g}\"", -limit, limit);
+}
 }  // namespace
 
 bool is_foot_segment_name(const std::string& name) {
@@ -178,7 +215,8 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
     if (k == 0)
       out += fmt::format("{}  <freejoint name=\"root\"/>\n", pad);
     else
-      out += fmt::format("{}  <joint name=\"{}\" type=\"ball\"/>\n", pad, seg.name);
+      out += fmt::format("{}  <joint name=\"{}\" type=\"ball\"{}/>\n", pad, seg.name,
+                         joint_limit_attribute(seg.name, o));
     for (size_t g = 0; g < geoms[k].size(); ++g) {
       const Geom& geom = geoms[k][g];
       std::string gname = fmt::format("{}_{}", seg.name, g);

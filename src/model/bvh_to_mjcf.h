@@ -28,6 +28,9 @@ struct BvhCharacterOptions {
   double heel_length_m = 0.05;  // foot box behind the ankle
   double armature = 0.01;       // kg m^2 on every ball-joint dof (numerical stiffness margin)
   double friction = 1.0;
+  // human-like torque limits on the joints (human_torque_limit_nm), written as each joint's
+  // actuatorfrcrange; whether a run clamps to them is the scenario's torque_limits
+  bool human_limits = false;
   MotionSkeletonOptions skeleton;
   ReferenceOptions reference;  // for the "start" keyframe
 };
@@ -41,6 +44,14 @@ struct BvhCharacter {
 
 // the character of a clip; throws InputError for clips without bones
 BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& options);
+
+// A person's peak joint torque, by the joint group a segment's name tells (the joint at the
+// segment's origin: "LeftUpLeg" is a hip, "LeftLeg" a knee, "LeftArm" a shoulder), in N m per kg
+// of body mass: the larger of the two directions of the group's main axis, from dynamometry of
+// healthy adults (docs/mocap.md cites the sources). 0 for a name that tells no group.
+double human_peak_torque_nm_per_kg(const std::string& segment_name);
+// that times the character's mass: the limit bvh2mjcf writes (0: none)
+double human_torque_limit_nm(const std::string& segment_name, double total_mass_kg);
 
 // true for segment names of a foot (foot, toe, ankle; case-insensitive)
 bool is_foot_segment_name(const std::string& name);

@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 
 #include "core/error.h"
@@ -64,6 +65,39 @@ TEST(BvhToMjcf, SyntheticWalkCharacter) {
   EXPECT_NE(ch.mjcf.find("<freejoint name=\"root\"/>"), std::string::npos);
   o.total_mass_kg = 0;
   EXPECT_THROW(make_bvh_character(clip, o), InputError);
+}
+
+// --human-limits: each joint's limit is its group's peak torque per kg times the mass; without it
+// the character has no limits. MuJoCo only: DART's backend reads no force limit on a ball joint
+// (engine/dart: add_joint gets none for BallJoint)
+TEST(BvhToMjcf, HumanLimitsWrittenAndScaledByMass) {
+  EXPECT_DOUBLE_EQ(human_peak_torque_nm_per_kg("LeftUpLeg"), 3.5);  // a hip, not a knee
+  EXPECT_DOUBLE_EQ(human_peak_torque_nm_per_kg("RightLeg"), 3.3);   // a knee
+  EXPECT_DOUBLE_EQ(human_peak_torque_nm_per_kg("LeftForeArm"), 0.9);
+  EXPECT_DOUBLE_EQ(human_peak_torque_nm_per_kg("LeftToeBase"), 0.3);  // a toe, not a foot
+  EXPECT_DOUBLE_EQ(human_peak_torque_nm_per_kg("Tail"), 0);
+  const BvhClip clip = make_synthetic_walk_clip();
+  for (const double mass : {50.0, 100.0}) {
+    BvhCharacterOptions o;
+    o.total_mass_kg = mass;
+    o.human_limits = true;
+    const std::string path =
+        test::write_temp_file("human_limits_" + std::to_string(static_cast<int>(mass)) + ".xml",
+                              make_bvh_character(clip, o).mjcf);
+    WorldSpec spec;
+    spec.models.push_back({path});
+    const auto e = make_engine("mujoco", spec);
+    const auto limit = [&](const char* joint) {
+      return e->joint(e->require_joint(joint)).force_limit;
+    };
+    EXPECT_NEAR(limit("LeftUpLeg"), 3.5 * mass, 1e-9) << mass;
+    EXPECT_NEAR(limit("RightLeg"), 3.3 * mass, 1e-9) << mass;
+    EXPECT_NEAR(limit("LeftFoot"), 2.7 * mass, 1e-9) << mass;
+    EXPECT_NEAR(limit("LeftForeArm"), 0.9 * mass, 1e-9) << mass;
+    EXPECT_TRUE(std::isinf(limit("root"))) << mass;
+  }
+  BvhCharacterOptions off;
+  EXPECT_EQ(make_bvh_character(clip, off).mjcf.find("actuatorfrcrange"), std::string::npos);
 }
 
 TEST(BvhToMjcf, FootSegmentNames) {
