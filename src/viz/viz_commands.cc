@@ -177,7 +177,16 @@ int view_track_command(const BvhTrackCommand& cmd, double quit_after_s) {
   view.quit_after_s = quit_after_s;
   view.scenario = scenario;
   view.engine = cmd.engine;
-  view.sets = cmd.sets;
+  // the camera beside the clip's heading, as the video's; a --set camera.azimuth comes after
+  if (int code = guarded([&] {
+        const double azimuth =
+            side_view_azimuth_deg(clip_heading_world(read_bvh(cmd.bvh), cmd.scale_to_meters));
+        if (std::isfinite(azimuth)) view.sets.push_back(fmt::format("camera.azimuth={}", azimuth));
+        return kExitOk;
+      });
+      code != kExitOk)
+    return code;
+  view.sets.insert(view.sets.end(), cmd.sets.begin(), cmd.sets.end());
   return view_command(view);
 }
 
