@@ -75,21 +75,27 @@ std::string trimmed(const std::string& s) {
   return a == std::string::npos ? std::string() : s.substr(a, b - a + 1);
 }
 
+bool named_like_foot(const std::string& name) {
+  return lower_case(name).find("foot") != std::string::npos;
+}
+
+std::string feet_names(const Engine& engine, const std::vector<int>& feet) {
+  std::vector<std::string> names;
+  for (int b : feet) names.push_back(engine.body_name(b));
+  return names.empty() ? std::string("none") : fmt::format("{}", fmt::join(names, ", "));
+}
+
 // the body named like a foot on one side (-1 left, +1 right): among bodies whose name holds
-// "foot", the topmost of that side
+// "foot", the topmost of that side (a toe body "l_foot_toe" below "l_foot" is not another foot)
 int foot_of_side(const Engine& engine, int side) {
-  std::vector<int> found;
-  std::vector<std::string> feet_seen;
+  std::vector<int> found, feet_seen;
+  auto foot_of_this_side = [&](int b) {
+    return b >= 0 && named_like_foot(engine.body_name(b)) &&
+           side_of_joint_name(engine.body_name(b)) == side;
+  };
   for (int b = 0; b < engine.nbody(); ++b) {
-    const std::string& name = engine.body_name(b);
-    if (lower_case(name).find("foot") == std::string::npos) continue;
-    feet_seen.push_back(name);
-    if (side_of_joint_name(name) != side) continue;
-    const int parent = engine.body_parent(b);
-    const bool parent_is_foot =
-        parent >= 0 && side_of_joint_name(engine.body_name(parent)) == side &&
-        lower_case(engine.body_name(parent)).find("foot") != std::string::npos;
-    if (!parent_is_foot) found.push_back(b);
+    if (named_like_foot(engine.body_name(b))) feet_seen.push_back(b);
+    if (foot_of_this_side(b) && !foot_of_this_side(engine.body_parent(b))) found.push_back(b);
   }
   const char* word = side < 0 ? "left" : "right";
   if (found.size() == 1) return found[0];
@@ -97,12 +103,9 @@ int foot_of_side(const Engine& engine, int side) {
     throw InputError(fmt::format(
         "lqr: stance_foot: no body is named like a {} foot (bodies with 'foot' in the name: "
         "{}): name the foot bodies, e.g. stance_foot: l_foot,r_foot",
-        word,
-        feet_seen.empty() ? std::string("none") : fmt::format("{}", fmt::join(feet_seen, ", "))));
-  std::vector<std::string> names;
-  for (int b : found) names.push_back(engine.body_name(b));
+        word, feet_names(engine, feet_seen)));
   throw InputError(fmt::format("lqr: stance_foot: '{}' is ambiguous ({}): name the foot bodies",
-                               word, fmt::join(names, ", ")));
+                               word, feet_names(engine, found)));
 }
 
 // true when `body` is one of `feet` or below one of them in the tree
@@ -114,12 +117,6 @@ bool under_feet(const Engine& engine, int body, const std::vector<int>& feet) {
     body = parent;
   }
   return false;
-}
-
-std::string feet_names(const Engine& engine, const std::vector<int>& feet) {
-  std::vector<std::string> names;
-  for (int b : feet) names.push_back(engine.body_name(b));
-  return fmt::format("{}", fmt::join(names, ", "));
 }
 
 }  // namespace

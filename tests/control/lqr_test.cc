@@ -16,6 +16,7 @@
 
 #include "control/control_noise.h"
 #include "core/error.h"
+#include "engine/world_spec.h"
 #include "math/dare.h"
 #include "params/yaml_params.h"
 #include "scenario/scenario.h"
@@ -277,6 +278,33 @@ TEST(LqrStanceFeet, NamesSidesBothAndLists) {
   const LqrDesign a = design_lqr(LqrParams{}, *engine), b = design_lqr(by_side, *engine);
   EXPECT_EQ(a.K, b.K);
   EXPECT_EQ(a.setpoint.ctrl0, b.setpoint.ctrl0);
+}
+
+std::string stance_feet_error(const std::string& stance_foot, const std::string& xml) {
+  WorldSpec spec;
+  spec.models.push_back({test::write_temp_file("lqr_feet.xml", xml)});
+  auto engine = make_engine("mujoco", spec);
+  try {
+    find_stance_feet(stance_foot, *engine);
+  } catch (const InputError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(LqrStanceFeet, ASideWithNoFootOrTwoIsAnErrorNamingTheBodies) {
+  EXPECT_NE(stance_feet_error("left", test::kFloatingChainMjcf).find("none"), std::string::npos);
+  // a toe body below the foot is not a second foot; two sibling left feet are ambiguous
+  const std::string xml = R"(<mujoco><worldbody><body name="pelvis"><freejoint/>
+    <geom size="0.1"/>
+    <body name="l_foot"><joint/><geom size="0.05"/>
+      <body name="l_foot_toe"><joint/><geom size="0.02"/></body></body>
+    <body name="LeftFoot"><joint/><geom size="0.05"/></body>
+    <body name="r_foot"><joint/><geom size="0.05"/></body>
+  </body></worldbody></mujoco>)";
+  EXPECT_EQ(stance_feet_error("right", xml), "");
+  const std::string both = stance_feet_error("both", xml);
+  EXPECT_NE(both.find("ambiguous (l_foot, LeftFoot)"), std::string::npos) << both;
 }
 
 // the issue's fall: a two-foot pose designed on one foot was a silent fall at 1 s; now the
