@@ -400,7 +400,9 @@ struct Viewer::Impl {
       std::lock_guard<std::mutex> lock(mutex);
       behind = !pace_warning().empty();
     }
-    if (behind) rest = std::max(rest, 3 * frame_s);
+    // (a frame that waited for a long plan to release the state is no drawing cost: at most
+    // 0.2 s of rest, so that the window keeps showing the run)
+    if (behind) rest = std::max(rest, std::min(3 * frame_s, 0.2));
     if (rest > 0) std::this_thread::sleep_for(std::chrono::duration<double>(rest));
   }
 
