@@ -25,7 +25,8 @@
 //
 // Private to src/engine/dart: the engine class, split over dart_engine.cc (building the model),
 // dart_engine_dynamics.cc (kinematics and dynamics queries), dart_engine_stepping.cc (contacts,
-// stepping, state save/restore) and dart_model_reader.cc (parsing the model files).
+// stepping, state save/restore) and dart_model_reader.cc (parsing the model files, patched first
+// by dart_model_patches.cc).
 #pragma once
 
 #include <dart/dart.hpp>
