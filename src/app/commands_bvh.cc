@@ -267,9 +267,6 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   doc["duration"] = cmd.duration ? *cmd.duration : (last - first) * clip.frame_time_s;
   doc["controllers"].push_back(tracker);
   doc["planner"]["enabled"] = true;
-  // the planner's own coarser model: rollouts at 4 ms halve its compute for a few mm of G-MPJPE
-  // (docs/planner.md#compute); the run itself keeps the character's step
-  doc["planner"]["timestep"] = 0.004;
   doc["planner"]["threads"] = cmd.threads;
   YAML::Emitter out;
   out << doc;
