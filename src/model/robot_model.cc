@@ -41,9 +41,7 @@ using mjcf::vec;
 using robot_detail::fit_box;
 using robot_detail::FittedBox;
 using robot_detail::lower_extension;
-
-// a box side below this (a flat mesh) is raised to it: engines assert on empty boxes
-constexpr double kMinBoxSide = 1e-3;  // m
+using robot_detail::package_folders;
 
 // ---------------------------------------------------------------------------------------------
 // reading helpers: every error names file:line of the element
@@ -154,17 +152,6 @@ void check_inertia(const RobotReader& r, const XMLElement* el, const std::string
 // ---------------------------------------------------------------------------------------------
 // mesh files
 
-std::vector<std::string> package_folders(const RobotOptions& options) {
-  std::vector<std::string> folders = options.package_path;
-  const char* env = std::getenv("STANCE_PACKAGE_PATH");
-  if (env != nullptr) {
-    std::stringstream in(env);
-    for (std::string dir; std::getline(in, dir, ':');)
-      if (!dir.empty()) folders.push_back(dir);
-  }
-  return folders;
-}
-
 // a mesh reference (relative to the model file, absolute, file://, package:// or model://) as
 // an absolute path to an existing file
 std::string resolve_mesh(const RobotReader& r, const XMLElement* el, const std::string& model_path,
@@ -209,65 +196,6 @@ std::string resolve_mesh(const RobotReader& r, const XMLElement* el, const std::
     r.fail(el, fmt::format("mesh '{}': no such file ({})", reference, path));
   return fs::absolute(path).lexically_normal().string();
 }
-
-}  // namespace
-
-Eigen::AlignedBox3d mesh_bounds(const std::string& shown_name, int line, const std::string& path,
-                                const Vector3d& scale) {
-  auto fail = [&](const std::string& why) {
-    throw InputError(located(shown_name, line, fmt::format("mesh '{}': {}", path, why)));
-  };
-  std::ifstream in(path, std::ios::binary);
-  if (!in) fail("cannot read the file");
-  const std::string data((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  Eigen::AlignedBox3d box;
-  box.setEmpty();
-  auto add = [&](const Vector3d& v) {
-    if (!v.allFinite()) fail("a vertex is not finite");
-    box.extend(v.cwiseProduct(scale));
-  };
-  const std::string ext = lower_extension(path);
-  if (ext == ".stl") {
-    uint32_t count = 0;
-    const bool binary_size = data.size() >= 84 && (std::memcpy(&count, data.data() + 80, 4),
-                                                   data.size() == 84 + 50 * size_t{count});
-    if (binary_size) {
-      for (size_t t = 0; t < count; ++t) {
-        const char* tri = data.data() + 84 + 50 * t + 12;  // after the normal
-        for (int k = 0; k < 3; ++k) {
-          float xyz[3];
-          std::memcpy(xyz, tri + 12 * k, 12);
-          add(Vector3d(xyz[0], xyz[1], xyz[2]));
-        }
-      }
-    } else if (data.compare(0, 5, "solid") == 0) {
-      std::istringstream text(data);
-      for (std::string word; text >> word;) {
-        if (word != "vertex") continue;
-        Vector3d v;
-        if (!(text >> v.x() >> v.y() >> v.z())) fail("an ASCII STL vertex without 3 numbers");
-        add(v);
-      }
-    } else {
-      fail("neither a binary STL (84 + 50 bytes per triangle) nor an ASCII one ('solid')");
-    }
-  } else if (ext == ".obj") {
-    std::istringstream text(data);
-    for (std::string row; std::getline(text, row);) {
-      if (row.size() < 2 || row[0] != 'v' || (row[1] != ' ' && row[1] != '\t')) continue;
-      std::istringstream v_in(row.substr(1));
-      Vector3d v;
-      if (!(v_in >> v.x() >> v.y() >> v.z())) fail("an OBJ vertex without 3 numbers");
-      add(v);
-    }
-  } else {
-    fail(fmt::format("only STL and OBJ meshes can be fitted with boxes, found '{}'", ext));
-  }
-  if (box.isEmpty()) fail("no vertices");
-  return box;
-}
-
-namespace {
 
 // ---------------------------------------------------------------------------------------------
 // URDF
@@ -727,231 +655,7 @@ RobotModel read_sdf(const std::string& shown_name, const std::string& path,
   return m;
 }
 
-// ---------------------------------------------------------------------------------------------
-// masses an engine can move: every joint's dofs must carry inertia. Massless links are fine
-// where something with mass is welded to them or hangs below them (URDF "dummy" links); a
-// floating base whose links all weigh 0 (DART asserts mTotalMass != 0) or a hinge that turns
-// nothing with inertia about its axis (DART's articulated-body recursion divides by 0 and
-// asserts !isNan) is refused, with the joint's line.
-
-using Matrix6d = Eigen::Matrix<double, 6, 6>;
-using Matrix6Xd = Eigen::Matrix<double, 6, Eigen::Dynamic>;
-
-Matrix3d skew(const Vector3d& v) {
-  Matrix3d s;
-  s << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return s;
-}
-
-// a link's spatial inertia about its frame's origin, in its axes, (angular; linear)
-Matrix6d spatial_inertia(const RobotLink& l) {
-  const Matrix3d c = skew(l.com);
-  Matrix6d s;
-  s << l.inertia + l.mass * c * c.transpose(), l.mass * c, l.mass * c.transpose(),
-      l.mass * Matrix3d::Identity();
-  return s;
-}
-
-// a child link's spatial inertia in its parent's frame; `t` is the child's pose in the parent
-Matrix6d inertia_in_parent(const Isometry3d& t, const Matrix6d& child) {
-  // the motion transform parent -> child coordinates; I_parent = X^T I_child X
-  const Matrix3d rt = t.linear().transpose();
-  Matrix6d x = Matrix6d::Zero();
-  x.topLeftCorner<3, 3>() = rt;
-  x.bottomLeftCorner<3, 3>() = -rt * skew(t.translation());
-  x.bottomRightCorner<3, 3>() = rt;
-  return x.transpose() * child * x;
-}
-
-// the joint's motion subspace in its child link's frame (angular; linear), one column per dof
-Matrix6Xd motion_subspace(RobotJointType type, const Isometry3d& child_to_joint,
-                          const Vector3d& axis_in_joint) {
-  const Vector3d p = child_to_joint.translation();
-  const Vector3d a = child_to_joint.linear() * axis_in_joint;
-  Matrix6Xd s;
-  switch (type) {
-    case RobotJointType::kFixed:
-      return Matrix6Xd(6, 0);
-    case RobotJointType::kRevolute:
-    case RobotJointType::kContinuous:
-      s.resize(6, 1);
-      s << a, p.cross(a);
-      return s;
-    case RobotJointType::kPrismatic:
-      s.resize(6, 1);
-      s << Vector3d::Zero(), a;
-      return s;
-    case RobotJointType::kBall:
-      s.resize(6, 3);
-      s << Matrix3d::Identity(), skew(p);
-      return s;
-    case RobotJointType::kFloating:
-      return Matrix6d::Identity();
-  }
-  return Matrix6Xd(6, 0);
-}
-
-// what a joint moves, as the link below it sees it
-struct MovedInertia {
-  Matrix6d articulated = Matrix6d::Zero();  // with the joints below free
-  Matrix6d composite = Matrix6d::Zero();    // with the joints below locked
-  double mass = 0;                          // kg, of the links below
-};
-
-class MassCheck {
- public:
-  explicit MassCheck(const RobotModel& m) : m_(m) {
-    for (const RobotLink& l : m.links) links_[l.name] = &l;
-    for (const RobotJoint& j : m.joints) children_[j.parent].push_back(&j);
-  }
-
-  void run() {
-    // a floating base that weighs nothing at all: said so, before any joint below it
-    double mass = 0;
-    for (const RobotLink& l : m_.links) mass += l.mass;
-    if (!m_.root_joint.empty() && !(mass > 0))
-      fail(RobotJointType::kFloating, m_.root, m_.root_joint, links_.at(m_.root)->line, mass);
-    collect_below();
-    if (m_.root == "world") {
-      for (const RobotJoint* j : children_["world"])
-        seen_through(j->type, j->child, j->child_to_joint, j->axis, j->name, j->line);
-      return;
-    }
-    const RobotJointType root_type =
-        m_.root_joint.empty() ? RobotJointType::kFixed : RobotJointType::kFloating;
-    seen_through(root_type, m_.root, Isometry3d::Identity(), Vector3d::UnitX(), m_.root_joint,
-                 links_.at(m_.root)->line);
-  }
-
- private:
-  // below_[link]: the inertia of the link and everything below it, leaves first (no
-  // recursion: a chain may be kMaxRobotLinks deep); every joint below a link is checked
-  void collect_below() {
-    std::vector<std::string> order;
-    std::vector<std::string> stack;
-    if (m_.root != "world") stack.push_back(m_.root);
-    for (const RobotJoint* j : children_["world"]) stack.push_back(j->child);
-    while (!stack.empty()) {
-      order.push_back(stack.back());
-      stack.pop_back();
-      for (const RobotJoint* j : children_[order.back()]) stack.push_back(j->child);
-    }
-    for (auto it = order.rbegin(); it != order.rend(); ++it) {
-      const RobotLink& l = *links_.at(*it);
-      MovedInertia out;
-      out.articulated = out.composite = spatial_inertia(l);
-      out.mass = l.mass;
-      for (const RobotJoint* j : children_[l.name]) {
-        const MovedInertia& child = below_.at(j->child);
-        const Matrix6d seen =
-            seen_through(j->type, j->child, j->child_to_joint, j->axis, j->name, j->line);
-        out.articulated += inertia_in_parent(j->parent_to_child, seen);
-        out.composite += inertia_in_parent(j->parent_to_child, child.composite);
-        out.mass += child.mass;
-      }
-      below_[l.name] = out;
-    }
-  }
-
-  // checks the joint above `child` (its dofs must carry inertia) and returns the articulated
-  // inertia the joint's parent sees through it
-  Matrix6d seen_through(RobotJointType type, const std::string& child,
-                        const Isometry3d& child_to_joint, const Vector3d& axis,
-                        const std::string& joint, int line) const {
-    const MovedInertia& moved = below_.at(child);
-    const Matrix6Xd s = motion_subspace(type, child_to_joint, axis);
-    if (s.cols() == 0) return moved.articulated;
-    const Eigen::MatrixXd d = s.transpose() * moved.articulated * s;
-    const Eigen::MatrixXd rigid = s.transpose() * moved.composite * s;
-    // relative to the same dofs with the joints below locked: rounding leaves ~1e-16 of that
-    const double smallest = Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(d).eigenvalues()(0);
-    const double scale =
-        Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(rigid).eigenvalues()(rigid.rows() - 1);
-    if (!(smallest > kMinMovedInertia && smallest > 1e-10 * scale))
-      fail(type, child, joint, line, moved.mass);
-    return moved.articulated -
-           moved.articulated * s * d.inverse() * s.transpose() * moved.articulated;
-  }
-
-  [[noreturn]] void fail(RobotJointType type, const std::string& child, const std::string& joint,
-                         int line, double mass) const {
-    const int child_line = links_.at(child)->line;
-    if (type == RobotJointType::kFloating && mass <= 0)
-      throw InputError(located(
-          m_.file, line,
-          fmt::format("link '{}': a floating base whose links all weigh 0 kg cannot move: give "
-                      "the links <inertial> masses, or weld the base to the world",
-                      child)));
-    const std::string what =
-        mass <= 0 ? fmt::format("link '{}' (line {}) and the links below it weigh 0 kg", child,
-                                child_line)
-                  : fmt::format(
-                        "link '{}' (line {}) and the links below it have no inertia "
-                        "about the joint's axis",
-                        child, child_line);
-    throw InputError(located(
-        m_.file, line,
-        fmt::format("joint '{}' moves nothing with inertia: {}; give them <inertial> mass and "
-                    "inertia, or make the joint fixed",
-                    joint, what)));
-  }
-
-  // kg m^2 or kg: MuJoCo's mjMINVAL, below which it refuses a moving body's mass and inertia
-  static constexpr double kMinMovedInertia = 1e-15;
-
-  const RobotModel& m_;
-  std::map<std::string, const RobotLink*> links_;
-  std::map<std::string, std::vector<const RobotJoint*>> children_;
-  std::map<std::string, MovedInertia> below_;
-};
-
 }  // namespace
-
-bool robot_is_ground(const RobotModel& robot) {
-  if (!robot.root_joint.empty()) return false;
-  for (const RobotJoint& j : robot.joints)
-    if (j.type != RobotJointType::kFixed) return false;
-  return std::any_of(robot.links.begin(), robot.links.end(),
-                     [](const RobotLink& l) { return !l.collisions.empty(); });
-}
-
-bool robots_need_ground(const std::vector<RobotModel>& robots) {
-  const auto floats = [](const RobotModel& r) {
-    return !r.root_joint.empty() ||
-           std::any_of(r.joints.begin(), r.joints.end(),
-                       [](const RobotJoint& j) { return j.type == RobotJointType::kFloating; });
-  };
-  return std::none_of(robots.begin(), robots.end(), robot_is_ground) &&
-         std::any_of(robots.begin(), robots.end(), floats);
-}
-
-std::string ground_urdf_text() {
-  return R"(<?xml version="1.0"?>
-<!-- a Z-up ground for URDF/SDF robots (stance's models/ground.urdf): a 40 m x 40 m box whose
-     top face is z = 0, welded to the world -->
-<robot name="ground">
-  <link name="world"/>
-  <link name="ground">
-    <inertial>
-      <mass value="1"/>
-      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>
-    </inertial>
-    <collision>
-      <origin xyz="0 0 -0.5"/>
-      <geometry><box size="40 40 1"/></geometry>
-    </collision>
-    <visual>
-      <origin xyz="0 0 -0.5"/>
-      <geometry><box size="40 40 1"/></geometry>
-    </visual>
-  </link>
-  <joint name="ground_weld" type="fixed">
-    <parent link="world"/>
-    <child link="ground"/>
-  </joint>
-</robot>
-)";
-}
 
 namespace {
 // RobotOptions::lock_joints: each named joint becomes a fixed one at its zero position
@@ -988,28 +692,12 @@ RobotModel read_robot(const std::string& shown_name, const std::string& path,
   RobotModel m = format == ModelFormat::kUrdf ? read_urdf(shown_name, path, options, doc)
                                               : read_sdf(shown_name, path, options, doc);
   lock_joints(m, options.lock_joints);
-  MassCheck(m).run();
+  robot_detail::check_robot_masses(m);
   return m;
 }
 
 // ---------------------------------------------------------------------------------------------
 // the text DART parses
-
-namespace robot_detail {
-
-FittedBox fit_box(const std::string& shown_name, int line, const std::string& mesh,
-                  const Vector3d& scale) {
-  const Eigen::AlignedBox3d b = mesh_bounds(shown_name, line, mesh, scale);
-  return {b.sizes().cwiseMax(kMinBoxSide), b.center()};
-}
-
-std::string lower_extension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-  return ext;
-}
-
-}  // namespace robot_detail
 
 std::string robot_text_for_dart(const std::string& shown_name, const std::string& path,
                                 const RobotOptions& options) {

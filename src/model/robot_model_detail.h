@@ -1,9 +1,15 @@
-// Shared by the URDF/SDF reader (robot_model.cc) and its MJCF translation (robot_to_mjcf.cc);
-// not for other code.
+// Shared by the URDF/SDF reader (robot_model.cc, with robot_mesh.cc and robot_mass_check.cc)
+// and its MJCF translation (robot_to_mjcf.cc); not for other code.
 #pragma once
 
 #include <Eigen/Core>
 #include <string>
+#include <vector>
+
+namespace stance {
+struct RobotModel;
+struct RobotOptions;
+}  // namespace stance
 
 namespace stance::robot_detail {
 
@@ -16,5 +22,13 @@ FittedBox fit_box(const std::string& shown_name, int line, const std::string& me
 
 // a path's extension, lowercase, with its dot (".stl")
 std::string lower_extension(const std::string& path);
+
+// the folders of package:// and model:// references: RobotOptions::package_path, then
+// STANCE_PACKAGE_PATH (robot_mesh.cc)
+std::vector<std::string> package_folders(const RobotOptions& options);
+
+// throws InputError, with the joint's line, when a joint moves nothing with inertia
+// (robot_mass_check.cc)
+void check_robot_masses(const RobotModel& m);
 
 }  // namespace stance::robot_detail
