@@ -399,6 +399,10 @@ struct Viewer::Impl {
   void install_input_callbacks();
 
   void draw_panels();
+  // the state, history, perturbation and plots; the parameter panel; the key reference
+  void draw_state_panel(float panel_w);
+  void draw_param_panel(float panel_w);
+  void draw_help();
   // one group of the parameter panel, its entries and its subgroups as tree nodes
   void draw_param_group(const ParamGroup& group, std::vector<ParamEntry>& list, int depth,
                         const std::function<void(const std::string&, double)>& changed);

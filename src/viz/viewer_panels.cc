@@ -68,9 +68,15 @@ void Viewer::Impl::draw_param_group(
 }
 
 void Viewer::Impl::draw_panels() {
-  Engine& e = run->engine();
   // panels take at most 30% of the width each, so that the character stays in view
   float panel_w = std::min(360.0f, 0.3f * options.width);
+  draw_state_panel(panel_w);
+  draw_param_panel(panel_w);
+  if (show_help) draw_help();
+}
+
+void Viewer::Impl::draw_state_panel(float panel_w) {
+  Engine& e = run->engine();
   ImGui::SetNextWindowPos(ImVec2(10, 10), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowSize(ImVec2(panel_w, 0.6f * options.height), ImGuiCond_FirstUseEver);
   ImGui::Begin("stance");
@@ -144,7 +150,9 @@ void Viewer::Impl::draw_panels() {
     }
   }
   ImGui::End();
+}
 
+void Viewer::Impl::draw_param_panel(float panel_w) {
   // parameters, generated from the controllers' visits: grouped by controller and by their
   // structs (FSM states collapse), labelled from the visit, full path and help on hover
   // wide enough for the longest label (at the deepest indent) and a 120 px field
@@ -214,17 +222,16 @@ void Viewer::Impl::draw_panels() {
       refresh_entries();
     }
   }
+}
 
-  if (show_help) {
-    // at the bottom left, tall enough for every line
-    int lines =
-        1 + static_cast<int>(std::count(kHelpText, kHelpText + std::strlen(kHelpText), '\n'));
-    float help_h = lines * ImGui::GetTextLineHeight() + 35.0f;
-    ImGui::SetNextWindowPos(ImVec2(10, options.height - help_h), ImGuiCond_FirstUseEver);
-    ImGui::Begin("keys", &show_help, ImGuiWindowFlags_AlwaysAutoResize);
-    ImGui::TextUnformatted(kHelpText);
-    ImGui::End();
-  }
+void Viewer::Impl::draw_help() {
+  // at the bottom left, tall enough for every line
+  int lines = 1 + static_cast<int>(std::count(kHelpText, kHelpText + std::strlen(kHelpText), '\n'));
+  float help_h = lines * ImGui::GetTextLineHeight() + 35.0f;
+  ImGui::SetNextWindowPos(ImVec2(10, options.height - help_h), ImGuiCond_FirstUseEver);
+  ImGui::Begin("keys", &show_help, ImGuiWindowFlags_AlwaysAutoResize);
+  ImGui::TextUnformatted(kHelpText);
+  ImGui::End();
 }
 
 }  // namespace stance
