@@ -127,15 +127,18 @@ TEST(ExternalForces, PlannerKeepsTheTrackedWalkUpUnderAPushThroughTheState) {
   const std::string scenario = tracked_walk_scenario();
   RunOptions options;
   options.quiet = true;
-  Simulation run(load_scenario(scenario, {"planner.threads=2", "duration=2"}), options);
+  const std::vector<std::string> settings = {"planner.threads=2", "duration=2"};
+  Simulation run(load_scenario(scenario, settings), options);
+  Simulation calm(load_scenario(scenario, settings), options);
   const int hips = run.engine().body_index("Hips");
   step_past(run, kPushStart);
-  const Eigen::Vector3d before = run.engine().com_velocity();
   run.external_forces().pushes.push_back(
       {hips, {kPushForce.x(), kPushForce.y(), kPushForce.z()}, kPushEnd});
   step_past(run, kPushEnd);
-  // the push moved the character (about 0.3 m/s sideways on ~70 kg) ...
-  EXPECT_GT(run.engine().com_velocity().x() - before.x(), 0.15);
+  step_past(calm, kPushEnd);
+  // the push moved the character against the same run unpushed (22.5 N s on ~60 kg, less what
+  // the planner already answers while it lasts) ...
+  EXPECT_GT(run.engine().com_velocity().x() - calm.engine().com_velocity().x(), 0.1);
   // ... and the planner, which sees it in the state its rollouts start from, recovers
   const RunResult r = run.run();
   EXPECT_FALSE(r.fell) << r.fall_reason << " at " << r.fall_time.value_or(-1);
