@@ -166,6 +166,47 @@ void note_turned_off_features(const Simbicon::Model& m, const ControllerContext&
   if (printed.insert(line).second) std::cerr << line << "\n";
 }
 
+// which feet touch the ground: one pass over the contacts
+std::array<bool, 2> feet_on_ground(const Simbicon::Model& m, const Engine& engine) {
+  std::array<bool, 2> on_ground{false, false};
+  for (int i = 0, n = engine.num_contacts(); i < n; ++i) {
+    const Contact c = engine.contact(i);
+    const int other = c.body1 < 0 ? c.body2 : (c.body2 < 0 ? c.body1 : -2);
+    for (int side : {Simbicon::kRight, Simbicon::kLeft})
+      if (other == m.foot[side]) on_ground[side] = true;
+  }
+  return on_ground;
+}
+
+// FSM: timed states end on the clock, contact states when the swing foot lands
+void advance_fsm(const Simbicon::Model& m, SimbiconState& s, const Engine& engine,
+                 const std::array<bool, 2>& on_ground) {
+  const double t = engine.time();
+  const SimbiconStateTargets& cur = m.targets[s.fsm];
+  const int swing = s.fsm < 2 ? Simbicon::kLeft : Simbicon::kRight;
+  const double in_state = t - s.state_start_s;
+  bool done = in_state >= cur.duration_s;
+  if (cur.ends_on_contact && in_state >= cur.min_duration_s && on_ground[swing]) done = true;
+  if (done) {
+    s.state_time_sum[s.fsm] += in_state;
+    ++s.state_count[s.fsm];
+    if (cur.ends_on_contact) {
+      // a strike: the swing foot becomes the stance foot
+      const Eigen::Vector3d foot = engine.body_pose(m.foot[swing]).pos;
+      const double ankle_x = (m.heading * Eigen::Vector3d::UnitX()).dot(foot);
+      const double ankle_y = (m.heading * Eigen::Vector3d::UnitY()).dot(foot);
+      if (s.steps.size() < static_cast<size_t>(m.params.max_recorded_steps))
+        s.steps.push_back({t, swing, ankle_x, ankle_x - s.last_stance_ankle_x, t - s.last_strike_s,
+                           m.spatial ? std::abs(ankle_y - s.last_stance_ankle_y) : 0.0});
+      s.last_stance_ankle_x = ankle_x;
+      s.last_stance_ankle_y = ankle_y;
+      s.last_strike_s = t;
+    }
+    s.fsm = (s.fsm + 1) % 4;
+    s.state_start_s = t;
+  }
+}
+
 }  // namespace
 
 Simbicon::Simbicon(const SimbiconParams& params, const ControllerContext& ctx,
@@ -292,42 +333,8 @@ void Simbicon::reset_state(State& s, const Engine& engine) const {
 void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
   const Model& m = model_;
   const double t = engine.time();
-  // which feet touch the ground: one pass over the contacts
-  std::array<bool, 2> on_ground{false, false};
-  for (int i = 0, n = engine.num_contacts(); i < n; ++i) {
-    const Contact c = engine.contact(i);
-    const int other = c.body1 < 0 ? c.body2 : (c.body2 < 0 ? c.body1 : -2);
-    for (int side : {kRight, kLeft})
-      if (other == m.foot[side]) on_ground[side] = true;
-  }
-
-  // FSM: timed states end on the clock, contact states when the swing foot lands
-  {
-    const SimbiconStateTargets& cur = m.targets[s.fsm];
-    const int swing = s.fsm < 2 ? kLeft : kRight;
-    const double in_state = t - s.state_start_s;
-    bool done = in_state >= cur.duration_s;
-    if (cur.ends_on_contact && in_state >= cur.min_duration_s && on_ground[swing]) done = true;
-    if (done) {
-      s.state_time_sum[s.fsm] += in_state;
-      ++s.state_count[s.fsm];
-      if (cur.ends_on_contact) {
-        // a strike: the swing foot becomes the stance foot
-        const Eigen::Vector3d foot = engine.body_pose(m.foot[swing]).pos;
-        const double ankle_x = (m.heading * Eigen::Vector3d::UnitX()).dot(foot);
-        const double ankle_y = (m.heading * Eigen::Vector3d::UnitY()).dot(foot);
-        if (s.steps.size() < static_cast<size_t>(m.params.max_recorded_steps))
-          s.steps.push_back({t, swing, ankle_x, ankle_x - s.last_stance_ankle_x,
-                             t - s.last_strike_s,
-                             m.spatial ? std::abs(ankle_y - s.last_stance_ankle_y) : 0.0});
-        s.last_stance_ankle_x = ankle_x;
-        s.last_stance_ankle_y = ankle_y;
-        s.last_strike_s = t;
-      }
-      s.fsm = (s.fsm + 1) % 4;
-      s.state_start_s = t;
-    }
-  }
+  const std::array<bool, 2> on_ground = feet_on_ground(m, engine);
+  advance_fsm(m, s, engine, on_ground);
 
   if (!on_ground[kRight] && !on_ground[kLeft]) s.flight_time_s += engine.timestep();
 
