@@ -52,282 +52,378 @@ bool report_command_word(CLI::App& app, int argc, char** argv) {
 }
 }  // namespace
 
+namespace {
+
+// every command's options and its CLI::App: filled by the add_*_commands, read by dispatch()
+struct Cli {
+  stance::RunCommand run;
+  std::string export_bvh;  // run --export-bvh
+  stance::ViewCommand view;
+  std::string shots_dir = "scenarios", shots_out = "docs/img", shots_size = "800x500";
+  double shots_at = 2.0;
+  bool shots_gif = false;
+  stance::InfoCommand info;
+  std::string convert_in, convert_out;
+  std::string bvh_file;
+  bool bvh_json = false;
+  std::string synth_out;
+  stance::BvhRetargetCommand retarget;
+  stance::BvhTrackCommand track;
+  std::string track_record;
+  stance::BvhTrackBatchCommand track_batch;  // several clips, a folder or a glob
+  std::string track_camera = "side", track_size = "640x360", track_debug_draw = "off";
+  bool track_view = false;
+  double track_quit_after = 0;
+  stance::Bvh2MjcfCommand bvh2mjcf;
+  std::string list_what;
+  stance::SweepCommand sweep, sweep_gain;
+  stance::PushThresholdCommand push_threshold;
+  stance::RobustnessCommand robustness;
+  stance::TuneCommand tune;
+  CLI::App *run_cmd = nullptr, *view_cmd = nullptr, *shots_cmd = nullptr, *info_cmd = nullptr;
+  CLI::App *convert_cmd = nullptr, *bvh_cmd = nullptr, *bvh_info_cmd = nullptr;
+  CLI::App *bvh_synth_cmd = nullptr, *bvh_synth_run_cmd = nullptr, *bvh_retarget_cmd = nullptr;
+  CLI::App *bvh_track_cmd = nullptr, *bvh2mjcf_cmd = nullptr, *list_cmd = nullptr;
+  CLI::App *sweep_cmd = nullptr, *sweep_gain_cmd = nullptr, *push_threshold_cmd = nullptr;
+  CLI::App *robustness_cmd = nullptr, *tune_cmd = nullptr;
+};
+
+// run, view, screenshots, info, convert
+void add_run_commands(CLI::App& app, Cli& c) {
+  c.run_cmd = app.add_subcommand("run", "run a scenario headless");
+  c.run_cmd->add_option("scenario", c.run.scenario, "scenario YAML")->required();
+  c.run_cmd->add_option("--engine", c.run.engine, "mujoco or dart (default: the scenario's)");
+  c.run_cmd->add_option("--duration", c.run.duration, "simulated seconds");
+  c.run_cmd->add_option("--set", c.run.sets, "override a parameter: key.path=value")
+      ->allow_extra_args(false);
+  c.run_cmd->add_option("--push", c.run.pushes, "body,fx,fy,fz,start,duration (repeatable)")
+      ->allow_extra_args(false);
+  c.run_cmd->add_option("--out", c.run.out_dir, "output folder (summary.json, log.csv)");
+  c.run_cmd->add_flag("--quiet", c.run.quiet, "no summary on stdout");
+  c.run_cmd->add_flag("--past-fall", c.run.past_fall,
+                      "go on to the end after a fall (default: stop 1 s after it)");
+  c.run_cmd->add_option("--record", c.run.record, "render an MP4 offscreen (ffmpeg)");
+  c.run_cmd->add_option("--screenshot", c.run.screenshot, "render one PNG frame at --at");
+  c.run_cmd
+      ->add_flag("--check", c.run.check, "exit 4 when the scenario's expect block does not hold")
+      ->excludes("--record")
+      ->excludes("--screenshot");
+  c.run_cmd->add_option("--at", c.run.screenshot_at, "screenshot time, s");
+  c.run_cmd->add_option("--fps", c.run.fps, "video frames per simulated second");
+  c.run_cmd->add_option("--size", c.run.size, "frame size WxH");
+  c.run_cmd->add_option("--camera", c.run.camera, "follow or free (default: the scenario's)");
+
+  c.view_cmd = app.add_subcommand("view", "watch, push and tune a scenario in a window");
+  c.view_cmd->add_option("scenario", c.view.scenario, "scenario YAML")->required();
+  c.view_cmd->add_option("--engine", c.view.engine, "mujoco or dart (default: the scenario's)");
+  c.view_cmd->add_option("--quit-after", c.view.quit_after_s,
+                         "close after S s of wall time and print the pace (benchmarks)");
+  c.view_cmd->add_option("--set", c.view.sets, "override a parameter: key.path=value")
+      ->allow_extra_args(false);
+
+  c.shots_cmd = app.add_subcommand("screenshots", "one PNG per scenario (README images)");
+  c.shots_cmd->add_option("--dir", c.shots_dir, "scenario folder");
+  c.shots_cmd->add_option("--out", c.shots_out, "image folder");
+  c.shots_cmd->add_option("--at", c.shots_at, "simulated time of each picture, s");
+  c.shots_cmd->add_option("--size", c.shots_size, "WxH (GIFs: default 480x300)");
+  c.shots_cmd->add_flag("--gif", c.shots_gif, "short looping GIFs of the seed systems instead");
+
+  c.info_cmd = app.add_subcommand("info", "model sizes and mass");
+  c.info_cmd->add_option("model", c.info.model, "MJCF, URDF or SKEL file")->required();
+  c.info_cmd->add_option("--engine", c.info.engine, "mujoco or dart");
+  c.info_cmd->add_flag("--json", c.info.json, "print JSON");
+
+  c.convert_cmd = app.add_subcommand("convert", "translate a DART .skel to MJCF");
+  c.convert_cmd->add_option("input", c.convert_in, ".skel file")->required();
+  c.convert_cmd->add_option("output", c.convert_out, "MJCF file to write")->required();
+}
+
+// bvh info/synth/retarget/track, bvh2mjcf, run --export-bvh, list
+void add_bvh_commands(CLI::App& app, Cli& c) {
+  c.bvh_cmd = app.add_subcommand("bvh", "motion-capture files");
+  c.bvh_cmd->require_subcommand(1);
+  c.bvh_info_cmd = c.bvh_cmd->add_subcommand("info", "frames, joints, channels, orders, units");
+  c.bvh_info_cmd->add_option("file", c.bvh_file, "BVH file")->required();
+  c.bvh_info_cmd->add_flag("--json", c.bvh_json, "print JSON");
+
+  c.bvh_synth_cmd = c.bvh_cmd->add_subcommand("synth-walk", "write the synthetic walking clip");
+  c.bvh_synth_cmd->add_option("output", c.synth_out, "BVH file to write")->required();
+  c.bvh_synth_run_cmd =
+      c.bvh_cmd->add_subcommand("synth-run", "write the synthetic running clip (a flight phase)");
+  c.bvh_synth_run_cmd->add_option("output", c.synth_out, "BVH file to write")->required();
+
+  c.bvh_retarget_cmd = c.bvh_cmd->add_subcommand(
+      "retarget", "a clip mapped onto a model, as a table of its q and v");
+  c.bvh_retarget_cmd->add_option("input", c.retarget.bvh, "BVH file")->required();
+  c.bvh_retarget_cmd->add_option("output", c.retarget.out, "CSV file to write")->required();
+  c.bvh_retarget_cmd->add_option("--map", c.retarget.map, "YAML joint map")->required();
+  c.bvh_retarget_cmd->add_option("--model", c.retarget.model, "model file (MJCF, URDF, SKEL)")
+      ->required();
+  c.bvh_retarget_cmd->add_option("--engine", c.retarget.engine, "mujoco or dart");
+  c.bvh_retarget_cmd->add_flag("--loop", c.retarget.loop, "repeat the clip for --duration");
+  c.bvh_retarget_cmd->add_option("--duration", c.retarget.duration_s, "seconds to write");
+  c.bvh_retarget_cmd->add_option("--first-frame", c.retarget.first_frame,
+                                 "first frame of the range");
+  c.bvh_retarget_cmd->add_option("--last-frame", c.retarget.last_frame, "last frame (-1: the end)");
+  c.bvh_track_cmd = c.bvh_cmd->add_subcommand(
+      "track", "track clips in free mode with the sampling planner (no per-clip tuning)");
+  c.bvh_track_cmd
+      ->add_option("input", c.track_batch.inputs,
+                   "BVH files, folders or quoted globs (more than one: OUT/<clip>/ each, and "
+                   "OUT/results.csv)")
+      ->required();
+  c.bvh_track_cmd->add_option("--out", c.track.out_dir,
+                              "output folder (track.yaml, summary.json, log.csv, tracked.bvh)");
+  c.bvh_track_cmd->add_option("--jobs", c.track_batch.jobs,
+                              "several clips: clips at once per process (default: one per thread)");
+  c.bvh_track_cmd->add_flag("--resume", c.track_batch.resume,
+                            "several clips: keep --out's finished clips, track the rest");
+  c.bvh_track_cmd->add_flag("--plot,!--no-plot", c.track_batch.plot,
+                            "several clips: OUT/results.png (gnuplot; default on)");
+  c.bvh_track_cmd->add_option("--duration", c.track.duration, "seconds (default: the clip once)");
+  c.bvh_track_cmd->add_flag("--loop", c.track.loop, "repeat the clip, root carried forward");
+  c.bvh_track_cmd->add_option("--first-frame", c.track.first_frame,
+                              "first frame of the range (default: after a leading T-pose)");
+  c.bvh_track_cmd->add_option("--last-frame", c.track.last_frame, "last frame (-1: the end)");
+  c.bvh_track_cmd->add_option(
+      "--map", c.track.map,
+      "YAML joint map onto --model (default: found from its tree, written to --out/map.yaml)");
+  c.bvh_track_cmd->add_option("--model", c.track.model, "model file (MJCF, URDF, SKEL)");
+  c.bvh_track_cmd->add_option("--engine", c.track.engine, "mujoco or dart");
+  c.bvh_track_cmd->add_option("--threads", c.track.threads, "rollout threads (default: all cores)");
+  c.bvh_track_cmd->add_option("--scale-to-meters", c.track.scale_to_meters,
+                              "metres per file unit (default: detected from the legs)");
+  c.bvh_track_cmd->add_option("--set", c.track.sets, "override: key.path=value")
+      ->allow_extra_args(false);
+  c.bvh_track_cmd->add_option("--record", c.track_record, "also render the run as an MP4");
+  c.bvh_track_cmd->add_option("--camera", c.track_camera,
+                              "--record: side, front (of the clip's heading), follow or free "
+                              "(the scenario's camera.*; default side)");
+  c.bvh_track_cmd->add_option("--size", c.track_size, "--record: frame size WxH (default 640x360)");
+  c.bvh_track_cmd->add_option("--debug-draw", c.track_debug_draw,
+                              "--record: on draws the COM, contacts, planner path and reference "
+                              "ghost (default off)");
+  c.bvh_track_cmd->add_flag("--view", c.track_view, "watch the tracking run in the viewer instead");
+  c.bvh_track_cmd->add_option("--quit-after", c.track_quit_after,
+                              "--view: close after S s of wall time and print the pace");
+  c.bvh_track_cmd->add_flag("--quiet", c.track.quiet, "no summary on stdout");
+  c.bvh_track_cmd->add_flag("--origin-centred", c.track.origin_centred,
+                            "tracked.bvh starts above the origin, on the ground (the default: "
+                            "where the clip starts, to overlay it)");
+
+  c.bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");
+  c.bvh2mjcf_cmd->add_option("input", c.bvh2mjcf.bvh, "BVH file")->required();
+  c.bvh2mjcf_cmd->add_option("output", c.bvh2mjcf.mjcf, "MJCF file to write")->required();
+  c.bvh2mjcf_cmd->add_option("--mass", c.bvh2mjcf.mass_kg, "total mass, kg");
+  c.bvh2mjcf_cmd->add_option("--first-frame", c.bvh2mjcf.first_frame,
+                             "frame of the start keyframe (default: after a leading T-pose)");
+  c.bvh2mjcf_cmd->add_option("--timestep", c.bvh2mjcf.timestep_s, "simulation timestep, s");
+  c.bvh2mjcf_cmd->add_flag("--human-limits", c.bvh2mjcf.human_limits,
+                           "human-like joint torque limits, scaled by --mass (docs/mocap.md)");
+  c.bvh2mjcf_cmd->add_option("--scale-to-meters", c.bvh2mjcf.scale_to_meters,
+                             "metres per file unit (default: detected from the legs)");
+  // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion
+  c.run_cmd->add_option("--export-bvh", c.export_bvh,
+                        "mocap_tracker / mocap_retarget: write the simulated motion");
+
+  c.list_cmd = app.add_subcommand("list", "controllers and scenarios; a controller's parameters");
+  c.list_cmd->add_option("what", c.list_what,
+                         "a scenario folder (default scenarios), 'controllers' or a controller "
+                         "type: its parameters with unit, range and help");
+}
+
+// sweep, sweep-gain, push-threshold, robustness, tune
+void add_batch_commands(CLI::App& app, Cli& c) {
+  // `sweep`: any key path; `sweep-gain`: the slope walker's hip kp, 2..12, plotted
+  c.sweep_gain.param = "controllers.0.hip_kp";
+  c.sweep_gain.from = 2;
+  c.sweep_gain.to = 12;
+  c.sweep_gain.plot = true;
+  c.sweep_gain.out_dir = "out/sweep_gain";
+  auto add_sweep_options = [](CLI::App* cmd, stance::SweepCommand& s) {
+    cmd->add_option("scenario", s.scenario, "scenario YAML")->required();
+    cmd->add_option("--param", s.param, "key path to sweep, as in --set");
+    cmd->add_option("--from", s.from, "first value");
+    cmd->add_option("--to", s.to, "last value");
+    cmd->add_option("--steps", s.steps, "number of values from..to");
+    cmd->add_option("--values", s.values, "comma-separated values instead of from/to/steps");
+    cmd->add_option("--threads", s.threads, "worker threads (default: all cores)");
+    cmd->add_option("--engine", s.engine, "mujoco or dart (default: the scenario's)");
+    cmd->add_option("--duration", s.duration, "simulated seconds per run");
+    cmd->add_option("--set", s.sets, "override for every run: key.path=value")
+        ->allow_extra_args(false);
+    cmd->add_option("--out", s.out_dir, "output folder (sweep.csv, points.csv, PNG)");
+    cmd->add_flag("--plot,!--no-plot", s.plot, "plot a list metric against the value (gnuplot)");
+    cmd->add_option("--plot-metric", s.plot_metric, "list metric to plot");
+    cmd->add_flag("--quiet", s.quiet, "no progress lines");
+    cmd->add_option("--resume", s.resume,
+                    "finish an interrupted sweep in this folder (same options)");
+  };
+  c.sweep_cmd = app.add_subcommand("sweep", "run a scenario over a range of one parameter");
+  add_sweep_options(c.sweep_cmd, c.sweep);
+  c.sweep_gain_cmd =
+      app.add_subcommand("sweep-gain", "slope walker bifurcation diagram over hip_kp");
+  add_sweep_options(c.sweep_gain_cmd, c.sweep_gain);
+
+  c.push_threshold_cmd = app.add_subcommand(
+      "push-threshold", "largest push survived along +axis and -axis, by bisection");
+  c.push_threshold_cmd->add_option("scenario", c.push_threshold.scenario, "scenario YAML")
+      ->required();
+  c.push_threshold_cmd->add_option("--body", c.push_threshold.body, "body to push")->required();
+  c.push_threshold_cmd->add_option("--axis", c.push_threshold.axis, "x, y or z (world)");
+  c.push_threshold_cmd->add_option("--engine", c.push_threshold.engine, "mujoco or dart");
+  c.push_threshold_cmd->add_option("--duration", c.push_threshold.duration, "seconds per run");
+  c.push_threshold_cmd->add_option("--set", c.push_threshold.sets, "override: key.path=value")
+      ->allow_extra_args(false);
+  c.push_threshold_cmd->add_option("--max", c.push_threshold.max_force, "largest force tried, N");
+  c.push_threshold_cmd->add_option("--push-duration,--duration-push",
+                                   c.push_threshold.push_duration, "push, s");
+  c.push_threshold_cmd->add_option("--point", c.push_threshold.point,
+                                   "where the push acts: com, origin or x,y,z (body frame, m)");
+  c.push_threshold_cmd->add_option("--at", c.push_threshold.at, "push start, s");
+  c.push_threshold_cmd->add_option("--tolerance", c.push_threshold.tolerance, "bracket width, N");
+  c.push_threshold_cmd->add_option("--threads", c.push_threshold.threads,
+                                   "2: both directions at once, 1: one after the other");
+  c.push_threshold_cmd->add_flag("--quiet", c.push_threshold.quiet, "no line per trial");
+
+  c.robustness_cmd = app.add_subcommand(
+      "robustness", "push thresholds per direction and gait phase, with outcome codes");
+  c.robustness_cmd->add_option("scenario", c.robustness.scenario, "scenario YAML")->required();
+  c.robustness_cmd->add_option("--body", c.robustness.body, "body to push")->required();
+  c.robustness_cmd->add_option("--directions", c.robustness.directions,
+                               "directions in the horizontal plane");
+  c.robustness_cmd->add_option("--phases", c.robustness.phases,
+                               "gait phases (walkers) or push start times (standing)");
+  c.robustness_cmd->add_option("--push-duration,--duration-push", c.robustness.push_duration,
+                               "push, s");
+  c.robustness_cmd->add_option("--max", c.robustness.max_force, "largest force tried, N");
+  c.robustness_cmd->add_option("--tolerance", c.robustness.tolerance, "bracket width, N");
+  c.robustness_cmd->add_option("--at", c.robustness.at,
+                               "s: first push start (standing) or warm-up (walkers)");
+  c.robustness_cmd->add_option("--phase-spacing", c.robustness.phase_spacing,
+                               "s between a standing scenario's push starts");
+  c.robustness_cmd->add_option("--recovery-window", c.robustness.recovery_window,
+                               "s after the push in which steps are counted");
+  c.robustness_cmd->add_option("--max-steps", c.robustness.max_steps,
+                               "recovery steps allowed before outcome 3");
+  c.robustness_cmd->add_option("--point", c.robustness.point,
+                               "where the push acts: com, origin or x,y,z (body frame, m)");
+  c.robustness_cmd->add_option("--engine", c.robustness.engine, "mujoco or dart");
+  c.robustness_cmd->add_option("--duration", c.robustness.duration, "seconds per run");
+  c.robustness_cmd->add_option("--set", c.robustness.sets, "override: key.path=value")
+      ->allow_extra_args(false);
+  c.robustness_cmd->add_option("--threads", c.robustness.threads,
+                               "worker threads (default: all cores)");
+  c.robustness_cmd->add_option("--out", c.robustness.out_dir,
+                               "output folder (robustness.csv, thresholds.csv, summary.json, PNG)");
+  c.robustness_cmd->add_option("--resume", c.robustness.resume,
+                               "finish an interrupted run in this folder (same options)");
+  c.robustness_cmd->add_flag("--plot,!--no-plot", c.robustness.plot, "the polar plot (gnuplot)");
+  c.robustness_cmd->add_flag("--quiet", c.robustness.quiet, "no line per direction and phase");
+
+  c.tune_cmd = app.add_subcommand("tune", "robust search of several parameters of a scenario");
+  c.tune_cmd->add_option("scenario", c.tune.scenario, "scenario YAML")->required();
+  c.tune_cmd->add_option("--param", c.tune.params, "searched parameter: key.path=lo:hi[:log]")
+      ->allow_extra_args(false);
+  c.tune_cmd
+      ->add_option("--neighbour,--neighbor", c.tune.neighbours,
+                   "a perturbed run scored too: \"k*=0.85,k2=0.001\" (repeatable)")
+      ->allow_extra_args(false);
+  c.tune_cmd->add_option("--budget", c.tune.budget, "candidates in all");
+  c.tune_cmd->add_option("--population", c.tune.population, "candidates per generation");
+  c.tune_cmd->add_option("--seed", c.tune.seed, "random seed of the search");
+  c.tune_cmd->add_option("--threads", c.tune.threads, "worker threads (default: all cores)");
+  c.tune_cmd->add_option("--engine", c.tune.engine, "mujoco or dart (default: the scenario's)");
+  c.tune_cmd->add_option("--duration", c.tune.duration, "simulated seconds per run");
+  c.tune_cmd->add_option("--metric", c.tune.metric,
+                         "summary metric added to the score, e.g. mocap.mean_joint_error_deg");
+  c.tune_cmd->add_option("--fall-penalty", c.tune.fall_penalty,
+                         "score per second of the duration not stayed up");
+  c.tune_cmd->add_option("--set", c.tune.sets, "override for every run: key.path=value")
+      ->allow_extra_args(false);
+  c.tune_cmd->add_option("--method", c.tune.method, "search: cem (default) or cmaes");
+  c.tune_cmd->add_option("--out", c.tune.out_dir, "output folder (tune.csv, best.yaml)");
+  c.tune_cmd->add_option("--resume", c.tune.resume,
+                         "folder of an interrupted tune: go on from its last finished generation");
+  c.tune_cmd->add_flag("--quiet", c.tune.quiet, "no progress lines");
+}
+
+// the chosen command's work, after a parse that succeeded
+int dispatch(Cli& c) {
+  if (*c.run_cmd && (!c.run.record.empty() || !c.run.screenshot.empty())) {
+#ifdef STANCE_HAVE_VIEWER
+    if (int code = stance::check_run_options(c.run); code != stance::kExitOk) return code;
+    return stance::record_command(c.run);
+#else
+    std::cerr << "error: --record/--screenshot need the viewer build (STANCE_WITH_VIEWER)\n";
+    return stance::kExitBadInput;
+#endif
+  }
+  if (*c.run_cmd && !c.export_bvh.empty())
+    c.run.sets.push_back("controllers.0.export_bvh=" +
+                         std::filesystem::absolute(c.export_bvh).string());
+  if (*c.run_cmd) return stance::run_command(c.run);
+  if (*c.view_cmd || *c.shots_cmd) {
+#ifdef STANCE_HAVE_VIEWER
+    if (*c.view_cmd) return stance::view_command(c.view);
+    if (int code = stance::check_screenshots_options(c.shots_dir, c.shots_at);
+        code != stance::kExitOk)
+      return code;
+    if (c.shots_gif)
+      return stance::gifs_command(c.shots_dir, c.shots_out,
+                                  c.shots_cmd->count("--size") ? c.shots_size : "480x300");
+    return stance::screenshots_command(c.shots_dir, c.shots_out, c.shots_at, c.shots_size);
+#else
+    std::cerr << "error: this stance was built without the viewer (STANCE_WITH_VIEWER)\n";
+    return stance::kExitBadInput;
+#endif
+  }
+  if (*c.info_cmd) return stance::info_command(c.info);
+  if (*c.convert_cmd) return stance::convert_command(c.convert_in, c.convert_out);
+  if (*c.bvh_info_cmd) return stance::bvh_info_command(c.bvh_file, c.bvh_json);
+  if (*c.bvh2mjcf_cmd) return stance::bvh2mjcf_command(c.bvh2mjcf);
+  if (*c.bvh_synth_cmd) return stance::bvh_synth_command(c.synth_out, false);
+  if (*c.bvh_synth_run_cmd) return stance::bvh_synth_command(c.synth_out, true);
+  if (*c.bvh_retarget_cmd) return stance::bvh_retarget_command(c.retarget);
+  if (*c.bvh_track_cmd) {
+    if (stance::is_track_batch(c.track_batch.inputs) || c.track_batch.resume) {
+      c.track_batch.track = c.track;
+      c.track_batch.record = c.track_record;
+      c.track_batch.view = c.track_view;
+      return stance::bvh_track_batch_command(c.track_batch);
+    }
+    c.track.bvh = c.track_batch.inputs.front();
+    if (c.track_record.empty() && !c.track_view) return stance::bvh_track_command(c.track);
+#ifdef STANCE_HAVE_VIEWER
+    if (c.track_view) return stance::view_track_command(c.track, c.track_quit_after);
+    return stance::record_track_command(c.track, {.video = c.track_record,
+                                                  .camera = c.track_camera,
+                                                  .size = c.track_size,
+                                                  .debug_draw = c.track_debug_draw});
+#else
+    std::cerr << "error: --record and --view need the viewer build (STANCE_WITH_VIEWER)\n";
+    return stance::kExitBadInput;
+#endif
+  }
+  if (*c.list_cmd) return stance::list_command(c.list_what);
+  if (*c.sweep_cmd) return stance::sweep_command(c.sweep);
+  if (*c.sweep_gain_cmd) return stance::sweep_command(c.sweep_gain);
+  if (*c.push_threshold_cmd) return stance::push_threshold_command(c.push_threshold);
+  if (*c.robustness_cmd) return stance::robustness_command(c.robustness);
+  if (*c.tune_cmd) return stance::tune_command(c.tune);
+  return stance::kExitBadInput;
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{"stance: physics-based biped balance and locomotion control"};
   app.require_subcommand(1);
 
-  stance::RunCommand run;
-  auto* run_cmd = app.add_subcommand("run", "run a scenario headless");
-  run_cmd->add_option("scenario", run.scenario, "scenario YAML")->required();
-  run_cmd->add_option("--engine", run.engine, "mujoco or dart (default: the scenario's)");
-  run_cmd->add_option("--duration", run.duration, "simulated seconds");
-  run_cmd->add_option("--set", run.sets, "override a parameter: key.path=value")
-      ->allow_extra_args(false);
-  run_cmd->add_option("--push", run.pushes, "body,fx,fy,fz,start,duration (repeatable)")
-      ->allow_extra_args(false);
-  run_cmd->add_option("--out", run.out_dir, "output folder (summary.json, log.csv)");
-  run_cmd->add_flag("--quiet", run.quiet, "no summary on stdout");
-  run_cmd->add_flag("--past-fall", run.past_fall,
-                    "go on to the end after a fall (default: stop 1 s after it)");
-  run_cmd->add_option("--record", run.record, "render an MP4 offscreen (ffmpeg)");
-  run_cmd->add_option("--screenshot", run.screenshot, "render one PNG frame at --at");
-  run_cmd->add_flag("--check", run.check, "exit 4 when the scenario's expect block does not hold")
-      ->excludes("--record")
-      ->excludes("--screenshot");
-  run_cmd->add_option("--at", run.screenshot_at, "screenshot time, s");
-  run_cmd->add_option("--fps", run.fps, "video frames per simulated second");
-  run_cmd->add_option("--size", run.size, "frame size WxH");
-  run_cmd->add_option("--camera", run.camera, "follow or free (default: the scenario's)");
-
-  stance::ViewCommand view;
-  auto* view_cmd = app.add_subcommand("view", "watch, push and tune a scenario in a window");
-  view_cmd->add_option("scenario", view.scenario, "scenario YAML")->required();
-  view_cmd->add_option("--engine", view.engine, "mujoco or dart (default: the scenario's)");
-  view_cmd->add_option("--quit-after", view.quit_after_s,
-                       "close after S s of wall time and print the pace (benchmarks)");
-  view_cmd->add_option("--set", view.sets, "override a parameter: key.path=value")
-      ->allow_extra_args(false);
-
-  std::string shots_dir = "scenarios", shots_out = "docs/img", shots_size = "800x500";
-  double shots_at = 2.0;
-  auto* shots_cmd = app.add_subcommand("screenshots", "one PNG per scenario (README images)");
-  shots_cmd->add_option("--dir", shots_dir, "scenario folder");
-  shots_cmd->add_option("--out", shots_out, "image folder");
-  shots_cmd->add_option("--at", shots_at, "simulated time of each picture, s");
-  shots_cmd->add_option("--size", shots_size, "WxH (GIFs: default 480x300)");
-  bool shots_gif = false;
-  shots_cmd->add_flag("--gif", shots_gif, "short looping GIFs of the seed systems instead");
-
-  stance::InfoCommand info;
-  auto* info_cmd = app.add_subcommand("info", "model sizes and mass");
-  info_cmd->add_option("model", info.model, "MJCF, URDF or SKEL file")->required();
-  info_cmd->add_option("--engine", info.engine, "mujoco or dart");
-  info_cmd->add_flag("--json", info.json, "print JSON");
-
-  std::string convert_in, convert_out;
-  auto* convert_cmd = app.add_subcommand("convert", "translate a DART .skel to MJCF");
-  convert_cmd->add_option("input", convert_in, ".skel file")->required();
-  convert_cmd->add_option("output", convert_out, "MJCF file to write")->required();
-
-  std::string bvh_file;
-  bool bvh_json = false;
-  auto* bvh_cmd = app.add_subcommand("bvh", "motion-capture files");
-  bvh_cmd->require_subcommand(1);
-  auto* bvh_info_cmd = bvh_cmd->add_subcommand("info", "frames, joints, channels, orders, units");
-  bvh_info_cmd->add_option("file", bvh_file, "BVH file")->required();
-  bvh_info_cmd->add_flag("--json", bvh_json, "print JSON");
-
-  std::string synth_out;
-  auto* bvh_synth_cmd = bvh_cmd->add_subcommand("synth-walk", "write the synthetic walking clip");
-  bvh_synth_cmd->add_option("output", synth_out, "BVH file to write")->required();
-  auto* bvh_synth_run_cmd =
-      bvh_cmd->add_subcommand("synth-run", "write the synthetic running clip (a flight phase)");
-  bvh_synth_run_cmd->add_option("output", synth_out, "BVH file to write")->required();
-
-  stance::BvhRetargetCommand retarget;
-  auto* bvh_retarget_cmd =
-      bvh_cmd->add_subcommand("retarget", "a clip mapped onto a model, as a table of its q and v");
-  bvh_retarget_cmd->add_option("input", retarget.bvh, "BVH file")->required();
-  bvh_retarget_cmd->add_option("output", retarget.out, "CSV file to write")->required();
-  bvh_retarget_cmd->add_option("--map", retarget.map, "YAML joint map")->required();
-  bvh_retarget_cmd->add_option("--model", retarget.model, "model file (MJCF, URDF, SKEL)")
-      ->required();
-  bvh_retarget_cmd->add_option("--engine", retarget.engine, "mujoco or dart");
-  bvh_retarget_cmd->add_flag("--loop", retarget.loop, "repeat the clip for --duration");
-  bvh_retarget_cmd->add_option("--duration", retarget.duration_s, "seconds to write");
-  bvh_retarget_cmd->add_option("--first-frame", retarget.first_frame, "first frame of the range");
-  bvh_retarget_cmd->add_option("--last-frame", retarget.last_frame, "last frame (-1: the end)");
-  stance::BvhTrackCommand track;
-  std::string track_record;
-  stance::BvhTrackBatchCommand track_batch;  // several clips, a folder or a glob
-  auto* bvh_track_cmd = bvh_cmd->add_subcommand(
-      "track", "track clips in free mode with the sampling planner (no per-clip tuning)");
-  bvh_track_cmd
-      ->add_option("input", track_batch.inputs,
-                   "BVH files, folders or quoted globs (more than one: OUT/<clip>/ each, and "
-                   "OUT/results.csv)")
-      ->required();
-  bvh_track_cmd->add_option("--out", track.out_dir,
-                            "output folder (track.yaml, summary.json, log.csv, tracked.bvh)");
-  bvh_track_cmd->add_option("--jobs", track_batch.jobs,
-                            "several clips: clips at once per process (default: one per thread)");
-  bvh_track_cmd->add_flag("--resume", track_batch.resume,
-                          "several clips: keep --out's finished clips, track the rest");
-  bvh_track_cmd->add_flag("--plot,!--no-plot", track_batch.plot,
-                          "several clips: OUT/results.png (gnuplot; default on)");
-  bvh_track_cmd->add_option("--duration", track.duration, "seconds (default: the clip once)");
-  bvh_track_cmd->add_flag("--loop", track.loop, "repeat the clip, root carried forward");
-  bvh_track_cmd->add_option("--first-frame", track.first_frame,
-                            "first frame of the range (default: after a leading T-pose)");
-  bvh_track_cmd->add_option("--last-frame", track.last_frame, "last frame (-1: the end)");
-  bvh_track_cmd->add_option(
-      "--map", track.map,
-      "YAML joint map onto --model (default: found from its tree, written to --out/map.yaml)");
-  bvh_track_cmd->add_option("--model", track.model, "model file (MJCF, URDF, SKEL)");
-  bvh_track_cmd->add_option("--engine", track.engine, "mujoco or dart");
-  bvh_track_cmd->add_option("--threads", track.threads, "rollout threads (default: all cores)");
-  bvh_track_cmd->add_option("--scale-to-meters", track.scale_to_meters,
-                            "metres per file unit (default: detected from the legs)");
-  bvh_track_cmd->add_option("--set", track.sets, "override: key.path=value")
-      ->allow_extra_args(false);
-  bvh_track_cmd->add_option("--record", track_record, "also render the run as an MP4");
-  std::string track_camera = "side", track_size = "640x360", track_debug_draw = "off";
-  bool track_view = false;
-  bvh_track_cmd->add_option("--camera", track_camera,
-                            "--record: side, front (of the clip's heading), follow or free "
-                            "(the scenario's camera.*; default side)");
-  bvh_track_cmd->add_option("--size", track_size, "--record: frame size WxH (default 640x360)");
-  bvh_track_cmd->add_option("--debug-draw", track_debug_draw,
-                            "--record: on draws the COM, contacts, planner path and reference "
-                            "ghost (default off)");
-  bvh_track_cmd->add_flag("--view", track_view, "watch the tracking run in the viewer instead");
-  double track_quit_after = 0;
-  bvh_track_cmd->add_option("--quit-after", track_quit_after,
-                            "--view: close after S s of wall time and print the pace");
-  bvh_track_cmd->add_flag("--quiet", track.quiet, "no summary on stdout");
-  bvh_track_cmd->add_flag("--origin-centred", track.origin_centred,
-                          "tracked.bvh starts above the origin, on the ground (the default: "
-                          "where the clip starts, to overlay it)");
-
-  stance::Bvh2MjcfCommand bvh2mjcf;
-  auto* bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");
-  bvh2mjcf_cmd->add_option("input", bvh2mjcf.bvh, "BVH file")->required();
-  bvh2mjcf_cmd->add_option("output", bvh2mjcf.mjcf, "MJCF file to write")->required();
-  bvh2mjcf_cmd->add_option("--mass", bvh2mjcf.mass_kg, "total mass, kg");
-  bvh2mjcf_cmd->add_option("--first-frame", bvh2mjcf.first_frame,
-                           "frame of the start keyframe (default: after a leading T-pose)");
-  bvh2mjcf_cmd->add_option("--timestep", bvh2mjcf.timestep_s, "simulation timestep, s");
-  bvh2mjcf_cmd->add_flag("--human-limits", bvh2mjcf.human_limits,
-                         "human-like joint torque limits, scaled by --mass (docs/mocap.md)");
-  bvh2mjcf_cmd->add_option("--scale-to-meters", bvh2mjcf.scale_to_meters,
-                           "metres per file unit (default: detected from the legs)");
-  // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion
-  std::string export_bvh;
-  run_cmd->add_option("--export-bvh", export_bvh,
-                      "mocap_tracker / mocap_retarget: write the simulated motion");
-
-  std::string list_what;
-  auto* list_cmd =
-      app.add_subcommand("list", "controllers and scenarios; a controller's parameters");
-  list_cmd->add_option("what", list_what,
-                       "a scenario folder (default scenarios), 'controllers' or a controller "
-                       "type: its parameters with unit, range and help");
-
-  // `sweep`: any key path; `sweep-gain`: the slope walker's hip kp, 2..12, plotted
-  stance::SweepCommand sweep, sweep_gain;
-  sweep_gain.param = "controllers.0.hip_kp";
-  sweep_gain.from = 2;
-  sweep_gain.to = 12;
-  sweep_gain.plot = true;
-  sweep_gain.out_dir = "out/sweep_gain";
-  auto add_sweep_options = [](CLI::App* c, stance::SweepCommand& s) {
-    c->add_option("scenario", s.scenario, "scenario YAML")->required();
-    c->add_option("--param", s.param, "key path to sweep, as in --set");
-    c->add_option("--from", s.from, "first value");
-    c->add_option("--to", s.to, "last value");
-    c->add_option("--steps", s.steps, "number of values from..to");
-    c->add_option("--values", s.values, "comma-separated values instead of from/to/steps");
-    c->add_option("--threads", s.threads, "worker threads (default: all cores)");
-    c->add_option("--engine", s.engine, "mujoco or dart (default: the scenario's)");
-    c->add_option("--duration", s.duration, "simulated seconds per run");
-    c->add_option("--set", s.sets, "override for every run: key.path=value")
-        ->allow_extra_args(false);
-    c->add_option("--out", s.out_dir, "output folder (sweep.csv, points.csv, PNG)");
-    c->add_flag("--plot,!--no-plot", s.plot, "plot a list metric against the value (gnuplot)");
-    c->add_option("--plot-metric", s.plot_metric, "list metric to plot");
-    c->add_flag("--quiet", s.quiet, "no progress lines");
-    c->add_option("--resume", s.resume,
-                  "finish an interrupted sweep in this folder (same options)");
-  };
-  auto* sweep_cmd = app.add_subcommand("sweep", "run a scenario over a range of one parameter");
-  add_sweep_options(sweep_cmd, sweep);
-  auto* sweep_gain_cmd =
-      app.add_subcommand("sweep-gain", "slope walker bifurcation diagram over hip_kp");
-  add_sweep_options(sweep_gain_cmd, sweep_gain);
-
-  stance::PushThresholdCommand push_threshold;
-  auto* push_threshold_cmd = app.add_subcommand(
-      "push-threshold", "largest push survived along +axis and -axis, by bisection");
-  push_threshold_cmd->add_option("scenario", push_threshold.scenario, "scenario YAML")->required();
-  push_threshold_cmd->add_option("--body", push_threshold.body, "body to push")->required();
-  push_threshold_cmd->add_option("--axis", push_threshold.axis, "x, y or z (world)");
-  push_threshold_cmd->add_option("--engine", push_threshold.engine, "mujoco or dart");
-  push_threshold_cmd->add_option("--duration", push_threshold.duration, "seconds per run");
-  push_threshold_cmd->add_option("--set", push_threshold.sets, "override: key.path=value")
-      ->allow_extra_args(false);
-  push_threshold_cmd->add_option("--max", push_threshold.max_force, "largest force tried, N");
-  push_threshold_cmd->add_option("--push-duration,--duration-push", push_threshold.push_duration,
-                                 "push, s");
-  push_threshold_cmd->add_option("--point", push_threshold.point,
-                                 "where the push acts: com, origin or x,y,z (body frame, m)");
-  push_threshold_cmd->add_option("--at", push_threshold.at, "push start, s");
-  push_threshold_cmd->add_option("--tolerance", push_threshold.tolerance, "bracket width, N");
-  push_threshold_cmd->add_option("--threads", push_threshold.threads,
-                                 "2: both directions at once, 1: one after the other");
-  push_threshold_cmd->add_flag("--quiet", push_threshold.quiet, "no line per trial");
-
-  stance::RobustnessCommand robustness;
-  auto* robustness_cmd = app.add_subcommand(
-      "robustness", "push thresholds per direction and gait phase, with outcome codes");
-  robustness_cmd->add_option("scenario", robustness.scenario, "scenario YAML")->required();
-  robustness_cmd->add_option("--body", robustness.body, "body to push")->required();
-  robustness_cmd->add_option("--directions", robustness.directions,
-                             "directions in the horizontal plane");
-  robustness_cmd->add_option("--phases", robustness.phases,
-                             "gait phases (walkers) or push start times (standing)");
-  robustness_cmd->add_option("--push-duration,--duration-push", robustness.push_duration,
-                             "push, s");
-  robustness_cmd->add_option("--max", robustness.max_force, "largest force tried, N");
-  robustness_cmd->add_option("--tolerance", robustness.tolerance, "bracket width, N");
-  robustness_cmd->add_option("--at", robustness.at,
-                             "s: first push start (standing) or warm-up (walkers)");
-  robustness_cmd->add_option("--phase-spacing", robustness.phase_spacing,
-                             "s between a standing scenario's push starts");
-  robustness_cmd->add_option("--recovery-window", robustness.recovery_window,
-                             "s after the push in which steps are counted");
-  robustness_cmd->add_option("--max-steps", robustness.max_steps,
-                             "recovery steps allowed before outcome 3");
-  robustness_cmd->add_option("--point", robustness.point,
-                             "where the push acts: com, origin or x,y,z (body frame, m)");
-  robustness_cmd->add_option("--engine", robustness.engine, "mujoco or dart");
-  robustness_cmd->add_option("--duration", robustness.duration, "seconds per run");
-  robustness_cmd->add_option("--set", robustness.sets, "override: key.path=value")
-      ->allow_extra_args(false);
-  robustness_cmd->add_option("--threads", robustness.threads,
-                             "worker threads (default: all cores)");
-  robustness_cmd->add_option("--out", robustness.out_dir,
-                             "output folder (robustness.csv, thresholds.csv, summary.json, PNG)");
-  robustness_cmd->add_option("--resume", robustness.resume,
-                             "finish an interrupted run in this folder (same options)");
-  robustness_cmd->add_flag("--plot,!--no-plot", robustness.plot, "the polar plot (gnuplot)");
-  robustness_cmd->add_flag("--quiet", robustness.quiet, "no line per direction and phase");
-
-  stance::TuneCommand tune;
-  auto* tune_cmd = app.add_subcommand("tune", "robust search of several parameters of a scenario");
-  tune_cmd->add_option("scenario", tune.scenario, "scenario YAML")->required();
-  tune_cmd->add_option("--param", tune.params, "searched parameter: key.path=lo:hi[:log]")
-      ->allow_extra_args(false);
-  tune_cmd
-      ->add_option("--neighbour,--neighbor", tune.neighbours,
-                   "a perturbed run scored too: \"k*=0.85,k2=0.001\" (repeatable)")
-      ->allow_extra_args(false);
-  tune_cmd->add_option("--budget", tune.budget, "candidates in all");
-  tune_cmd->add_option("--population", tune.population, "candidates per generation");
-  tune_cmd->add_option("--seed", tune.seed, "random seed of the search");
-  tune_cmd->add_option("--threads", tune.threads, "worker threads (default: all cores)");
-  tune_cmd->add_option("--engine", tune.engine, "mujoco or dart (default: the scenario's)");
-  tune_cmd->add_option("--duration", tune.duration, "simulated seconds per run");
-  tune_cmd->add_option("--metric", tune.metric,
-                       "summary metric added to the score, e.g. mocap.mean_joint_error_deg");
-  tune_cmd->add_option("--fall-penalty", tune.fall_penalty,
-                       "score per second of the duration not stayed up");
-  tune_cmd->add_option("--set", tune.sets, "override for every run: key.path=value")
-      ->allow_extra_args(false);
-  tune_cmd->add_option("--method", tune.method, "search: cem (default) or cmaes");
-  tune_cmd->add_option("--out", tune.out_dir, "output folder (tune.csv, best.yaml)");
-  tune_cmd->add_option("--resume", tune.resume,
-                       "folder of an interrupted tune: go on from its last finished generation");
-  tune_cmd->add_flag("--quiet", tune.quiet, "no progress lines");
+  Cli c;
+  add_run_commands(app, c);
+  add_bvh_commands(app, c);
+  add_batch_commands(app, c);
 
   try {
     app.parse(argc, argv);
@@ -338,65 +434,5 @@ int main(int argc, char** argv) {
       std::cerr << "error: " << e.what() << " (see --help)\n";
     return stance::kExitBadInput;
   }
-  if (*run_cmd && (!run.record.empty() || !run.screenshot.empty())) {
-#ifdef STANCE_HAVE_VIEWER
-    if (int code = stance::check_run_options(run); code != stance::kExitOk) return code;
-    return stance::record_command(run);
-#else
-    std::cerr << "error: --record/--screenshot need the viewer build (STANCE_WITH_VIEWER)\n";
-    return stance::kExitBadInput;
-#endif
-  }
-  if (*run_cmd && !export_bvh.empty())
-    run.sets.push_back("controllers.0.export_bvh=" +
-                       std::filesystem::absolute(export_bvh).string());
-  if (*run_cmd) return stance::run_command(run);
-  if (*view_cmd || *shots_cmd) {
-#ifdef STANCE_HAVE_VIEWER
-    if (*view_cmd) return stance::view_command(view);
-    if (int code = stance::check_screenshots_options(shots_dir, shots_at); code != stance::kExitOk)
-      return code;
-    if (shots_gif)
-      return stance::gifs_command(shots_dir, shots_out,
-                                  shots_cmd->count("--size") ? shots_size : "480x300");
-    return stance::screenshots_command(shots_dir, shots_out, shots_at, shots_size);
-#else
-    std::cerr << "error: this stance was built without the viewer (STANCE_WITH_VIEWER)\n";
-    return stance::kExitBadInput;
-#endif
-  }
-  if (*info_cmd) return stance::info_command(info);
-  if (*convert_cmd) return stance::convert_command(convert_in, convert_out);
-  if (*bvh_info_cmd) return stance::bvh_info_command(bvh_file, bvh_json);
-  if (*bvh2mjcf_cmd) return stance::bvh2mjcf_command(bvh2mjcf);
-  if (*bvh_synth_cmd) return stance::bvh_synth_command(synth_out, false);
-  if (*bvh_synth_run_cmd) return stance::bvh_synth_command(synth_out, true);
-  if (*bvh_retarget_cmd) return stance::bvh_retarget_command(retarget);
-  if (*bvh_track_cmd) {
-    if (stance::is_track_batch(track_batch.inputs) || track_batch.resume) {
-      track_batch.track = track;
-      track_batch.record = track_record;
-      track_batch.view = track_view;
-      return stance::bvh_track_batch_command(track_batch);
-    }
-    track.bvh = track_batch.inputs.front();
-    if (track_record.empty() && !track_view) return stance::bvh_track_command(track);
-#ifdef STANCE_HAVE_VIEWER
-    if (track_view) return stance::view_track_command(track, track_quit_after);
-    return stance::record_track_command(track, {.video = track_record,
-                                                .camera = track_camera,
-                                                .size = track_size,
-                                                .debug_draw = track_debug_draw});
-#else
-    std::cerr << "error: --record and --view need the viewer build (STANCE_WITH_VIEWER)\n";
-    return stance::kExitBadInput;
-#endif
-  }
-  if (*list_cmd) return stance::list_command(list_what);
-  if (*sweep_cmd) return stance::sweep_command(sweep);
-  if (*sweep_gain_cmd) return stance::sweep_command(sweep_gain);
-  if (*push_threshold_cmd) return stance::push_threshold_command(push_threshold);
-  if (*robustness_cmd) return stance::robustness_command(robustness);
-  if (*tune_cmd) return stance::tune_command(tune);
-  return stance::kExitBadInput;
+  return dispatch(c);
 }
