@@ -72,6 +72,12 @@ cd "$work" || exit 1
 printf 'time,previous\n0,1\n' >good_out/table.csv
 [ -s good_out/summary.json ] && [ -s good_out/log.csv ] || fail "the good run's outputs"
 
+# a build without the viewer (the sanitizer tree) refuses --record before it reads the options
+# those rows check; the viewer build runs them
+viewer=1
+"$stance" run missing.yaml --screenshot x.png 2>&1 | grep -q "viewer build" && viewer=0
+skipped=0
+
 # what a folder holds: every entry (hidden ones too) and every file's checksum
 snapshot() { (cd "$1" && find . | sort && find . -type f -exec md5sum {} + | sort); }
 before=$(snapshot good_out)
@@ -80,6 +86,10 @@ n=0
 while IFS= read -r row; do
   split_row "$row"
   n=$((n + 1))
+  if [ "$viewer" -eq 0 ] && [[ "$command" == *--record* ]]; then
+    skipped=$((skipped + 1))
+    continue
+  fi
   rm -rf out
   cp -a good_out out
   eval "args=($command)"
@@ -100,5 +110,5 @@ while IFS= read -r row; do
   fi
 done < <(rows)
 
-echo "$passes passed, $fails failed"
+echo "$passes passed, $fails failed, $skipped skipped (no viewer in this build)"
 [ "$fails" -eq 0 ]
