@@ -121,7 +121,8 @@ std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
           "compose URDF and SDF files only");
     RobotTranslation t = robots_to_mjcf(robot_inputs);
     for (const std::string& w : t.warnings) warn_once(w);
-    world.models.push_back({spec.models.front().path, "", t.mjcf, ModelFormat::kMjcf, {}});
+    world.models.push_back(
+        {spec.models.front().path, "", t.mjcf, ModelFormat::kMjcf, Eigen::Vector3d::Zero()});
     try {
       return open_mujoco_engine(world);
     } catch (const InputError& e) {
@@ -136,7 +137,8 @@ std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
           "composing SKEL files with MJCF/URDF files is not supported on MuJoCo; "
           "convert the SKEL files first with `stance convert`");
     SkelTranslation t = skel_to_mjcf(skel_inputs);
-    world.models.push_back({spec.models.front().path, "", t.mjcf, ModelFormat::kMjcf, {}});
+    world.models.push_back(
+        {spec.models.front().path, "", t.mjcf, ModelFormat::kMjcf, Eigen::Vector3d::Zero()});
     world.start_keyframe = "init";
     return open_mujoco_engine(world);
   }

@@ -14,7 +14,7 @@ namespace {
 
 std::unique_ptr<Engine> chain_engine() {
   WorldSpec spec;
-  spec.models.push_back({test::write_temp_file("spd_chain.xml", test::kFloatingChainMjcf), {}});
+  spec.models.push_back({test::write_temp_file("spd_chain.xml", test::kFloatingChainMjcf)});
   return make_mujoco_engine(spec);
 }
 

@@ -341,7 +341,7 @@ TEST(DartEngine, SaveRestoreThenStepIsBitIdentical) {
 std::unique_ptr<Engine> load_capsule_character() {
   const BvhClip clip = read_bvh(test::source_dir() + "/models/synthetic_walk.bvh");
   WorldSpec spec;
-  spec.models.push_back({write_temp("synthetic_walk.xml", make_bvh_character(clip, {}).mjcf), {}});
+  spec.models.push_back({write_temp("synthetic_walk.xml", make_bvh_character(clip, {}).mjcf)});
   return make_dart_engine(spec);
 }
 
@@ -470,7 +470,7 @@ TEST(DartEngine, ForwardFindsContactGeometryForASetState) {
 TEST(DartEngine, MjcfPendulumPeriodMatchesSmallAngleTheory) {
   const double angle0 = 0.05;
   WorldSpec spec;
-  spec.models.push_back({write_temp("pendulum.xml", pendulum_mjcf(angle0)), {}});
+  spec.models.push_back({write_temp("pendulum.xml", pendulum_mjcf(angle0))});
   auto e = make_dart_engine(spec);
   ASSERT_EQ(e->nv(), 1);
   EXPECT_EQ(e->joint(0).type, JointType::kHinge);
@@ -520,7 +520,7 @@ constexpr const char* kChainMjcf = R"(<mujoco model="chain">
 
 TEST(DartEngine, AgreesWithMujocoOnAnMjcfChain) {
   WorldSpec spec;
-  spec.models.push_back({write_temp("chain.xml", kChainMjcf), {}});
+  spec.models.push_back({write_temp("chain.xml", kChainMjcf)});
   auto dart = make_dart_engine(spec);
   auto mujoco = make_mujoco_engine(spec);
   ASSERT_EQ(dart->nv(), 3);
@@ -608,7 +608,7 @@ TEST(DartEngine, UrdfGetsFloatingRootAndOffset) {
 
 TEST(DartEngine, PerStepInputsAreConsumedOnce) {
   WorldSpec spec;
-  spec.models.push_back({write_temp("pendulum_flat.xml", pendulum_mjcf(0.0)), {}});
+  spec.models.push_back({write_temp("pendulum_flat.xml", pendulum_mjcf(0.0))});
   spec.gravity = Eigen::Vector3d::Zero();
   auto e = make_dart_engine(spec);
   const double dt = e->timestep();
@@ -638,7 +638,7 @@ TEST(DartEngine, PerStepInputsAreConsumedOnce) {
 
 TEST(DartEngine, VelocityCommandServosAndNanReleases) {
   WorldSpec spec;
-  spec.models.push_back({write_temp("pendulum_servo.xml", pendulum_mjcf(0.3)), {}});
+  spec.models.push_back({write_temp("pendulum_servo.xml", pendulum_mjcf(0.3))});
   auto e = make_dart_engine(spec);
   e->set_dof_velocity_command(0, 1.5);
   for (int i = 0; i < 200; ++i) e->step();
@@ -653,7 +653,7 @@ TEST(DartEngine, VelocityCommandServosAndNanReleases) {
 TEST(DartEngine, BadInputsThrowInputErrorNamingTheFile) {
   auto expect_error_naming = [](const std::string& path, const std::string& mention) {
     WorldSpec spec;
-    spec.models.push_back({path, {}});
+    spec.models.push_back({path});
     try {
       make_dart_engine(spec);
       ADD_FAILURE() << "no error for " << path;
@@ -678,7 +678,7 @@ TEST(DartEngine, BadInputsThrowInputErrorNamingTheFile) {
 // the message of the InputError make_dart_engine throws for one model file
 std::string dart_load_error(const std::string& path) {
   WorldSpec spec;
-  spec.models.push_back({path, {}});
+  spec.models.push_back({path});
   try {
     make_dart_engine(spec);
   } catch (const InputError& err) {
@@ -806,7 +806,7 @@ TEST(DartEngine, UnnamedJointsSitesAndInfinitePlanesLoad) {
 </mujoco>
 )");
   WorldSpec spec;
-  spec.models.push_back({file, {}});
+  spec.models.push_back({file});
   std::unique_ptr<Engine> dart = make_dart_engine(spec);
   std::unique_ptr<Engine> mujoco = make_engine("mujoco", spec);
   ASSERT_EQ(dart->nv(), mujoco->nv());
@@ -884,7 +884,7 @@ TEST(DartEngine, EveryWhitespaceBetweenNumbersReadsAsASpaceInEveryFormat) {
         std::string text = c.text;
         text.replace(text.find('@'), 1, sep);
         WorldSpec spec;
-        spec.models.push_back({write_temp(c.name, text), {}});
+        spec.models.push_back({write_temp(c.name, text)});
         return make_dart_engine(spec);
       };
       SCOPED_TRACE(std::string(c.name) + " with separator code " +
@@ -918,7 +918,7 @@ TEST(DartEngine, MjcfNumbersBeyondAMillionAreRefusedWithTheLine) {
   EXPECT_NE(message.find("far.xml:4: <body> pos: -1.3e217 is out of range"), std::string::npos)
       << message;
   WorldSpec spec;
-  spec.models.push_back({far("1000"), {}});
+  spec.models.push_back({far("1000")});
   std::unique_ptr<Engine> near;
   ASSERT_NO_THROW(near = make_dart_engine(spec));
   near->forward();
@@ -973,7 +973,7 @@ TEST(DartEngine, SkelUrdfAndSdfLengthsBeyondAMillionAreRefusedWithTheLine) {
     EXPECT_NE(message.find("is out of range (lengths are at most 1000000 m)"), std::string::npos)
         << message;
     WorldSpec spec;
-    spec.models.push_back({with("1000"), {}});
+    spec.models.push_back({with("1000")});
     std::unique_ptr<Engine> near;
     ASSERT_NO_THROW(near = make_dart_engine(spec));
     near->forward();
@@ -988,7 +988,7 @@ TEST(DartEngine, DartDocSoftBodyMeshAndShapeWorldsLoad) {
   for (const char* file :
        {"softBodies.skel", "soft_cubes.skel", "mesh_collision.skel", "shapes.skel"}) {
     WorldSpec spec;
-    spec.models.push_back({std::string("dart://sample/skel/") + file, {}});
+    spec.models.push_back({std::string("dart://sample/skel/") + file});
     std::unique_ptr<Engine> e;
     EXPECT_NO_THROW(e = make_dart_engine(spec)) << file;
     if (!e) continue;

@@ -20,7 +20,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   static const char* const kNames[4] = {"fuzz.xml", "fuzz.skel", "fuzz.urdf", "fuzz.sdf"};
   const std::string name = kNames[data[1] & 3];
   WorldSpec spec;
-  spec.models.push_back({fuzz::write_scratch(name, fuzz::as_text(data + 2, size - 2)), {}});
+  spec.models.push_back({fuzz::write_scratch(name, fuzz::as_text(data + 2, size - 2))});
   try {
     std::unique_ptr<Engine> e = make_engine(engine, spec);
     // loading is what is fuzzed. DART is only forwarded: stance's DART backend built by clang

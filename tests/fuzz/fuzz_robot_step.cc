@@ -33,7 +33,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size < 1) return 0;
   const std::string name = (data[0] & 1) != 0 ? "fuzz.sdf" : "fuzz.urdf";
   WorldSpec spec;
-  spec.models.push_back({fuzz::write_scratch(name, fuzz::as_text(data + 1, size - 1)), {}});
+  spec.models.push_back({fuzz::write_scratch(name, fuzz::as_text(data + 1, size - 1))});
   load_and_step("mujoco", spec);
   load_and_step("dart", spec);
   return 0;
