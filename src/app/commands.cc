@@ -70,7 +70,8 @@ int check_screenshots_options(const std::string& scenario_dir, double at) {
   });
 }
 
-std::unique_ptr<Simulation> make_run_simulation(const RunCommand& cmd) {
+std::unique_ptr<Simulation> make_run_simulation(const RunCommand& cmd,
+                                                const std::atomic<bool>* interrupt) {
   check_run_command(cmd);
   LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
   if (loaded.scenario.name.empty())
@@ -83,7 +84,7 @@ std::unique_ptr<Simulation> make_run_simulation(const RunCommand& cmd) {
   opt.progress = !cmd.quiet;
   if (cmd.past_fall) opt.stop_after_fall_s = -1;
   for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
-  opt.interrupt = &g_interrupt;
+  opt.interrupt = interrupt ? interrupt : &g_interrupt;  // a batch passes its own
   opt.check_expect_names = true;
   if (cmd.check && !loaded.scenario.expect.given)
     throw InputError(cmd.scenario + ": --check: the scenario has no 'expect' block to check");

@@ -4,6 +4,8 @@
 // 71 the machine lacks something (memory, display, ffmpeg).
 #pragma once
 
+#include <atomic>
+
 #include <functional>
 #include <memory>
 #include <optional>
@@ -50,7 +52,8 @@ int run_command(const RunCommand& cmd, const RunObserverMaker& observe = {});
 // the Simulation run_command runs: the scenario with cmd.sets (named after its file when it has
 // no name) and cmd's options; throws InputError. For callers that want the result, not the exit
 // code (the Python module's track)
-std::unique_ptr<Simulation> make_run_simulation(const RunCommand& cmd);
+std::unique_ptr<Simulation> make_run_simulation(const RunCommand& cmd,
+                                                const std::atomic<bool>* interrupt = nullptr);
 // the options' values checked as the parameters they set (--duration as the scenario's
 // duration); throws InputError. run_command checks them; the recorder's callers call this first
 void check_run_command(const RunCommand& cmd);

@@ -206,15 +206,8 @@ TrackRow track_one_clip(const BvhTrackBatchCommand& cmd, const TrackClip& clip, 
     const std::string scenario = write_bvh_track_scenario(c);
     RunCommand run = bvh_track_run(c, scenario);
     run.sets.push_back(fmt::format("planner.threads={}", planner_threads));
-    LoadedScenario loaded = load_scenario(run.scenario, run.sets);
-    if (loaded.scenario.name.empty()) loaded.scenario.name = fs::path(scenario).stem().string();
-    RunOptions opt;
-    opt.engine = run.engine;
-    opt.out_dir = run.out_dir;
-    opt.quiet = true;
-    opt.interrupt = interrupt;
-    opt.check_expect_names = true;
-    if (Simulation(loaded, opt).run().interrupted) return row;
+    run.quiet = true;
+    if (make_run_simulation(run, interrupt)->run().interrupted) return row;
     // the row as it reads back from the folder, as a resumed batch reads it
     row = read_track_row(clip.name, c.out_dir);
     if (!row.done) row.error = "the run wrote no summary.json", row.done = true;
