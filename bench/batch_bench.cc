@@ -10,8 +10,8 @@
 #include <string>
 
 #include "engine/engine.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 
 namespace {
 

@@ -6,11 +6,11 @@
 #include <chrono>
 #include <filesystem>
 
+#include "batch/sweep.h"
 #include "control/lqr.h"
 #include "engine/mujoco/mujoco_engine.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
-#include "scenario/sweep.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 
 namespace {
 

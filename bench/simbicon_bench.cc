@@ -14,8 +14,8 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 
 namespace {
 

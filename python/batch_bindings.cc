@@ -3,11 +3,11 @@
 #include <cmath>
 #include <optional>
 
+#include "batch/robustness.h"
+#include "batch/sweep.h"
+#include "batch/tune.h"
 #include "bindings.h"
-#include "scenario/robustness.h"
-#include "scenario/scenario.h"
-#include "scenario/sweep.h"
-#include "scenario/tune.h"
+#include "sim/scenario.h"
 
 namespace stance::python {
 namespace {

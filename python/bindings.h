@@ -22,8 +22,8 @@
 #include "app/commands.h"
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "scenario/observers.h"
-#include "scenario/simulation.h"
+#include "sim/observers.h"
+#include "sim/simulation.h"
 
 namespace stance::python {
 

@@ -4,7 +4,7 @@
 
 #include "bindings.h"
 #include "core/error.h"
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 
 namespace stance::python {
 namespace {

@@ -8,7 +8,7 @@
 #include "bindings.h"
 #include "core/error.h"
 #include "core/timestep.h"
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 #ifdef STANCE_HAVE_VIEWER
 #include "viz/viewer.h"
 #endif

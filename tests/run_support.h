@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 namespace stance::test {
 

@@ -5,8 +5,8 @@
 #include "core/error.h"
 #include "core/text_check.h"
 #include "params/option_check.h"
-#include "scenario/planner_params.h"
-#include "scenario/scenario.h"
+#include "sim/planner_params.h"
+#include "sim/scenario.h"
 
 namespace stance::command_support {
 

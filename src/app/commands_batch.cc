@@ -19,6 +19,11 @@
 #include <limits>
 #include <numbers>
 
+#include "batch/batch_ranks.h"
+#include "batch/push_threshold.h"
+#include "batch/robustness.h"
+#include "batch/sweep.h"
+#include "batch/tune.h"
 #include "control/auto_joint_map.h"
 #include "control/controller.h"
 #include "control/mocap_clip.h"
@@ -38,13 +43,8 @@
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
 #include "params/option_check.h"
-#include "scenario/batch_ranks.h"
-#include "scenario/push_threshold.h"
-#include "scenario/robustness.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
-#include "scenario/sweep.h"
-#include "scenario/tune.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

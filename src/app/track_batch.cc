@@ -22,14 +22,14 @@
 
 #include "app/guarded.h"
 #include "app/track_batch_text.h"
+#include "batch/batch_ranks.h"
+#include "batch/sweep.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "params/option_check.h"
-#include "scenario/batch_ranks.h"
-#include "scenario/planner_params.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
-#include "scenario/sweep.h"
+#include "sim/planner_params.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

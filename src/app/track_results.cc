@@ -14,9 +14,9 @@
 #include <sstream>
 
 #include "app/track_batch_text.h"
+#include "batch/sweep.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "scenario/sweep.h"
 
 namespace stance {
 

@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "motion/bvh.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "viz/scene_view.h"
 
 namespace stance {

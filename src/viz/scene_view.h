@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "control/marker.h"
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 #include "viz/scene_look.h"
 
 namespace stance {

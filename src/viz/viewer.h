@@ -31,7 +31,7 @@
 #include <vector>
 
 #include "params/param_list.h"
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 
 namespace stance {
 

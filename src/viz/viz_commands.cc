@@ -12,8 +12,8 @@
 
 #include "app/guarded.h"
 #include "core/error.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "viz/recorder.h"
 #include "viz/viewer.h"
 

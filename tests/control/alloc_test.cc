@@ -15,8 +15,8 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace {

@@ -11,9 +11,9 @@
 #include "control/skateboard_drive.h"
 #include "control/stable_pd.h"
 #include "run_support.h"
-#include "scenario/live_tuning.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/live_tuning.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

@@ -19,8 +19,8 @@
 #include "engine/world_spec.h"
 #include "math/dare.h"
 #include "params/yaml_params.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

@@ -14,8 +14,8 @@
 #include "engine/world_spec.h"
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

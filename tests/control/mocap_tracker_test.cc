@@ -15,8 +15,8 @@
 #include "math/rotations.h"
 #include "model/bvh_to_mjcf.h"
 #include "motion/clip_conventions.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

@@ -15,8 +15,8 @@
 #include "params/param_list.h"
 #include "params/yaml_params.h"
 #include "run_support.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

@@ -11,11 +11,11 @@
 #include <fstream>
 #include <string>
 
+#include "batch/tune.h"
 #include "control/simbicon.h"
 #include "run_support.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
-#include "scenario/tune.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

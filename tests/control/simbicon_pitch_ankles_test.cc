@@ -8,12 +8,12 @@
 #include <string>
 #include <vector>
 
+#include "batch/tune.h"
 #include "control/simbicon.h"
 #include "core/error.h"
 #include "run_support.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
-#include "scenario/tune.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

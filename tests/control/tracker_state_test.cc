@@ -9,9 +9,9 @@
 #include "control/lqr.h"
 #include "control/mocap_retarget_tracker.h"
 #include "run_support.h"
-#include "scenario/live_tuning.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/live_tuning.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

@@ -10,8 +10,8 @@
 #include "app/commands.h"
 #include "core/error.h"
 #include "fuzz_support.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace stance;

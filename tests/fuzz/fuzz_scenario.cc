@@ -7,7 +7,7 @@
 
 #include "core/error.h"
 #include "fuzz_support.h"
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace stance;

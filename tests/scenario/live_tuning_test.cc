@@ -1,6 +1,6 @@
 // Live tuning: the viewer's parameter path (tunable_params -> retune_controller) reaches the
 // running controller and changes the behaviour.
-#include "scenario/live_tuning.h"
+#include "sim/live_tuning.h"
 
 #include <gtest/gtest.h>
 
@@ -10,8 +10,8 @@
 #include "control/lqr.h"
 #include "core/error.h"
 #include "params/param_list.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

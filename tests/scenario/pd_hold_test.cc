@@ -4,8 +4,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

@@ -1,6 +1,6 @@
 // The sampling planner: the spline, the dimensions it finds, thread-count determinism, branching
 // with a plan, and what it is for: a standing biped taking pushes its ankle strategy cannot.
-#include "scenario/planner.h"
+#include "sim/planner.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -11,8 +11,8 @@
 
 #include "core/error.h"
 #include "run_support.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

@@ -11,8 +11,8 @@
 #include "motion/bvh.h"
 #include "motion/clip_conventions.h"
 #include "motion/reference_motion.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

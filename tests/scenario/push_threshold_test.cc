@@ -1,11 +1,11 @@
-#include "scenario/push_threshold.h"
+#include "batch/push_threshold.h"
 
 #include <gtest/gtest.h>
 
 #include <string>
 
 #include "core/error.h"
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 #include "test_support.h"
 
 namespace stance {

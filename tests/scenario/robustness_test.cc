@@ -1,4 +1,4 @@
-#include "scenario/robustness.h"
+#include "batch/robustness.h"
 
 #include <gtest/gtest.h>
 
@@ -8,10 +8,10 @@
 #include <sstream>
 #include <string>
 
+#include "batch/push_threshold.h"
 #include "core/error.h"
-#include "scenario/push_threshold.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

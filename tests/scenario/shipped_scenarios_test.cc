@@ -7,9 +7,9 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "scenario/expectation.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/expectation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

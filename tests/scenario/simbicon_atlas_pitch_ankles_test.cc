@@ -10,8 +10,8 @@
 #include "control/simbicon.h"
 #include "core/error.h"
 #include "run_support.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

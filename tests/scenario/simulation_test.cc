@@ -1,6 +1,6 @@
 // The one step loop: branching from a saved state on many threads, the state file, the stop
 // after a fall, the progress bar.
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>
@@ -13,8 +13,8 @@
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "run_support.h"
-#include "scenario/observers.h"
-#include "scenario/scenario.h"
+#include "sim/observers.h"
+#include "sim/scenario.h"
 #include "test_support.h"
 
 namespace stance {

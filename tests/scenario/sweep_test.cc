@@ -1,5 +1,5 @@
 // The parameter sweep: values in order, and byte-identical outputs for 1 and 2 threads.
-#include "scenario/sweep.h"
+#include "batch/sweep.h"
 
 #include <gtest/gtest.h>
 

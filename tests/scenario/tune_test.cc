@@ -1,6 +1,6 @@
 // The robust tuner: scores, neighbours, argument errors, and a real search on biped_stand that
 // starts from gains too soft to stand and finds a point that stands on its neighbour too.
-#include "scenario/tune.h"
+#include "batch/tune.h"
 
 #include <gtest/gtest.h>
 

@@ -7,7 +7,7 @@
 #include <algorithm>
 
 #include "control/controller.h"
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

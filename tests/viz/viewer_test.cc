@@ -14,7 +14,7 @@
 
 #include "control/lqr.h"
 #include "core/error.h"
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 #include "test_support.h"
 
 namespace stance {

@@ -8,7 +8,7 @@
 #include <iostream>
 
 #include "app/commands.h"
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 
 int main(int argc, char** argv) {
   if (argc != 3) {

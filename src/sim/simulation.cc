@@ -1,4 +1,4 @@
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 #include <fmt/format.h>
 
@@ -21,7 +21,7 @@
 #include "engine/world_spec.h"
 #include "model/model_path.h"
 #include "model/robot_model.h"
-#include "scenario/observers.h"
+#include "sim/observers.h"
 
 namespace stance {
 

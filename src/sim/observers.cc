@@ -1,4 +1,4 @@
-#include "scenario/observers.h"
+#include "sim/observers.h"
 
 #include <fmt/format.h>
 #include <unistd.h>

@@ -6,11 +6,11 @@
 #include <limits>
 #include <sstream>
 
+#include "batch/sweep.h"
+#include "batch/tune.h"
+#include "batch/tune_detail.h"
 #include "core/error.h"
 #include "params/yaml_params.h"
-#include "scenario/sweep.h"
-#include "scenario/tune.h"
-#include "scenario/tune_detail.h"
 
 namespace stance {
 

@@ -1,4 +1,4 @@
-#include "scenario/sweep.h"
+#include "batch/sweep.h"
 
 #include <fmt/format.h>
 
@@ -15,11 +15,11 @@
 #include <sstream>
 #include <thread>
 
+#include "batch/batch_ranks.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "params/yaml_params.h"
-#include "scenario/batch_ranks.h"
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 
 namespace stance {
 

@@ -15,8 +15,8 @@
 #include <vector>
 
 #include "params/param_list.h"
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

@@ -3,9 +3,9 @@
 
 #include <filesystem>
 
+#include "batch/tune.h"
+#include "batch/tune_detail.h"
 #include "core/error.h"
-#include "scenario/tune.h"
-#include "scenario/tune_detail.h"
 
 namespace stance {
 

@@ -32,7 +32,7 @@
 #include <string>
 #include <vector>
 
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 
 namespace stance {
 

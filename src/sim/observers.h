@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "core/atomic_file.h"
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

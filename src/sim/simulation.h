@@ -24,8 +24,8 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "scenario/planner.h"
-#include "scenario/scenario.h"
+#include "sim/planner.h"
+#include "sim/scenario.h"
 
 namespace stance {
 

@@ -1,4 +1,4 @@
-#include "scenario/live_tuning.h"
+#include "sim/live_tuning.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +11,7 @@
 #include "engine/engine.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
-#include "scenario/planner.h"
+#include "sim/planner.h"
 
 namespace stance {
 

@@ -1,4 +1,4 @@
-#include "scenario/robustness.h"
+#include "batch/robustness.h"
 
 #include <fmt/format.h>
 
@@ -13,12 +13,12 @@
 #include <numbers>
 #include <sstream>
 
+#include "batch/batch_ranks.h"
+#include "batch/push_threshold.h"
+#include "batch/sweep.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "scenario/batch_ranks.h"
-#include "scenario/push_threshold.h"
-#include "scenario/simulation.h"
-#include "scenario/sweep.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

@@ -21,7 +21,7 @@
 #include <vector>
 
 #include "control/controller.h"
-#include "scenario/planner_params.h"
+#include "sim/planner_params.h"
 
 namespace stance {
 

@@ -1,4 +1,4 @@
-#include "scenario/tune.h"
+#include "batch/tune.h"
 
 #include <fmt/format.h>
 
@@ -11,16 +11,16 @@
 #include <set>
 #include <sstream>
 
+#include "batch/batch_ranks.h"
+#include "batch/sweep.h"
+#include "batch/tune_detail.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
 #include "math/cem.h"
 #include "math/cmaes.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
-#include "scenario/batch_ranks.h"
-#include "scenario/scenario.h"
-#include "scenario/sweep.h"
-#include "scenario/tune_detail.h"
+#include "sim/scenario.h"
 
 namespace stance {
 

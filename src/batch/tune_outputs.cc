@@ -5,10 +5,10 @@
 #include <filesystem>
 #include <ostream>
 
+#include "batch/sweep.h"
+#include "batch/tune.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "scenario/sweep.h"
-#include "scenario/tune.h"
 
 namespace stance {
 

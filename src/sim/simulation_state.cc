@@ -1,5 +1,5 @@
 // Branching a simulation (save, restore, clone) and its state file.
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 #include <fmt/format.h>
 
@@ -22,7 +22,7 @@
 #include "engine/world_spec.h"
 #include "model/model_path.h"
 #include "model/robot_model.h"
-#include "scenario/observers.h"
+#include "sim/observers.h"
 
 namespace stance {
 

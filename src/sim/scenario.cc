@@ -1,4 +1,4 @@
-#include "scenario/scenario.h"
+#include "sim/scenario.h"
 
 #include <filesystem>
 #include <tuple>

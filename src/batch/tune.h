@@ -39,7 +39,7 @@
 #include <string>
 #include <vector>
 
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

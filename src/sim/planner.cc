@@ -1,4 +1,4 @@
-#include "scenario/planner.h"
+#include "sim/planner.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +11,7 @@
 
 #include "core/error.h"
 #include "engine/engine.h"
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

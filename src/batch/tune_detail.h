@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "scenario/tune.h"
+#include "batch/tune.h"
 
 namespace stance::tune_detail {
 

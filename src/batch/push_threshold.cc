@@ -1,4 +1,4 @@
-#include "scenario/push_threshold.h"
+#include "batch/push_threshold.h"
 
 #include <fmt/format.h>
 
@@ -6,7 +6,7 @@
 #include <thread>
 
 #include "core/error.h"
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

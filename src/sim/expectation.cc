@@ -1,11 +1,11 @@
-#include "scenario/expectation.h"
+#include "sim/expectation.h"
 
 #include <fmt/format.h>
 
 #include <cmath>
 
 #include "core/error.h"
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

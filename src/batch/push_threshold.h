@@ -9,8 +9,8 @@
 #include <optional>
 #include <string>
 
-#include "scenario/scenario.h"
-#include "scenario/simulation.h"
+#include "sim/scenario.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

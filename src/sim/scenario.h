@@ -9,8 +9,8 @@
 #include <vector>
 
 #include "params/params.h"
-#include "scenario/expectation.h"
-#include "scenario/planner_params.h"
+#include "sim/expectation.h"
+#include "sim/planner_params.h"
 
 namespace stance {
 

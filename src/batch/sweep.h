@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 namespace stance {
 

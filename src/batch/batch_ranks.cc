@@ -1,4 +1,4 @@
-#include "scenario/batch_ranks.h"
+#include "batch/batch_ranks.h"
 
 #include <algorithm>
 #include <chrono>
@@ -13,7 +13,7 @@
 #include <thread>
 #include <vector>
 
-#include "scenario/sweep.h"
+#include "batch/sweep.h"
 
 #ifdef STANCE_HAVE_MPI
 #include <mpi.h>

@@ -1,6 +1,6 @@
 // Building a simulation from a scenario: its engine, its controller models (shared across runs
 // by ControllerCache) and the planner; the pushes of --push.
-#include "scenario/simulation.h"
+#include "sim/simulation.h"
 
 #include <fmt/format.h>
 
@@ -23,7 +23,7 @@
 #include "engine/world_spec.h"
 #include "model/model_path.h"
 #include "model/robot_model.h"
-#include "scenario/observers.h"
+#include "sim/observers.h"
 
 namespace stance {
 
