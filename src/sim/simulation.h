@@ -24,7 +24,7 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "sim/planner.h"
+#include "plan/planner.h"
 #include "sim/scenario.h"
 
 namespace stance {

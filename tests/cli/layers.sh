@@ -7,7 +7,7 @@ set -u
 python3 - <<'PY'
 import pathlib, re, sys
 layers = [["core", "math"], ["params"], ["model", "motion"], ["engine"], ["control", "analysis"],
-          ["sim"], ["batch"], ["app"], ["viz"]]
+          ["sim", "plan"], ["batch"], ["app"], ["viz"]]
 rank = {f: i for i, layer in enumerate(layers) for f in layer}
 edges, bad = {}, []
 for path in sorted(pathlib.Path("src").rglob("*")):

@@ -1,6 +1,6 @@
 // The sampling planner: the spline, the dimensions it finds, thread-count determinism, branching
 // with a plan, and what it is for: a standing biped taking pushes its ankle strategy cannot.
-#include "sim/planner.h"
+#include "plan/planner.h"
 
 #include <fmt/format.h>
 #include <gtest/gtest.h>

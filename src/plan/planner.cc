@@ -1,4 +1,4 @@
-#include "sim/planner.h"
+#include "plan/planner.h"
 
 #include <fmt/format.h>
 
