@@ -8,12 +8,12 @@
 #include <cstring>
 #include <deque>
 #include <exception>
+#include <limits>
 #include <mutex>
 #include <stdexcept>
-#include <thread>
 #include <vector>
 
-#include "batch/sweep.h"
+#include "core/executor.h"
 
 #ifdef STANCE_HAVE_MPI
 #include <mpi.h>
@@ -63,106 +63,126 @@ constexpr int kAskTag = 7101, kGiveTag = 7102;
 // Self-scheduling over ranks: rank 0 holds the next unstarted index; its own workers take from
 // it directly and its calling thread hands indices to the other ranks on request, so a rank
 // whose runs end early (a fall) takes more. Only the calling threads talk to MPI
-// (MPI_THREAD_FUNNELED). Each item's result depends on its index alone, so the files do not
-// depend on who ran what. Returns the indices this rank ran; the first job exception is kept
-// in `error` and later items are skipped (their results do not count: every rank throws).
-std::vector<int> run_self_scheduled(int n, int threads, int rank, int size,
-                                    const std::function<void(int)>& job,
-                                    std::exception_ptr& error) {
-  const int workers =
-      std::max(1, threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency()));
-  std::mutex m;
-  std::condition_variable work_cv, main_cv;
-  std::deque<int> queue;
-  int busy = 0;
-  bool no_more = false;
-  std::vector<int> ran;
-  auto worker = [&]() {
+// (MPI_THREAD_FUNNELED): the dispatch is the executor's task 0, which runs on the calling thread,
+// and tasks 1..workers are the workers' loops. Each item's result depends on its index alone, so
+// the files do not depend on who ran what. Returns the indices this rank ran; the first job
+// exception is kept in `error` and later items are skipped (their results do not count: every
+// rank throws).
+class SelfScheduled {
+ public:
+  SelfScheduled(int n, int rank, int size, int workers, const std::function<void(int)>& job)
+      : n_(n), rank_(rank), size_(size), workers_(workers), job_(job) {}
+
+  std::vector<int> run(std::exception_ptr& error) {
+    Executor executor(workers_ + 1);
+    executor.run(workers_ + 1, [&](int, int task) {
+      if (task == 0)
+        dispatch();
+      else
+        work();
+    });
+    error = error_;
+    std::sort(ran_.begin(), ran_.end());
+    return ran_;
+  }
+
+ private:
+  // a worker's loop: the queued indices until the dispatch says there are no more
+  void work() {
     for (;;) {
       int i;
-      {
-        std::unique_lock<std::mutex> lock(m);
-        work_cv.wait(lock, [&] { return !queue.empty() || no_more; });
-        if (queue.empty()) return;
-        i = queue.front();
-        queue.pop_front();
-        ++busy;
-      }
       bool skip;
       {
-        std::lock_guard<std::mutex> lock(m);
-        skip = static_cast<bool>(error);
+        std::unique_lock<std::mutex> lock(m_);
+        work_cv_.wait(lock, [&] { return !queue_.empty() || no_more_; });
+        if (queue_.empty()) return;
+        i = queue_.front();
+        queue_.pop_front();
+        ++busy_;
+        skip = static_cast<bool>(error_);
       }
       std::exception_ptr failed;
       if (!skip) {
         try {
-          job(i);
+          job_(i);
         } catch (...) {
           failed = std::current_exception();
         }
       }
       {
-        std::lock_guard<std::mutex> lock(m);
-        if (failed && !error) error = failed;
-        ran.push_back(i);
-        --busy;
+        std::lock_guard<std::mutex> lock(m_);
+        if (failed && !error_) error_ = failed;
+        ran_.push_back(i);
+        --busy_;
       }
-      main_cv.notify_one();
+      main_cv_.notify_one();
     }
-  };
-  std::vector<std::thread> pool;
-  for (int k = 0; k < workers; ++k) pool.emplace_back(worker);
+  }
 
-  int next = 0;             // rank 0: the next unstarted index
-  int ranks_told_done = 0;  // rank 0: ranks that got the end mark
-  bool exhausted = false;   // this rank got an index >= n
-  auto take = [&]() -> int {
-    if (rank == 0) return next < n ? next++ : n;
-    int ask = 1, given = n;
+  // the next index for this rank (n: none left)
+  int take() {
+    if (rank_ == 0) return next_ < n_ ? next_++ : n_;
+    int ask = 1, given = n_;
     MPI_Send(&ask, 1, MPI_INT, 0, kAskTag, MPI_COMM_WORLD);
     MPI_Recv(&given, 1, MPI_INT, 0, kGiveTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
     return given;
-  };
-  for (;;) {
-    if (rank == 0) {
-      // answer every waiting request from another rank
-      for (int flag = 1; flag;) {
-        MPI_Status status;
-        MPI_Iprobe(MPI_ANY_SOURCE, kAskTag, MPI_COMM_WORLD, &flag, &status);
-        if (!flag) break;
-        int ask = 0;
-        MPI_Recv(&ask, 1, MPI_INT, status.MPI_SOURCE, kAskTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
-        const int given = next < n ? next++ : n;
-        if (given == n) ++ranks_told_done;
-        MPI_Send(&given, 1, MPI_INT, status.MPI_SOURCE, kGiveTag, MPI_COMM_WORLD);
-      }
+  }
+
+  // rank 0: answers every waiting request from another rank
+  void answer_requests() {
+    for (int flag = 1; flag;) {
+      MPI_Status status;
+      MPI_Iprobe(MPI_ANY_SOURCE, kAskTag, MPI_COMM_WORLD, &flag, &status);
+      if (!flag) break;
+      int ask = 0;
+      MPI_Recv(&ask, 1, MPI_INT, status.MPI_SOURCE, kAskTag, MPI_COMM_WORLD, MPI_STATUS_IGNORE);
+      const int given = next_ < n_ ? next_++ : n_;
+      if (given == n_) ++ranks_told_done_;
+      MPI_Send(&given, 1, MPI_INT, status.MPI_SOURCE, kGiveTag, MPI_COMM_WORLD);
     }
-    {
-      std::unique_lock<std::mutex> lock(m);
+  }
+
+  // the calling thread: keeps this rank's workers fed and (rank 0) the other ranks answered
+  void dispatch() {
+    for (;;) {
+      if (rank_ == 0) answer_requests();
+      std::unique_lock<std::mutex> lock(m_);
       // keep every worker busy; no index waits here while another rank could take it
-      while (!exhausted && static_cast<int>(queue.size()) + busy < workers) {
+      while (!exhausted_ && static_cast<int>(queue_.size()) + busy_ < workers_) {
         lock.unlock();
         const int i = take();
         lock.lock();
-        if (i >= n) {
-          exhausted = true;
-          no_more = true;
+        if (i >= n_) {
+          exhausted_ = true;
+          no_more_ = true;
         } else {
-          queue.push_back(i);
+          queue_.push_back(i);
         }
-        work_cv.notify_all();
+        work_cv_.notify_all();
       }
-      const bool idle = exhausted && queue.empty() && busy == 0;
-      if (idle && (rank != 0 || ranks_told_done == size - 1)) break;
+      const bool idle = exhausted_ && queue_.empty() && busy_ == 0;
+      if (idle && (rank_ != 0 || ranks_told_done_ == size_ - 1)) break;
       // rank 0 polls for requests; the others wait for a worker to finish
-      main_cv.wait_for(lock, std::chrono::microseconds(rank == 0 ? 200 : 20000));
+      main_cv_.wait_for(lock, std::chrono::microseconds(rank_ == 0 ? 200 : 20000));
     }
+    std::lock_guard<std::mutex> lock(m_);
+    no_more_ = true;
+    work_cv_.notify_all();
   }
-  work_cv.notify_all();
-  for (auto& t : pool) t.join();
-  std::sort(ran.begin(), ran.end());
-  return ran;
-}
+
+  const int n_, rank_, size_, workers_;
+  const std::function<void(int)>& job_;
+  std::mutex m_;
+  std::condition_variable work_cv_, main_cv_;
+  std::deque<int> queue_;
+  int busy_ = 0;
+  bool no_more_ = false;
+  std::vector<int> ran_;
+  std::exception_ptr error_;
+  int next_ = 0;             // rank 0: the next unstarted index
+  int ranks_told_done_ = 0;  // rank 0: ranks that got the end mark
+  bool exhausted_ = false;   // this rank got an index >= n
+};
 }  // namespace
 #endif
 
@@ -171,12 +191,13 @@ void BatchRanks::distributed_for(int n, int threads, const std::function<void(in
                                  const std::function<void(int, const std::string&)>& decode,
                                  bool every_rank) {
   if (size_ == 1) {
-    parallel_for(n, threads, job);
+    run_parallel(n, threads, job);
     return;
   }
 #ifdef STANCE_HAVE_MPI
   std::exception_ptr error;
-  const std::vector<int> mine = run_self_scheduled(n, threads, rank_, size_, job, error);
+  const int workers = executor_threads(threads, std::numeric_limits<int>::max());
+  const std::vector<int> mine = SelfScheduled(n, rank_, size_, workers, job).run(error);
   // this rank's results: (index, length, bytes) one after another
   std::string packed;
   for (int i : mine) {
@@ -226,7 +247,7 @@ void BatchRanks::distributed_for(int n, int threads, const std::function<void(in
   if (error) std::rethrow_exception(error);
   if (any_failed) throw std::runtime_error("batch work failed on another MPI rank");
 #else
-  parallel_for(n, threads, job);
+  run_parallel(n, threads, job);
 #endif
 }
 

@@ -3,9 +3,9 @@
 #include <fmt/format.h>
 
 #include <mutex>
-#include <thread>
 
 #include "core/error.h"
+#include "core/executor.h"
 #include "sim/simulation.h"
 
 namespace stance {
@@ -102,28 +102,14 @@ PushThresholdResult find_push_threshold(
     return b;
   };
 
+  // the two directions are independent: on two workers when asked, positive first otherwise
   PushThresholdResult result;
-  if (o.threads >= 2) {
-    std::exception_ptr error;
-    std::thread negative([&] {
-      try {
-        result.negative = direction(-1);
-      } catch (...) {
-        error = std::current_exception();
-      }
-    });
-    try {
+  run_parallel(2, o.threads >= 2 ? 2 : 1, [&](int task) {
+    if (task == 0)
       result.positive = direction(+1);
-    } catch (...) {
-      negative.join();
-      throw;
-    }
-    negative.join();
-    if (error) std::rethrow_exception(error);
-  } else {
-    result.positive = direction(+1);
-    result.negative = direction(-1);
-  }
+    else
+      result.negative = direction(-1);
+  });
   return result;
 }
 

@@ -6,14 +6,12 @@
 #include <atomic>
 #include <cmath>
 #include <cstdlib>
-#include <exception>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <set>
 #include <sstream>
-#include <thread>
 
 #include "batch/batch_ranks.h"
 #include "core/atomic_file.h"
@@ -92,32 +90,6 @@ std::vector<double> parse_value_list(const std::string& text) {
 std::string format_sweep_value(double value) {
   // fmt's default is the shortest text that reads back to the same double ("10", "2.25")
   return fmt::format("{}", value);
-}
-
-void parallel_for(int n, int threads, const std::function<void(int)>& job) {
-  if (n <= 0) return;
-  int t = threads > 0 ? threads : static_cast<int>(std::thread::hardware_concurrency());
-  t = std::clamp(t, 1, n);
-  std::atomic<int> next{0};
-  // an exception in a job (a bug: bad input is each job's own result) stops the others from
-  // taking more work and is rethrown here, on the calling thread
-  std::mutex error_mutex;
-  std::exception_ptr error;
-  auto worker = [&]() {
-    for (int i = next++; i < n; i = next++) {
-      try {
-        job(i);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(error_mutex);
-        if (!error) error = std::current_exception();
-        next = n;
-      }
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int k = 0; k < t; ++k) pool.emplace_back(worker);
-  for (auto& th : pool) th.join();
-  if (error) std::rethrow_exception(error);
 }
 
 RunResult run_without_timing(const LoadedScenario& loaded, const RunOptions& options) {

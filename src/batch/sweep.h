@@ -66,9 +66,7 @@ std::vector<SweepPoint> run_sweep(
     const std::function<void(const SweepPoint&, int index, int done, int total)>& on_done = {},
     const std::map<int, SweepPoint>& finished = {});
 
-// shared with the tuner (scenario/tune.h):
-// job(i) for every i in [0, n) on `threads` threads (0: every core); job must not throw
-void parallel_for(int n, int threads, const std::function<void(int)>& job);
+// shared with the tuner (batch/tune.h):
 // builds the run under a process-wide lock (model loading is not guaranteed thread-safe), then
 // runs it with wall_time_s zeroed so that results are reproducible
 RunResult run_without_timing(const LoadedScenario& loaded, const RunOptions& options);

@@ -76,94 +76,6 @@ void CorrectionPlan::evaluate(double t, Eigen::Ref<Eigen::VectorXd> out) const {
   out = (1 - a) * knots.col(j) + a * knots.col(j + 1);
 }
 
-// ---- the worker pool
-
-WorkerPool::WorkerPool(int threads) {
-  for (int w = 1; w < threads; ++w) threads_.emplace_back([this, w] { work(w); });
-}
-
-WorkerPool::~WorkerPool() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
-  }
-  wake_.notify_all();
-  for (auto& t : threads_) t.join();
-}
-
-void WorkerPool::run(int n, const std::function<void(int, int)>& job) {
-  if (n <= 0) return;
-  auto drain = [&](int worker) {
-    for (;;) {
-      int task;
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (next_ >= tasks_) return;
-        task = next_++;
-      }
-      try {
-        job(worker, task);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (!error_) error_ = std::current_exception();
-        next_ = tasks_;
-      }
-    }
-  };
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    job_ = &job;
-    tasks_ = n;
-    next_ = 0;
-    error_ = nullptr;
-    busy_ = static_cast<int>(threads_.size());
-    ++generation_;
-  }
-  wake_.notify_all();
-  drain(0);
-  std::exception_ptr error;
-  {
-    std::unique_lock<std::mutex> lock(mutex_);
-    done_.wait(lock, [&] { return busy_ == 0; });
-    job_ = nullptr;
-    error = error_;
-  }
-  if (error) std::rethrow_exception(error);
-}
-
-void WorkerPool::work(int worker) {
-  long seen = 0;
-  for (;;) {
-    const std::function<void(int, int)>* job;
-    {
-      std::unique_lock<std::mutex> lock(mutex_);
-      wake_.wait(lock, [&] { return stop_ || generation_ != seen; });
-      if (stop_) return;
-      seen = generation_;
-      job = job_;
-    }
-    for (;;) {
-      int task;
-      {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (next_ >= tasks_) break;
-        task = next_++;
-      }
-      try {
-        (*job)(worker, task);
-      } catch (...) {
-        std::lock_guard<std::mutex> lock(mutex_);
-        if (!error_) error_ = std::current_exception();
-        next_ = tasks_;
-      }
-    }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      if (--busy_ == 0) done_.notify_all();
-    }
-  }
-}
-
 // ---- the model
 
 void check_planner_params(const PlannerParams& params, const std::string& where) {
@@ -239,9 +151,7 @@ std::shared_ptr<const PlannerModel> make_planner_model(
 
 Planner::Planner(std::shared_ptr<const PlannerModel> model) : model_(std::move(model)) {
   const PlannerParams& p = model_->params;
-  int threads = p.threads > 0 ? p.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::clamp(threads, 1, std::max(1, p.samples));
-  pool_ = std::make_unique<WorkerPool>(threads);
+  pool_ = std::make_unique<Executor>(executor_threads(p.threads, p.samples));
   seed_ = splitmix64(static_cast<uint64_t>(model_->rollout->scenario.seed) + 0x5eedull);
   const int dims = static_cast<int>(model_->dimensions.size());
   candidates_.resize(p.samples);

@@ -12,15 +12,13 @@
 
 #include <Eigen/Core>
 
-#include <condition_variable>
 #include <functional>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
 
 #include "control/controller.h"
+#include "core/executor.h"
 #include "sim/planner_params.h"
 
 namespace stance {
@@ -76,30 +74,6 @@ struct PlannerModel {
   std::shared_ptr<const SimulationModel> rollout;
 };
 
-// a fixed set of threads that run batches of tasks; made once per planning simulation
-class WorkerPool {
- public:
-  explicit WorkerPool(int threads);  // threads >= 1; the caller is worker 0
-  ~WorkerPool();
-  WorkerPool(const WorkerPool&) = delete;
-  WorkerPool& operator=(const WorkerPool&) = delete;
-  int size() const { return static_cast<int>(threads_.size()) + 1; }
-  // job(worker, task) for every task in [0, n), spread over the workers; returns when all are
-  // done and rethrows the first exception on the calling thread
-  void run(int n, const std::function<void(int worker, int task)>& job);
-
- private:
-  void work(int worker);
-  std::vector<std::thread> threads_;
-  std::mutex mutex_;
-  std::condition_variable wake_, done_;
-  const std::function<void(int, int)>* job_ = nullptr;
-  int tasks_ = 0, next_ = 0, busy_ = 0;
-  long generation_ = 0;
-  bool stop_ = false;
-  std::exception_ptr error_;
-};
-
 // one run's planner: the worker pool, a rollout simulation per worker and the candidates
 class Planner {
  public:
@@ -135,7 +109,7 @@ class Planner {
   Eigen::Vector3d capture_offset(const Simulation& sim) const;
 
   std::shared_ptr<const PlannerModel> model_;
-  std::unique_ptr<WorkerPool> pool_;
+  std::unique_ptr<Executor> pool_;  // made once per planning simulation
   std::vector<std::unique_ptr<Simulation>> workers_;
   // per rollout controller: its reference over the horizon, sampled once per planning step for
   // every rollout of the step (null: the controller has none)

@@ -45,28 +45,6 @@ TEST(CorrectionPlan, EvaluatesAPiecewiseLinearSplineAndHoldsItsEnds) {
   EXPECT_EQ(x.squaredNorm(), 0);
 }
 
-TEST(WorkerPool, RunsEveryTaskOnceAndRethrowsOnTheCaller) {
-  WorkerPool pool(3);
-  EXPECT_EQ(pool.size(), 3);
-  for (int round = 0; round < 20; ++round) {
-    std::vector<int> hits(37, 0);
-    pool.run(37, [&](int worker, int task) {
-      EXPECT_GE(worker, 0);
-      EXPECT_LT(worker, 3);
-      ++hits[task];
-    });
-    for (int h : hits) ASSERT_EQ(h, 1);
-  }
-  EXPECT_THROW(pool.run(5,
-                        [&](int, int task) {
-                          if (task == 3) throw std::runtime_error("boom");
-                        }),
-               std::runtime_error);
-  int after = 0;
-  pool.run(4, [&](int, int) { __atomic_add_fetch(&after, 1, __ATOMIC_SEQ_CST); });
-  EXPECT_EQ(after, 4);
-}
-
 // a short planning run of biped_stand; its trace of positions (and its rescue count)
 std::vector<double> planned_trace(int threads, const std::vector<std::string>& extra = {},
                                   long* rescues = nullptr) {

@@ -3,8 +3,6 @@
 
 #include <gtest/gtest.h>
 
-#include <atomic>
-
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -96,21 +94,6 @@ TEST(Sweep, DesignsTheLqrOncePerWorld) {
   points = run_sweep(o);
   for (const auto& p : points) EXPECT_TRUE(p.error.empty()) << p.error;
   EXPECT_EQ(lqr_designs_made() - before, 3);
-}
-
-// a bug in a job (not bad input, which is a point's own result) reaches the caller, on its own
-// thread, whatever the thread count
-TEST(ParallelFor, ABugInAJobIsRethrownOnTheCallingThread) {
-  for (int threads : {1, 2, 4}) {
-    std::atomic<int> ran{0};
-    EXPECT_THROW(parallel_for(50, threads,
-                              [&](int i) {
-                                ++ran;
-                                if (i == 3) throw std::logic_error("a bug");
-                              }),
-                 std::logic_error);
-    EXPECT_GE(ran.load(), 4);
-  }
 }
 
 }  // namespace
