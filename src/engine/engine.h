@@ -57,6 +57,20 @@ struct Contact {
   Eigen::Vector3d force = Eigen::Vector3d::Zero();   // on body2, world frame
 };
 
+// the constraint solver's effort (MuJoCo's mjOption), for a cheaper planning model: a field at
+// its default keeps the model file's own setting
+struct SolverSettings {
+  int iterations = 0;          // main solver iterations; 0: the model's
+  double tolerance = -1;       // early termination tolerance; < 0: the model's
+  int noslip_iterations = -1;  // noslip iterations (0: off); -1: the model's
+  std::string solver;          // "pgs", "cg" or "newton"; empty: the model's
+  std::string cone;            // "pyramidal" or "elliptic"; empty: the model's
+  bool any() const {
+    return iterations > 0 || tolerance >= 0 || noslip_iterations >= 0 || !solver.empty() ||
+           !cone.empty();
+  }
+};
+
 // full simulation state, restorable bit-exactly on the same engine.
 struct EngineState {
   double time = 0;
@@ -98,6 +112,11 @@ class Engine {
   virtual double time() const = 0;
   virtual double timestep() const = 0;
   virtual void set_timestep(double dt) = 0;
+  // the solver's settings in use (DART: the defaults, meaning its own solver's); setting them
+  // changes only this engine's copy of the model. DART keeps its solver and returns false.
+  // Throws InputError for a solver or cone name the engine does not know.
+  virtual SolverSettings solver_settings() const { return {}; }
+  virtual bool set_solver_settings(const SolverSettings&) { return false; }
   virtual Eigen::Vector3d gravity() const = 0;
   virtual void set_gravity(const Eigen::Vector3d& g) = 0;
   virtual void get_positions(Eigen::Ref<Eigen::VectorXd> q) const = 0;   // dim nq

@@ -151,6 +151,24 @@ TEST(MujocoEngine, JacobiansMatchFiniteDifferences) {
   EXPECT_LT((e->com_velocity() - jcom * v).norm(), 1e-9);
 }
 
+// the COM Jacobian is the mass-weighted sum of the bodies' COM Jacobians to the bit (it walks
+// only each body's dofs; the run's controllers and logs must not move)
+TEST(MujocoEngine, ComJacobianIsTheMassWeightedSumOfBodyJacobiansToTheBit) {
+  auto e = load_chain();
+  std::mt19937 rng(11);
+  for (int trial = 0; trial < 3; ++trial) {
+    randomize(*e, rng);
+    Eigen::MatrixXd sum = Eigen::MatrixXd::Zero(3, e->nv()), body(3, e->nv()), none(3, 0);
+    for (int b = 0; b < e->nbody(); ++b) {
+      e->point_jacobian(b, e->body_com(b), body, none);
+      sum += (e->body_mass(b) / e->total_mass()) * body;
+    }
+    Eigen::MatrixXd jac(3, e->nv());
+    e->com_jacobian(jac);
+    EXPECT_EQ(jac, sum);
+  }
+}
+
 TEST(MujocoEngine, SaveRestoreIsBitExact) {
   auto e = load_chain();
   std::mt19937 rng(6);
@@ -165,6 +183,36 @@ TEST(MujocoEngine, SaveRestoreIsBitExact) {
   Eigen::VectorXd q2(e->nq());
   e->get_positions(q2);
   EXPECT_EQ(q1, q2);
+}
+
+TEST(MujocoEngine, SolverSettingsChangeOnlyThisEngine) {
+  auto run = load_chain();
+  auto planning = load_chain();
+  const SolverSettings model = run->solver_settings();
+  EXPECT_EQ(model.solver, "newton");  // MuJoCo's defaults, as the file sets none
+  EXPECT_EQ(model.cone, "pyramidal");
+  EXPECT_EQ(model.iterations, 100);
+  SolverSettings cheap;
+  cheap.iterations = 4;
+  cheap.tolerance = 1e-4;
+  cheap.cone = "elliptic";
+  EXPECT_TRUE(planning->set_solver_settings(cheap));
+  const SolverSettings got = planning->solver_settings();
+  EXPECT_EQ(got.iterations, 4);
+  EXPECT_EQ(got.tolerance, 1e-4);
+  EXPECT_EQ(got.cone, "elliptic");
+  EXPECT_EQ(got.solver, "newton");  // left at the model's
+  EXPECT_EQ(got.noslip_iterations, model.noslip_iterations);
+  // the other engine of the same file keeps the file's settings
+  EXPECT_EQ(run->solver_settings().iterations, 100);
+  EXPECT_EQ(run->solver_settings().cone, "pyramidal");
+  // a bad name is refused and changes nothing
+  SolverSettings bad;
+  bad.iterations = 7;
+  bad.solver = "newtn";
+  EXPECT_THROW(planning->set_solver_settings(bad), InputError);
+  EXPECT_EQ(planning->solver_settings().iterations, 4);
+  EXPECT_EQ(planning->solver_settings().solver, "newton");
 }
 
 TEST(MujocoEngine, GravityAndExternalForce) {

@@ -48,6 +48,8 @@ class MujocoEngine final : public Engine {
   double time() const override { return d_->time; }
   double timestep() const override { return m_->opt.timestep; }
   void set_timestep(double dt) override { m_->opt.timestep = dt; }
+  SolverSettings solver_settings() const override;
+  bool set_solver_settings(const SolverSettings& s) override;
   Eigen::Vector3d gravity() const override;
   void set_gravity(const Eigen::Vector3d& g) override;
   void get_positions(Eigen::Ref<Eigen::VectorXd> q) const override;
