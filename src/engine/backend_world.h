@@ -5,6 +5,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -41,6 +42,8 @@ struct BackendWorld {
   std::optional<Eigen::Vector3d> gravity;  // m/s^2; default: the model file's own
   // a keyframe to start from when the model has one (a translated SKEL's initial state)
   std::string start_keyframe;
+  // a MuJoCo engine of the same world that only draws (Engine::render_model on DART); empty: none
+  std::function<std::unique_ptr<Engine>()> make_drawing_world;
 };
 
 // the backends; throw InputError for files they cannot load

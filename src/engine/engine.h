@@ -24,6 +24,10 @@
 #include <string_view>
 #include <vector>
 
+// MuJoCo's model and data (mujoco/mjmodel.h, mjdata.h), named for drawing only
+struct mjModel_;
+struct mjData_;
+
 namespace stance {
 
 enum class JointType { kFree, kBall, kHinge, kSlide };
@@ -78,6 +82,14 @@ struct EngineState {
   // backend data a continued run depends on (MuJoCo: the solver's warm start and the last
   // step's constraint forces); empty: a cold start
   std::vector<double> extra;
+};
+
+// what MuJoCo's renderer (mjv_updateScene, mjv_addGeoms, mj_ray) draws an engine's world from
+struct RenderModel {
+  mjModel_* model = nullptr;  // its visual settings (vis, quality) may be changed by the renderer
+  mjData_* data = nullptr;    // body, geom and site frames of the engine's current state
+  // the model's body id of each engine body, dim nbody(); -1: not drawn
+  const std::vector<int>* body_ids = nullptr;
 };
 
 class Engine {
@@ -221,6 +233,15 @@ class Engine {
   // checks after a step: false when the state has a NaN/Inf or the engine reported instability
   virtual bool state_is_finite() const = 0;
   virtual std::string last_warning() const { return {}; }
+
+  // drawing (src/viz), after forward(). MuJoCo: its own model and data. Other engines (DART): a
+  // MuJoCo copy of the same world that only draws, posed body by body on each call; the first
+  // call loads it (hold the model loading lock). Empty when the engine cannot be drawn.
+  virtual RenderModel render_model() { return {}; }
+  // the generalised forces (dim nv) the last step applied at the joints besides the
+  // constraints': the controls, servos and tau (and J^T of a push on a limb). False when the
+  // engine does not tell them (DART: the caller knows the tau it gave).
+  virtual bool applied_joint_forces(Eigen::Ref<Eigen::VectorXd> tau) const { return false; }
 
   // lookups that throw InputError naming the missing item and suggesting the nearest
   int require_body(std::string_view name) const;

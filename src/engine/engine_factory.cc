@@ -183,6 +183,7 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
     }
     world.models.push_back(std::move(model));
   }
+  world.make_drawing_world = [spec] { return make_mujoco_engine(spec); };
   std::unique_ptr<Engine> engine = checked_timestep(open_dart_engine(world), spec);
   for (const std::string& note : notes) note_once(note);
   return engine;

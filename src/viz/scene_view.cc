@@ -1,12 +1,15 @@
 #include "viz/scene_view.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <mutex>
 #include <stdexcept>
 
-#include "engine/mujoco/mujoco_engine.h"
+#include "core/error.h"
 
 namespace stance {
 
@@ -32,13 +35,15 @@ double SceneView::framing_distance(double size_m, double fovy_deg) {
 SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height, bool look,
                      bool draft) {
   Engine& engine = run.engine();
-  mj_ = dynamic_cast<MujocoEngine*>(&engine);
-  if (!mj_) {
-    // a MuJoCo copy of the same model, for drawing only (see the header)
-    draw_engine_ = make_scenario_engine(run.scenario(), "mujoco");
-    mj_ = static_cast<MujocoEngine*>(draw_engine_.get());
+  engine.forward();
+  {
+    // a DART run's first drawing loads its MuJoCo copy
+    std::lock_guard<std::mutex> lock(model_load_mutex());
+    render_ = engine.render_model();
   }
-  model_ = mj_->mutable_model();
+  if (!render_.model || !render_.body_ids)
+    throw EnvironmentError(fmt::format("the {} engine cannot be drawn", engine.engine_name()));
+  model_ = render_.model;
   // the offscreen buffer must hold the largest frame asked for
   model_->vis.global.offwidth = std::max(model_->vis.global.offwidth, offscreen_width);
   model_->vis.global.offheight = std::max(model_->vis.global.offheight, offscreen_height);
@@ -60,25 +65,17 @@ SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height,
     model_->vis.headlight.specular[i] = own_look ? model_->vis.headlight.specular[i] : 0.1f;
   }
 
-  body_map_.assign(engine.nbody(), -1);
   engine_body_.assign(model_->nbody, -1);
-  for (int b = 0; b < engine.nbody(); ++b) {
-    int mb = mj_->body_index(engine.body_name(b));
-    if (mb >= 0) body_map_[b] = mj_->mj_body_id(mb);
-    if (body_map_[b] >= 0) engine_body_[body_map_[b]] = b;
-  }
+  for (int b = 0; b < engine.nbody(); ++b)
+    if ((*render_.body_ids)[b] >= 0) engine_body_[(*render_.body_ids)[b]] = b;
 
   // a ghost when a controller tracks a pose: its own engine of the scenario (the same dof
   // layout as the run's) turns the reference q into body poses
   for (size_t i = 0; i < run.controllers().size(); ++i) {
     if (!run.controllers()[i]->reference_qpos(run.controller_state(i), engine, ghost_q_)) continue;
+    std::lock_guard<std::mutex> lock(model_load_mutex());
     ghost_engine_ = make_scenario_engine(run.scenario(), std::string(engine.engine_name()));
-    ghost_data_ = mj_makeData(model_);
-    ghost_body_map_.assign(ghost_engine_->nbody(), -1);
-    for (int b = 0; b < ghost_engine_->nbody(); ++b) {
-      int mb = mj_->body_index(ghost_engine_->body_name(b));
-      if (mb >= 0) ghost_body_map_[b] = mj_->mj_body_id(mb);
-    }
+    if (!ghost_engine_->render_model().model) ghost_engine_.reset();
     break;
   }
 
@@ -100,7 +97,6 @@ SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height,
   mjv_defaultCamera(&cam_);
   camera_params_ = run.scenario().camera;
   options.camera = camera_params_.mode == "fixed" ? CameraMode::kFree : CameraMode::kFollow;
-  engine.forward();
   measure_character(engine);
   track_root(engine);
   reset_camera();
@@ -108,8 +104,7 @@ SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height,
 }
 
 void SceneView::measure_character(Engine& engine) {
-  if (draw_engine_) pose_draw_model(engine);
-  const mjData* d = mj_->data();
+  const mjData* d = render_.data;
   // the moving geoms' extent in the view frame (bounding spheres: a little generous)
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(1e9), hi = -lo;
   for (int g = 0; g < model_->ngeom; ++g) {
@@ -157,7 +152,6 @@ void SceneView::track_root(Engine& engine) {
 }
 
 SceneView::~SceneView() {
-  if (ghost_data_) mj_deleteData(ghost_data_);
   mjr_freeContext(&con_);
   mjv_freeScene(&scn_);
 }
@@ -171,46 +165,6 @@ void SceneView::reset_camera() {
   cam_.azimuth = camera_params_.azimuth;
   cam_.elevation = camera_params_.elevation;
   for (int i = 0; i < 3; ++i) cam_.lookat[i] = focus_[i];
-}
-
-void SceneView::pose_draw_model(Engine& engine) {
-  pose_from(engine, body_map_, mj_->data());
-}
-
-void SceneView::pose_from(Engine& engine, const std::vector<int>& body_map, mjData* d) {
-  for (int b = 0; b < engine.nbody(); ++b) {
-    int id = body_map[b];
-    if (id < 0) continue;
-    BodyPose pose = engine.body_pose(b);
-    Eigen::Map<Eigen::Vector3d>(d->xpos + 3 * id) = pose.pos;
-    mjtNum q[4] = {pose.quat.w(), pose.quat.x(), pose.quat.y(), pose.quat.z()};
-    mju_copy4(d->xquat + 4 * id, q);
-    mju_quat2Mat(d->xmat + 9 * id, q);
-    // body COM frame and geom frames follow from the body frame
-    mju_rotVecMat(d->xipos + 3 * id, model_->body_ipos + 3 * id, d->xmat + 9 * id);
-    mju_addTo3(d->xipos + 3 * id, d->xpos + 3 * id);
-    mjtNum iq[4];
-    mju_mulQuat(iq, q, model_->body_iquat + 4 * id);
-    mju_quat2Mat(d->ximat + 9 * id, iq);
-  }
-  for (int g = 0; g < model_->ngeom; ++g) {
-    int id = model_->geom_bodyid[g];
-    mju_rotVecMat(d->geom_xpos + 3 * g, model_->geom_pos + 3 * g, d->xmat + 9 * id);
-    mju_addTo3(d->geom_xpos + 3 * g, d->xpos + 3 * id);
-    mjtNum gq[4];
-    mju_mulQuat(gq, d->xquat + 4 * id, model_->geom_quat + 4 * g);
-    mju_quat2Mat(d->geom_xmat + 9 * g, gq);
-  }
-  // sites are drawn too: left at the origin they would gather there
-  for (int i = 0; i < model_->nsite; ++i) {
-    int id = model_->site_bodyid[i];
-    mju_rotVecMat(d->site_xpos + 3 * i, model_->site_pos + 3 * i, d->xmat + 9 * id);
-    mju_addTo3(d->site_xpos + 3 * i, d->xpos + 3 * id);
-    mjtNum sq[4];
-    mju_mulQuat(sq, d->xquat + 4 * id, model_->site_quat + 4 * i);
-    mju_quat2Mat(d->site_xmat + 9 * i, sq);
-  }
-  d->time = engine.time();
 }
 
 void SceneView::add_arrow(const Eigen::Vector3d& tail, const Eigen::Vector3d& head,
@@ -283,10 +237,10 @@ void SceneView::add_ghost(Simulation& run) {
     if (ghost_q_.size() != ghost_engine_->nq()) return;
     ghost_engine_->set_positions(ghost_q_);
     ghost_engine_->forward();
-    pose_from(*ghost_engine_, ghost_body_map_, ghost_data_);
+    const RenderModel ghost = ghost_engine_->render_model();
     // the moving bodies only, in one translucent colour
     int first = scn_.ngeom;
-    mjv_addGeoms(model_, ghost_data_, &opt_, nullptr, mjCAT_DYNAMIC, &scn_);
+    mjv_addGeoms(ghost.model, ghost.data, &opt_, nullptr, mjCAT_DYNAMIC, &scn_);
     for (int i = first; i < scn_.ngeom; ++i) {
       mjvGeom& g = scn_.geoms[i];
       for (int k = 0; k < 4; ++k) g.rgba[k] = kGhostColor[k];
@@ -316,14 +270,10 @@ int SceneView::pick_body(double relx, double rely, double aspect,
   Eigen::Vector3d dir = (near * fwd + x * right + y * up).normalized();
   Eigen::Vector3d p = view_rot_.transpose() * pos, v = view_rot_.transpose() * dir;
   int geom = -1;
-  mjtNum dist = mj_ray(model_, mj_->data(), p.data(), v.data(), nullptr, 0, -1, &geom);
+  mjtNum dist = mj_ray(model_, render_.data, p.data(), v.data(), nullptr, 0, -1, &geom);
   if (geom < 0 || dist < 0) return -1;
   point_world = p + dist * v;
   return engine_body_[model_->geom_bodyid[geom]];
-}
-
-const mjData* SceneView::draw_data() const {
-  return mj_->data();
 }
 
 Eigen::Vector2d SceneView::project(const Eigen::Vector3d& world, double aspect) const {
@@ -343,9 +293,8 @@ Eigen::Vector2d SceneView::project(const Eigen::Vector3d& world, double aspect) 
 }
 
 double SceneView::subtree_mass(int engine_body) const {
-  int id = engine_body >= 0 && engine_body < static_cast<int>(body_map_.size())
-               ? body_map_[engine_body]
-               : -1;
+  const std::vector<int>& ids = *render_.body_ids;
+  int id = engine_body >= 0 && engine_body < static_cast<int>(ids.size()) ? ids[engine_body] : -1;
   return id >= 0 ? model_->body_subtreemass[id] : 0.0;
 }
 
@@ -374,7 +323,7 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
                        const std::vector<Marker>& extra_markers) {
   Engine& engine = run.engine();
   engine.forward();
-  if (draw_engine_) pose_draw_model(engine);
+  render_ = engine.render_model();
   time_ = engine.time();
 
   // the follow camera looks at the filtered root, in the view frame
@@ -382,7 +331,7 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
   if (options.camera == CameraMode::kFollow)
     for (int i = 0; i < 3; ++i) cam_.lookat[i] = focus_[i];
   // mjv_updateScene reads the poses in mjData and computes no kinematics
-  mjv_updateScene(model_, mj_->data(), &opt_, nullptr, &cam_, mjCAT_ALL, &scn_);
+  mjv_updateScene(model_, render_.data, &opt_, nullptr, &cam_, mjCAT_ALL, &scn_);
   if (options.ghost && ghost_engine_) add_ghost(run);
 
   // turn the model's geoms and lights so that up is +z

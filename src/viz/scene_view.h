@@ -1,11 +1,8 @@
 // Draws a running scenario with MuJoCo's renderer (mjv_/mjr_), on either engine.
 //
-// MuJoCo runs draw the engine's own mjModel/mjData. Other engines (DART) are drawn through a
-// second, MuJoCo copy of the same scenario model (SKEL through the SKEL->MJCF translation, MJCF
-// and URDF natively) that is used for drawing only: each frame, every body pose of the running
-// engine is copied by body name into the copy's mjData (xpos/xquat/xmat, then the geom frames),
-// and mjv_updateScene draws that. No DART header is needed here, and the Engine interface
-// (body names and poses) is enough.
+// What is drawn comes from the engine interface (Engine::render_model): a MuJoCo run's own
+// mjModel/mjData, or for other engines (DART) a MuJoCo copy of the same world that only draws,
+// posed body by body by the engine itself (engine/drawing_copy.h).
 //
 // The scene is turned so that "up" (against gravity) points up on screen: Y-up models and tilted
 // slopes are shown as a person standing on the floor would see them.
@@ -23,8 +20,6 @@
 #include "viz/scene_look.h"
 
 namespace stance {
-
-class MujocoEngine;
 
 enum class CameraMode { kFree, kFollow };
 
@@ -92,7 +87,7 @@ class SceneView {
   // the camera give NaN.
   Eigen::Vector2d project(const Eigen::Vector3d& world, double aspect) const;
   // the drawn poses (geom_xpos etc., world frame) of the drawing model
-  const mjData* draw_data() const;
+  const mjData* draw_data() const { return render_.data; }
   mjvCamera& camera() { return cam_; }
   const mjvCamera& camera() const { return cam_; }
   const mjModel* draw_model() const { return model_; }
@@ -100,7 +95,6 @@ class SceneView {
   SceneOptions options;
 
  private:
-  void pose_draw_model(Engine& engine);
   void add_arrow(const Eigen::Vector3d& tail, const Eigen::Vector3d& head, const float rgba[4],
                  double width);
   void add_sphere(const Eigen::Vector3d& pos, double radius, const float rgba[4]);
@@ -109,8 +103,6 @@ class SceneView {
   void add_marker(const Marker& marker);
   // the reference pose of the first controller that gives one, as translucent geoms
   void add_ghost(Simulation& run);
-  // body, geom and site frames of `d` from the body poses of `engine`, by body name
-  void pose_from(Engine& engine, const std::vector<int>& body_map, mjData* d);
   Eigen::Vector3d to_view(const Eigen::Vector3d& p) const { return view_rot_ * p; }
   // the character's extent at the start, from its geoms: sets character_size_ and focus_offset_
   void measure_character(Engine& engine);
@@ -118,16 +110,13 @@ class SceneView {
   // velocity's lag made up horizontally
   void track_root(Engine& engine);
 
-  std::unique_ptr<Engine> draw_engine_;  // the MuJoCo copy for non-MuJoCo runs
-  MujocoEngine* mj_ = nullptr;           // what is drawn
+  // the running engine's drawing model and data (Engine::render_model)
+  RenderModel render_;
   mjModel* model_ = nullptr;
-  std::vector<int> body_map_;     // running engine body -> mj body id in the drawing model
   std::vector<int> engine_body_;  // mj body id in the drawing model -> running engine body
-  // the ghost: an engine of the scenario set to the reference pose, and the drawing model's
-  // poses for it (made when a controller gives a reference pose)
+  // the ghost: an engine of the scenario set to the reference pose, drawn from its own drawing
+  // model (made when a controller gives a reference pose)
   std::unique_ptr<Engine> ghost_engine_;
-  mjData* ghost_data_ = nullptr;
-  std::vector<int> ghost_body_map_;
   Eigen::VectorXd ghost_q_;
   std::vector<Marker> markers_;  // scratch
   mjvScene scn_;

@@ -24,7 +24,6 @@
 #include "control/controller.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
-#include "engine/mujoco/mujoco_engine.h"
 #include "sim/live_tuning.h"
 #include "sim/simulation.h"
 #include "viz/param_panel.h"
@@ -80,6 +79,7 @@ struct Viewer::Impl {
   std::vector<RollingSeries> plots;  // com height, torques, then the controllers' signals
   int torque_plot = -1;              // index of the joint torque RMS plot; -1: none
   std::vector<int> joint_dofs;       // the non-root dofs, for the torque plot
+  Eigen::VectorXd applied_tau;       // scratch: the engine's applied joint forces
   double next_sample = 0;
   std::vector<std::string> signal_names;
   std::vector<double> signal_values;
@@ -304,15 +304,14 @@ struct Viewer::Impl {
     if (e.time() >= next_sample) {
       next_sample = e.time() + 1.0 / kPlotRateHz;
       if (torque_plot >= 0) {
-        // the joint forces of the step just taken, before forward() recomputes them. MuJoCo:
-        // smooth force less bias and passive forces is what was applied (tau, ctrl, servos;
-        // also J^T of a push on a limb). Other engines: the controllers' tau.
-        const mjData* d =
-            e.engine_name() == "mujoco" ? static_cast<MujocoEngine&>(e).data() : nullptr;
-        const Eigen::VectorXd& commanded = run->last_output().tau;
+        // the joint forces of the step just taken, before forward() recomputes them: what the
+        // engine applied (tau, ctrl, servos; J^T of a push on a limb), else the controllers' tau
+        applied_tau.resize(e.nv());
+        const Eigen::VectorXd& taus =
+            e.applied_joint_forces(applied_tau) ? applied_tau : run->last_output().tau;
         double sum = 0, largest = 0;
         for (int i : joint_dofs) {
-          double tau = d ? d->qfrc_smooth[i] + d->qfrc_bias[i] - d->qfrc_passive[i] : commanded[i];
+          double tau = taus[i];
           sum += tau * tau;
           largest = std::max(largest, std::abs(tau));
         }

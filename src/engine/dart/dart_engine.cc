@@ -16,10 +16,16 @@
 
 namespace stance::dart_backend {
 
-DartEngine::DartEngine(const BackendWorld& spec) {
+DartEngine::DartEngine(const BackendWorld& spec) : make_drawing_world_(spec.make_drawing_world) {
   load(spec);
   index_model();
   check_moving_masses(spec);
+}
+
+RenderModel DartEngine::render_model() {
+  if (!drawing_ && make_drawing_world_)
+    drawing_ = std::make_unique<DrawingCopy>(make_drawing_world_(), *this);
+  return drawing_ ? drawing_->pose(*this) : RenderModel{};
 }
 
 void DartEngine::load(const BackendWorld& spec) {

@@ -44,6 +44,7 @@
 
 #include "core/error.h"
 #include "engine/backend_world.h"
+#include "engine/drawing_copy.h"
 #include "engine/engine.h"
 
 namespace stance::dart_backend {
@@ -282,6 +283,8 @@ class DartEngine final : public Engine {
   bool state_is_finite() const override;
   // after a divergence its cause (the load's warnings are not one), else the load's warnings
   std::string last_warning() const override;
+  // a MuJoCo copy of the world, posed as DART's (engine/drawing_copy.h)
+  RenderModel render_model() override;
 
  private:
   using Lookup = std::map<std::string, int, std::less<>>;
@@ -403,6 +406,8 @@ class DartEngine final : public Engine {
   // solve_mass_shifted's saved joint forces, damping and spring stiffnesses; dim nv
   mutable Eigen::VectorXd shift_forces_, shift_damping_, shift_springs_;
   std::string load_warnings_;
+  std::function<std::unique_ptr<Engine>()> make_drawing_world_;  // BackendWorld's
+  std::unique_ptr<DrawingCopy> drawing_;                          // made on first drawing
   double step_start_time_ = 0;  // s, of the last step (for the divergence message)
 
   // contacts: the last step's, or those forward() found for positions set since

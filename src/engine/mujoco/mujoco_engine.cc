@@ -719,6 +719,13 @@ void MujocoEngine::step() {
   }
 }
 
+bool MujocoEngine::applied_joint_forces(Eigen::Ref<Eigen::VectorXd> tau) const {
+  // the smooth force less bias and passive forces: qfrc_applied, qfrc_actuator and J^T xfrc
+  for (int i = 0; i < m_->nv; ++i)
+    tau[i] = d_->qfrc_smooth[i] + d_->qfrc_bias[i] - d_->qfrc_passive[i];
+  return true;
+}
+
 bool MujocoEngine::state_is_finite() const {
   if (diverged_) return false;
   for (int i = 0; i < m_->nq; ++i)

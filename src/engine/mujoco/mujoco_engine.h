@@ -109,6 +109,8 @@ class MujocoEngine final : public Engine {
   void step() override;
   bool state_is_finite() const override;
   std::string last_warning() const override { return last_warning_; }
+  RenderModel render_model() override { return {m_, d_, &mobile_bodies_}; }
+  bool applied_joint_forces(Eigen::Ref<Eigen::VectorXd> tau) const override;
 
   // MuJoCo's own structures, for code that needs MuJoCo-specific API
   const mjModel* model() const { return m_; }
