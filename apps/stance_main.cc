@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <iostream>
 
+#include "app/cli_options.h"
 #include "app/commands.h"
 #include "app/track_batch.h"
 #include "core/error.h"
@@ -240,112 +241,19 @@ void add_batch_commands(CLI::App& app, Cli& c) {
   c.sweep_gain.to = 12;
   c.sweep_gain.plot = true;
   c.sweep_gain.out_dir = "out/sweep_gain";
-  auto add_sweep_options = [](CLI::App* cmd, stance::SweepCommand& s) {
-    cmd->add_option("scenario", s.scenario, "scenario YAML")->required();
-    cmd->add_option("--param", s.param, "key path to sweep, as in --set");
-    cmd->add_option("--from", s.from, "first value");
-    cmd->add_option("--to", s.to, "last value");
-    cmd->add_option("--steps", s.steps, "number of values from..to");
-    cmd->add_option("--values", s.values, "comma-separated values instead of from/to/steps");
-    cmd->add_option("--threads", s.threads, "worker threads (default: all cores)");
-    cmd->add_option("--engine", s.engine, "mujoco or dart (default: the scenario's)");
-    cmd->add_option("--duration", s.duration, "simulated seconds per run");
-    cmd->add_option("--set", s.sets, "override for every run: key.path=value")
-        ->allow_extra_args(false);
-    cmd->add_option("--out", s.out_dir, "output folder (sweep.csv, points.csv, PNG)");
-    cmd->add_flag("--plot,!--no-plot", s.plot, "plot a list metric against the value (gnuplot)");
-    cmd->add_option("--plot-metric", s.plot_metric, "list metric to plot");
-    cmd->add_flag("--quiet", s.quiet, "no progress lines");
-    cmd->add_option("--resume", s.resume,
-                    "finish an interrupted sweep in this folder (same options)");
-  };
   c.sweep_cmd = app.add_subcommand("sweep", "run a scenario over a range of one parameter");
-  add_sweep_options(c.sweep_cmd, c.sweep);
+  stance::add_cli_options(*c.sweep_cmd, c.sweep);
   c.sweep_gain_cmd =
       app.add_subcommand("sweep-gain", "slope walker bifurcation diagram over hip_kp");
-  add_sweep_options(c.sweep_gain_cmd, c.sweep_gain);
-
+  stance::add_cli_options(*c.sweep_gain_cmd, c.sweep_gain);
   c.push_threshold_cmd = app.add_subcommand(
       "push-threshold", "largest push survived along +axis and -axis, by bisection");
-  c.push_threshold_cmd->add_option("scenario", c.push_threshold.scenario, "scenario YAML")
-      ->required();
-  c.push_threshold_cmd->add_option("--body", c.push_threshold.body, "body to push")->required();
-  c.push_threshold_cmd->add_option("--axis", c.push_threshold.axis, "x, y or z (world)");
-  c.push_threshold_cmd->add_option("--engine", c.push_threshold.engine, "mujoco or dart");
-  c.push_threshold_cmd->add_option("--duration", c.push_threshold.duration, "seconds per run");
-  c.push_threshold_cmd->add_option("--set", c.push_threshold.sets, "override: key.path=value")
-      ->allow_extra_args(false);
-  c.push_threshold_cmd->add_option("--max", c.push_threshold.max_force, "largest force tried, N");
-  c.push_threshold_cmd->add_option("--push-duration,--duration-push",
-                                   c.push_threshold.push_duration, "push, s");
-  c.push_threshold_cmd->add_option("--point", c.push_threshold.point,
-                                   "where the push acts: com, origin or x,y,z (body frame, m)");
-  c.push_threshold_cmd->add_option("--at", c.push_threshold.at, "push start, s");
-  c.push_threshold_cmd->add_option("--tolerance", c.push_threshold.tolerance, "bracket width, N");
-  c.push_threshold_cmd->add_option("--threads", c.push_threshold.threads,
-                                   "2: both directions at once, 1: one after the other");
-  c.push_threshold_cmd->add_flag("--quiet", c.push_threshold.quiet, "no line per trial");
-
+  stance::add_cli_options(*c.push_threshold_cmd, c.push_threshold);
   c.robustness_cmd = app.add_subcommand(
       "robustness", "push thresholds per direction and gait phase, with outcome codes");
-  c.robustness_cmd->add_option("scenario", c.robustness.scenario, "scenario YAML")->required();
-  c.robustness_cmd->add_option("--body", c.robustness.body, "body to push")->required();
-  c.robustness_cmd->add_option("--directions", c.robustness.directions,
-                               "directions in the horizontal plane");
-  c.robustness_cmd->add_option("--phases", c.robustness.phases,
-                               "gait phases (walkers) or push start times (standing)");
-  c.robustness_cmd->add_option("--push-duration,--duration-push", c.robustness.push_duration,
-                               "push, s");
-  c.robustness_cmd->add_option("--max", c.robustness.max_force, "largest force tried, N");
-  c.robustness_cmd->add_option("--tolerance", c.robustness.tolerance, "bracket width, N");
-  c.robustness_cmd->add_option("--at", c.robustness.at,
-                               "s: first push start (standing) or warm-up (walkers)");
-  c.robustness_cmd->add_option("--phase-spacing", c.robustness.phase_spacing,
-                               "s between a standing scenario's push starts");
-  c.robustness_cmd->add_option("--recovery-window", c.robustness.recovery_window,
-                               "s after the push in which steps are counted");
-  c.robustness_cmd->add_option("--max-steps", c.robustness.max_steps,
-                               "recovery steps allowed before outcome 3");
-  c.robustness_cmd->add_option("--point", c.robustness.point,
-                               "where the push acts: com, origin or x,y,z (body frame, m)");
-  c.robustness_cmd->add_option("--engine", c.robustness.engine, "mujoco or dart");
-  c.robustness_cmd->add_option("--duration", c.robustness.duration, "seconds per run");
-  c.robustness_cmd->add_option("--set", c.robustness.sets, "override: key.path=value")
-      ->allow_extra_args(false);
-  c.robustness_cmd->add_option("--threads", c.robustness.threads,
-                               "worker threads (default: all cores)");
-  c.robustness_cmd->add_option("--out", c.robustness.out_dir,
-                               "output folder (robustness.csv, thresholds.csv, summary.json, PNG)");
-  c.robustness_cmd->add_option("--resume", c.robustness.resume,
-                               "finish an interrupted run in this folder (same options)");
-  c.robustness_cmd->add_flag("--plot,!--no-plot", c.robustness.plot, "the polar plot (gnuplot)");
-  c.robustness_cmd->add_flag("--quiet", c.robustness.quiet, "no line per direction and phase");
-
+  stance::add_cli_options(*c.robustness_cmd, c.robustness);
   c.tune_cmd = app.add_subcommand("tune", "robust search of several parameters of a scenario");
-  c.tune_cmd->add_option("scenario", c.tune.scenario, "scenario YAML")->required();
-  c.tune_cmd->add_option("--param", c.tune.params, "searched parameter: key.path=lo:hi[:log]")
-      ->allow_extra_args(false);
-  c.tune_cmd
-      ->add_option("--neighbour,--neighbor", c.tune.neighbours,
-                   "a perturbed run scored too: \"k*=0.85,k2=0.001\" (repeatable)")
-      ->allow_extra_args(false);
-  c.tune_cmd->add_option("--budget", c.tune.budget, "candidates in all");
-  c.tune_cmd->add_option("--population", c.tune.population, "candidates per generation");
-  c.tune_cmd->add_option("--seed", c.tune.seed, "random seed of the search");
-  c.tune_cmd->add_option("--threads", c.tune.threads, "worker threads (default: all cores)");
-  c.tune_cmd->add_option("--engine", c.tune.engine, "mujoco or dart (default: the scenario's)");
-  c.tune_cmd->add_option("--duration", c.tune.duration, "simulated seconds per run");
-  c.tune_cmd->add_option("--metric", c.tune.metric,
-                         "summary metric added to the score, e.g. mocap.mean_joint_error_deg");
-  c.tune_cmd->add_option("--fall-penalty", c.tune.fall_penalty,
-                         "score per second of the duration not stayed up");
-  c.tune_cmd->add_option("--set", c.tune.sets, "override for every run: key.path=value")
-      ->allow_extra_args(false);
-  c.tune_cmd->add_option("--method", c.tune.method, "search: cem (default) or cmaes");
-  c.tune_cmd->add_option("--out", c.tune.out_dir, "output folder (tune.csv, best.yaml)");
-  c.tune_cmd->add_option("--resume", c.tune.resume,
-                         "folder of an interrupted tune: go on from its last finished generation");
-  c.tune_cmd->add_flag("--quiet", c.tune.quiet, "no progress lines");
+  stance::add_cli_options(*c.tune_cmd, c.tune);
 }
 
 // the chosen command's work, after a parse that succeeded

@@ -12,6 +12,8 @@
 #include <string>
 #include <vector>
 
+#include "params/option_meta.h"
+
 namespace stance {
 
 class Simulation;
@@ -163,6 +165,27 @@ struct SweepCommand {
   bool plot = false;
   std::string plot_metric;
   bool quiet = false;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
+    v("param", param, {.help = "key path to sweep, as in --set"});
+    v("from", from, {.help = "first value"});
+    v("to", to, {.help = "last value"});
+    v("steps", steps, {.help = "number of values from..to", .min = 1});
+    v("values", values, {.help = "comma-separated values instead of from/to/steps"});
+    v("threads", threads, {.help = "worker threads (default: all cores)", .min = 0});
+    v("engine", engine, {.help = "mujoco or dart (default: the scenario's)"});
+    v("duration", duration, {.help = "simulated seconds per run", .unit = "s", .min = 0});
+    v("sets", sets, {.help = "override for every run: key.path=value", .names = "--set"});
+    v("out_dir", out_dir, {.help = "output folder (sweep.csv, points.csv, PNG)", .names = "--out"});
+    v("plot", plot,
+      {.help = "plot a list metric against the value (gnuplot)", .names = "--plot,!--no-plot"});
+    v("plot_metric", plot_metric, {.help = "list metric to plot"});
+    v("quiet", quiet, {.help = "no progress lines"});
+    v("resume", resume, {.help = "finish an interrupted sweep in this folder (same options)"});
+  }
 };
 int sweep_command(const SweepCommand& cmd);
 
@@ -182,6 +205,25 @@ struct PushThresholdCommand {
   int threads = 2;
   std::string point = "com";  // com, origin or x,y,z in the body frame
   bool quiet = false;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
+    v("body", body, {.help = "body to push", .required = true});
+    v("axis", axis, {.help = "x, y or z (world)"});
+    v("engine", engine, {.help = "mujoco or dart"});
+    v("duration", duration, {.help = "seconds per run", .unit = "s", .min = 0});
+    v("sets", sets, {.help = "override: key.path=value", .names = "--set"});
+    v("max_force", max_force, {.help = "largest force tried, N", .names = "--max", .unit = "N"});
+    v("push_duration", push_duration,
+      {.help = "push, s", .names = "--push-duration,--duration-push", .unit = "s"});
+    v("point", point, {.help = "where the push acts: com, origin or x,y,z (body frame, m)"});
+    v("at", at, {.help = "push start, s", .unit = "s", .min = 0});
+    v("tolerance", tolerance, {.help = "bracket width, N", .unit = "N"});
+    v("threads", threads, {.help = "2: both directions at once, 1: one after the other"});
+    v("quiet", quiet, {.help = "no line per trial"});
+  }
 };
 int push_threshold_command(const PushThresholdCommand& cmd);
 
@@ -209,6 +251,36 @@ struct RobustnessCommand {
   std::string resume;  // the folder of an interrupted run: its finished cells are kept
   bool plot = true;
   bool quiet = false;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
+    v("body", body, {.help = "body to push", .required = true});
+    v("directions", directions, {.help = "directions in the horizontal plane", .min = 1});
+    v("phases", phases, {.help = "gait phases (walkers) or push start times (standing)", .min = 1});
+    v("push_duration", push_duration,
+      {.help = "push, s", .names = "--push-duration,--duration-push", .unit = "s"});
+    v("max_force", max_force, {.help = "largest force tried, N", .names = "--max", .unit = "N"});
+    v("tolerance", tolerance, {.help = "bracket width, N", .unit = "N"});
+    v("at", at, {.help = "s: first push start (standing) or warm-up (walkers)", .unit = "s"});
+    v("phase_spacing", phase_spacing,
+      {.help = "s between a standing scenario's push starts", .unit = "s"});
+    v("recovery_window", recovery_window,
+      {.help = "s after the push in which steps are counted", .unit = "s"});
+    v("max_steps", max_steps, {.help = "recovery steps allowed before outcome 3", .min = 0});
+    v("point", point, {.help = "where the push acts: com, origin or x,y,z (body frame, m)"});
+    v("engine", engine, {.help = "mujoco or dart"});
+    v("duration", duration, {.help = "seconds per run", .unit = "s", .min = 0});
+    v("sets", sets, {.help = "override: key.path=value", .names = "--set"});
+    v("threads", threads, {.help = "worker threads (default: all cores)", .min = 0});
+    v("out_dir", out_dir,
+      {.help = "output folder (robustness.csv, thresholds.csv, summary.json, PNG)",
+       .names = "--out"});
+    v("resume", resume, {.help = "finish an interrupted run in this folder (same options)"});
+    v("plot", plot, {.help = "the polar plot (gnuplot)", .names = "--plot,!--no-plot"});
+    v("quiet", quiet, {.help = "no line per direction and phase"});
+  }
 };
 int robustness_command(const RobustnessCommand& cmd);
 
@@ -233,6 +305,31 @@ struct TuneCommand {
   // finished generation, into that folder
   std::string resume;
   bool quiet = false;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
+    v("params", params, {.help = "searched parameter: key.path=lo:hi[:log]", .names = "--param"});
+    v("neighbours", neighbours,
+      {.help = "a perturbed run scored too: \"k*=0.85,k2=0.001\" (repeatable)",
+       .names = "--neighbour,--neighbor"});
+    v("budget", budget, {.help = "candidates in all", .min = 1});
+    v("population", population, {.help = "candidates per generation", .min = 2});
+    v("seed", seed, {.help = "random seed of the search", .min = 0});
+    v("threads", threads, {.help = "worker threads (default: all cores)", .min = 0});
+    v("engine", engine, {.help = "mujoco or dart (default: the scenario's)"});
+    v("duration", duration, {.help = "simulated seconds per run", .unit = "s", .min = 0});
+    v("metric", metric,
+      {.help = "summary metric added to the score, e.g. mocap.mean_joint_error_deg"});
+    v("fall_penalty", fall_penalty, {.help = "score per second of the duration not stayed up"});
+    v("sets", sets, {.help = "override for every run: key.path=value", .names = "--set"});
+    v("method", method, {.help = "search: cem (default) or cmaes"});
+    v("out_dir", out_dir, {.help = "output folder (tune.csv, best.yaml)", .names = "--out"});
+    v("resume", resume,
+      {.help = "folder of an interrupted tune: go on from its last finished generation"});
+    v("quiet", quiet, {.help = "no progress lines"});
+  }
 };
 int tune_command(const TuneCommand& cmd);
 
