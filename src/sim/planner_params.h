@@ -42,6 +42,26 @@ struct PlannerCostWeights {
   }
 };
 
+// the rollouts' constraint solver, when cheaper than the run's (MuJoCo's mjOption; DART keeps
+// its own): each field at its default keeps the run's
+struct PlannerSolverParams {
+  int iterations = 0;          // 0: the run's
+  double tolerance = -1;       // < 0: the run's
+  int noslip_iterations = -1;  // -1: the run's
+  std::string type;            // pgs, cg or newton; empty: the run's
+  std::string cone;            // pyramidal or elliptic; empty: the run's
+
+  template <class V>
+  void visit(V& v) {
+    v("iterations", iterations, {.min = 0, .max = 1000, .help = "solver iterations; 0: the run's"});
+    v("tolerance", tolerance, {.min = -1, .max = 1, .help = "solver tolerance; -1: the run's"});
+    v("noslip_iterations", noslip_iterations,
+      {.min = -1, .max = 1000, .help = "noslip iterations (0: off); -1: the run's"});
+    v("type", type, {.help = "pgs, cg or newton; empty: the run's"});
+    v("cone", cone, {.help = "pyramidal or elliptic; empty: the run's"});
+  }
+};
+
 struct PlannerParams {
   bool enabled = false;
   int samples = 32;                 // candidates per planning step, the current plan included
@@ -54,6 +74,7 @@ struct PlannerParams {
   int iterations = 2;               // cem: refits of the mean and deviation
   int elites = 4;                   // cem: candidates the refit keeps
   double timestep = 0;              // s, the rollouts' step if coarser than the run's; 0: the run's
+  PlannerSolverParams solver;       // the rollouts' constraint solver
   double cost_interval_s = 0.01;    // s between cost samples in a rollout
   int threads = 0;                  // rollout threads; 0: every core
   // in trouble, plan harder: while the run is at least `rescue_error_m` off (a tracked
@@ -86,6 +107,7 @@ struct PlannerParams {
     v("elites", elites, {.min = 1, .max = 4096, .help = "cem: candidates kept per refit"});
     v("timestep", timestep,
       {.unit = "s", .min = 0, .max = 1, .help = "rollout step, if coarser; 0: the run's"});
+    v("solver", solver);
     v("cost_interval_s", cost_interval_s, {.unit = "s", .min = 0, .max = 1});
     v("threads", threads, {.min = 0, .max = 1024, .help = "rollout threads; 0: every core"});
     v("rescue_error_m", rescue_error_m,

@@ -114,6 +114,8 @@ struct SimulationModel {
   std::shared_ptr<const PlannerModel> planner;
   bool plans = false;    // runs of this model plan (false for the planner's own rollouts)
   bool rollout = false;  // the planner's rollouts run this model (its controllers keep no metrics)
+  // the planner's rollouts: a cheaper constraint solver than the run's (defaults: the model's)
+  SolverSettings solver;
   // each dof's torque limit (N m or N; inf: none), from the engine's joints, dim nv; the summed
   // controller torques are clamped to it when clamp_torques
   Eigen::VectorXd force_limit;

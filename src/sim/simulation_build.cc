@@ -375,6 +375,18 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
   return m;
 }
 
+// the rollouts' solver settings, checked on an engine of the world (names: InputError)
+SolverSettings planner_solver_settings(const PlannerSolverParams& p, Engine& engine,
+                                       const std::string& source) {
+  const SolverSettings s{p.iterations, p.tolerance, p.noslip_iterations, p.type, p.cone};
+  try {
+    engine.set_solver_settings(s);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("{}: planner.solver.{}", source, e.what()));
+  }
+  return s;
+}
+
 // the planner's rollouts run the same scenario without planning, at the planner's timestep,
 // without the scheduled pushes (the planner reacts to a push; it does not foresee it) and
 // without the controllers' output files. The planner's step is only ever coarser than the
@@ -395,6 +407,7 @@ void add_planner(const LoadedScenario& loaded, const RunOptions& options, Simula
   ro.duration = m.scenario.duration + p.horizon_s + 1;
   std::unique_ptr<Engine> scratch;
   std::shared_ptr<SimulationModel> rollout = build_model(r, ro, scratch, true);
+  rollout->solver = planner_solver_settings(p.solver, *scratch, loaded.source);
   m.planner = make_planner_model(p, m, rollout);
   m.plans = true;
   auto dimensions = std::make_shared<PlannerModel>(*m.planner);
@@ -425,6 +438,7 @@ std::unique_ptr<Engine> SimulationModel::make_engine() const {
     std::lock_guard<std::mutex> lock(model_load_mutex());
     e = make_scenario_engine(scenario, engine_name);
   }
+  if (solver.any()) e->set_solver_settings(solver);
   e->restore_state(initial);
   e->forward();
   return e;

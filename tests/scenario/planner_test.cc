@@ -183,6 +183,62 @@ TEST(Planner, RolloutsClampTorquesToTheLimitsAsTheRunDoes) {
   EXPECT_LE(r.metrics["max_abs_torque"].get<double>(), 5.0 + 1e-12);
 }
 
+// planner.solver makes the rollouts' constraint solver cheaper and leaves the run's alone: the
+// rollouts' engines have it, the run's keeps the model's, and a run whose plan is always "no
+// correction" (one sample) moves the same to the bit with and without it
+TEST(Planner, RolloutsRunTheirOwnSolverAndTheRunKeepsTheModels) {
+  auto planned = [](const std::vector<std::string>& extra) {
+    std::vector<std::string> sets = {"planner.enabled=true", "planner.samples=1",
+                                     "planner.horizon_s=0.1", "planner.interval_s=0.05",
+                                     "planner.threads=1"};
+    sets.insert(sets.end(), extra.begin(), extra.end());
+    return std::make_unique<Simulation>(
+        load_scenario(test::scenario_path("biped_stand.yaml"), sets), test::quiet());
+  };
+  auto trace = [](Simulation& sim) {
+    std::vector<double> out;
+    Eigen::VectorXd q(sim.engine().nq());
+    for (int k = 0; k < 200; ++k) {
+      EXPECT_TRUE(sim.step());
+      sim.engine().get_positions(q);
+      out.insert(out.end(), q.data(), q.data() + q.size());
+    }
+    return out;
+  };
+  const std::vector<std::string> cheap = {"planner.solver.type=cg", "planner.solver.iterations=2",
+                                          "planner.solver.tolerance=0.001",
+                                          "planner.solver.cone=elliptic"};
+  auto full_sim = planned({});
+  auto cheap_sim = planned(cheap);
+  const SolverSettings model = full_sim->engine().solver_settings();
+  EXPECT_EQ(model.solver, "newton");
+  EXPECT_EQ(model.iterations, 100);
+  // the run's engine keeps the model's settings; the rollouts' engines have the planner's
+  const SolverSettings run = cheap_sim->engine().solver_settings();
+  EXPECT_EQ(run.solver, model.solver);
+  EXPECT_EQ(run.iterations, model.iterations);
+  EXPECT_EQ(run.tolerance, model.tolerance);
+  EXPECT_EQ(run.cone, model.cone);
+  Simulation cheap_rollout(cheap_sim->model().planner->rollout);
+  const SolverSettings planning = cheap_rollout.engine().solver_settings();
+  EXPECT_EQ(planning.solver, "cg");
+  EXPECT_EQ(planning.iterations, 2);
+  EXPECT_EQ(planning.tolerance, 0.001);
+  EXPECT_EQ(planning.cone, "elliptic");
+  // the rollouts move differently; the runs (their plan always none) to the bit the same
+  Simulation full_rollout(full_sim->model().planner->rollout);
+  EXPECT_NE(trace(cheap_rollout), trace(full_rollout));
+  EXPECT_EQ(trace(*cheap_sim), trace(*full_sim));
+  EXPECT_GE(cheap_sim->progress().plan.plans, 3);
+  // a solver the engine does not know is named with its key
+  try {
+    planned({"planner.solver.type=newtn"});
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("planner.solver.type"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Planner, DimensionsAreResidualTorquesWhereNoControllerOffersOne) {
   Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml"),
                                {"planner.enabled=true", "planner.samples=2",
