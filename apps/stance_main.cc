@@ -73,6 +73,7 @@ struct Cli {
   std::string track_record;
   stance::BvhTrackBatchCommand track_batch;  // several clips, a folder or a glob
   std::string track_camera = "side", track_size = "640x360", track_debug_draw = "off";
+  double track_fps = 30;
   bool track_view = false;
   double track_quit_after = 0;
   stance::Bvh2MjcfCommand bvh2mjcf;
@@ -110,9 +111,13 @@ void add_run_commands(CLI::App& app, Cli& c) {
       ->excludes("--record")
       ->excludes("--screenshot");
   c.run_cmd->add_option("--at", c.run.screenshot_at, "screenshot time, s");
-  c.run_cmd->add_option("--fps", c.run.fps, "video frames per simulated second");
-  c.run_cmd->add_option("--size", c.run.size, "frame size WxH");
+  c.run_cmd->add_option("--fps", c.run.fps, "video frames per simulated second (default 30)");
+  c.run_cmd->add_option("--size", c.run.size,
+                        "frame size WxH (default 640x360; a screenshot 1280x720)");
   c.run_cmd->add_option("--camera", c.run.camera, "follow or free (default: the scenario's)");
+  c.run_cmd->add_option("--debug-draw", c.run.debug_draw,
+                        "on draws the COM, contacts, markers, planner path and reference ghost "
+                        "(default off)");
 
   c.view_cmd = app.add_subcommand("view", "watch, push and tune a scenario in a window");
   c.view_cmd->add_option("scenario", c.view.scenario, "scenario YAML")->required();
@@ -204,6 +209,8 @@ void add_bvh_commands(CLI::App& app, Cli& c) {
   c.bvh_track_cmd->add_option("--debug-draw", c.track_debug_draw,
                               "--record: on draws the COM, contacts, planner path and reference "
                               "ghost (default off)");
+  c.bvh_track_cmd->add_option("--fps", c.track_fps,
+                              "--record: video frames per simulated second (default 30)");
   c.bvh_track_cmd->add_flag("--view", c.track_view, "watch the tracking run in the viewer instead");
   c.bvh_track_cmd->add_option("--quit-after", c.track_quit_after,
                               "--view: close after S s of wall time and print the pace");
@@ -307,7 +314,8 @@ int dispatch(Cli& c) {
     return stance::record_track_command(c.track, {.video = c.track_record,
                                                   .camera = c.track_camera,
                                                   .size = c.track_size,
-                                                  .debug_draw = c.track_debug_draw});
+                                                  .debug_draw = c.track_debug_draw,
+                                                  .fps = c.track_fps});
 #else
     std::cerr << "error: --record and --view need the viewer build (STANCE_WITH_VIEWER)\n";
     return stance::kExitBadInput;

@@ -46,9 +46,11 @@ struct RunCommand {
   std::string record;        // .mp4
   std::string screenshot;    // .png
   double screenshot_at = 0;  // s
-  double fps = 60;
-  std::string size = "1280x720";
+  // the video's options, with bvh track --record's defaults (viz/viz_commands.h: VideoOptions)
+  double fps = 30;
+  std::string size;    // WxH; empty: 640x360 for a video, 1280x720 for a screenshot
   std::string camera;  // follow or free (fixed); empty: the scenario's (camera.mode)
+  std::string debug_draw = "off";  // on: COM ball, contacts, markers, planner path, ghost
 };
 int run_command(const RunCommand& cmd, const RunObserverMaker& observe = {});
 // the Simulation run_command runs: the scenario with cmd.sets (named after its file when it has

@@ -152,7 +152,7 @@ void VideoWriter::close() {
 
 void check_video_options(const RecordOptions& o) {
   if (!(o.fps > 0 && o.fps <= 1000))
-    throw InputError(fmt::format("--fps {}: expected 0..1000", o.fps));
+    throw InputError(fmt::format("--fps {}: expected 0 < fps <= 1000", o.fps));
   if (!o.video.empty() && (o.width % 2 || o.height % 2))
     throw InputError(fmt::format("--size {}x{}: video sizes must be even", o.width, o.height));
 }

@@ -20,6 +20,8 @@
 namespace stance {
 
 namespace {
+constexpr const char* kScreenshotSize = "1280x720";  // `run --screenshot` without --size
+
 LoadedScenario load_named(const std::string& path, const std::vector<std::string>& sets) {
   LoadedScenario loaded = load_scenario(path, sets);
   if (loaded.scenario.name.empty())
@@ -27,24 +29,19 @@ LoadedScenario load_named(const std::string& path, const std::vector<std::string
   return loaded;
 }
 
-std::optional<CameraMode> parse_camera(const std::string& text) {
-  if (text.empty()) return std::nullopt;
-  if (text == "follow") return CameraMode::kFollow;
-  // free: the camera stays where it starts, as a scenario's "fixed"
-  if (text == "free" || text == "fixed") return CameraMode::kFree;
-  throw InputError(fmt::format("--camera '{}': expected follow or free", text));
-}
-
-// the recording options of `run --record`: throws InputError
+// `run --record`'s video options and `--screenshot`'s: the screenshot keeps the full look and
+// a larger default size. Throws InputError
 RecordOptions record_options(const RunCommand& cmd) {
-  RecordOptions ro;
-  ro.video = cmd.record;
+  VideoOptions video;
+  video.video = cmd.record;
+  // "fixed" as a scenario's camera.mode says it
+  video.camera = cmd.camera == "fixed" ? "free" : cmd.camera;
+  video.debug_draw = cmd.debug_draw;
+  video.fps = cmd.fps;
+  if (!cmd.size.empty()) video.size = cmd.size;
+  RecordOptions ro = video_record_options(video);
   ro.screenshot = cmd.screenshot;
   ro.screenshot_time = cmd.screenshot_at;
-  ro.fps = cmd.fps;
-  parse_frame_size(cmd.size, ro.width, ro.height);
-  ro.camera = parse_camera(cmd.camera);
-  check_video_options(ro);
   return ro;
 }
 
@@ -100,6 +97,8 @@ int screenshot_command(const RunCommand& cmd, RecordOptions ro) {
     if (cmd.past_fall) opt.stop_after_fall_s = -1;
     for (const auto& p : cmd.pushes) opt.extra_pushes.push_back(parse_push(p));
     ro.video.clear();
+    ro.draft_look = false;  // one frame: the full look costs little
+    if (cmd.size.empty()) parse_frame_size(kScreenshotSize, ro.width, ro.height);
     RecordResult r = record_scenario(loaded, opt, ro);
     if (!cmd.quiet)
       std::cout << fmt::format("wrote {} at t={:.3f} s\n", ro.screenshot, ro.screenshot_time);
@@ -128,7 +127,8 @@ int record_command(const RunCommand& cmd) {
   return screenshot_command(cmd, ro);
 }
 
-RecordOptions track_record_options(const BvhTrackCommand& cmd, const TrackVideoOptions& video) {
+RecordOptions video_record_options(const VideoOptions& video,
+                                   const std::function<Eigen::Vector3d()>& clip_heading) {
   RecordOptions ro;
   ro.video = video.video;
   ro.fps = video.fps;
@@ -138,11 +138,18 @@ RecordOptions track_record_options(const BvhTrackCommand& cmd, const TrackVideoO
     throw InputError(fmt::format("--debug-draw '{}': expected on or off", video.debug_draw));
   ro.debug_draw = video.debug_draw == "on";
   const std::string& camera = video.camera;
-  if (camera != "side" && camera != "front" && camera != "follow" && camera != "free")
-    throw InputError(fmt::format("--camera '{}': expected side, front, follow or free", camera));
-  ro.camera = camera == "free" ? CameraMode::kFree : CameraMode::kFollow;
-  if (camera == "side" || camera == "front") {
-    const Eigen::Vector3d heading = clip_heading_world(read_bvh(cmd.bvh), cmd.scale_to_meters);
+  const bool of_clip = camera == "side" || camera == "front";
+  if (!of_clip && !camera.empty() && camera != "follow" && camera != "free")
+    throw InputError(fmt::format("--camera '{}': expected {}", camera,
+                                 clip_heading ? "side, front, follow or free" : "follow or free"));
+  if (of_clip && !clip_heading)
+    throw InputError(fmt::format(
+        "--camera {}: a clip's heading is needed (stance bvh track); expected follow or free",
+        camera));
+  if (camera == "free") ro.camera = CameraMode::kFree;
+  if (camera == "follow" || of_clip) ro.camera = CameraMode::kFollow;
+  if (of_clip) {
+    const Eigen::Vector3d heading = clip_heading();
     double azimuth =
         camera == "side" ? side_view_azimuth_deg(heading) : front_view_azimuth_deg(heading);
     // a clip that neither travels nor faces anywhere keeps the scenario's angles
@@ -150,6 +157,13 @@ RecordOptions track_record_options(const BvhTrackCommand& cmd, const TrackVideoO
   }
   check_video_options(ro);
   return ro;
+}
+
+RecordOptions track_record_options(const BvhTrackCommand& cmd, const TrackVideoOptions& video) {
+  VideoOptions with_default = video;
+  if (with_default.camera.empty()) with_default.camera = "side";
+  return video_record_options(
+      with_default, [&] { return clip_heading_world(read_bvh(cmd.bvh), cmd.scale_to_meters); });
 }
 
 int record_track_command(const BvhTrackCommand& cmd, const TrackVideoOptions& video) {

@@ -2,6 +2,7 @@
 // Each returns the process exit code, as in app/commands.h.
 #pragma once
 
+#include <functional>
 #include <string>
 #include <vector>
 
@@ -14,20 +15,27 @@ namespace stance {
 // (the video in the run that writes summary.json and log.csv; the screenshot in one of its own)
 int record_command(const RunCommand& cmd);
 
-// the video of `stance bvh track CLIP --record out.mp4`
-struct TrackVideoOptions {
+// the video options of `stance run --record` and `stance bvh track --record`, with their shared
+// defaults: small enough that rendering in software (llvmpipe) adds under a third to the run's
+// time
+struct VideoOptions {
   std::string video;  // .mp4 or .gif
-  // side or front: beside or in front of the clip's heading (clip_heading_world), following the
-  // root; follow: the scenario's camera angles (camera.*), following the root; free: those angles
-  // from where the camera starts
-  std::string camera = "side";
-  // small enough that rendering in software (llvmpipe) adds under a third to the run's time
+  // side or front: beside or in front of a clip's heading (clip_heading_world), following the
+  // root (bvh track only: its default is side); follow: the scenario's camera angles (camera.*),
+  // following the root; free: those angles from where the camera starts; empty: the command's
+  // default (run: the scenario's camera.mode)
+  std::string camera;
   std::string size = "640x360";
   std::string debug_draw = "off";  // on: the COM ball, contacts, markers, planner path, ghost
   double fps = 30;                 // frames per simulated second
 };
-// the recording options of that video (the camera from the clip's heading); throws InputError
-// naming the option
+using TrackVideoOptions = VideoOptions;
+// the recording options of that video: the quick look (no shadows, no multisampling, x264's
+// quickest preset). clip_heading: where the tracked clip heads (side and front need it; null:
+// no clip). Throws InputError naming the option.
+RecordOptions video_record_options(const VideoOptions& video,
+                                   const std::function<Eigen::Vector3d()>& clip_heading = {});
+// the recording options of bvh track's video (the camera from the clip's heading)
 RecordOptions track_record_options(const BvhTrackCommand& cmd, const TrackVideoOptions& video);
 
 // `stance bvh track CLIP --record out.mp4`: the tracking run with its video rendered as it goes

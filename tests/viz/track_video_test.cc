@@ -1,5 +1,6 @@
 // `stance bvh track CLIP --record`: the camera stands beside the clip's heading by default (the
 // gait seen from the side whichever way the clip walks), and --size gives the video's size.
+// `stance run --record` makes its video through the same options, with the same defaults.
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -141,6 +142,62 @@ TEST(TrackVideoTest, TrackVideoHasTheSizeAskedAndTheSideCamera) {
   VideoRecorder recorder(run, again);
   EXPECT_NEAR(recorder.camera().azimuth, 90, 1e-6);
   EXPECT_NEAR(recorder.camera().elevation, loaded.scenario.camera.elevation, 1e-6);
+}
+
+// ffprobe's "width,height,frames,rate" of a video's first stream
+std::string probe_video(const std::string& path) {
+  const std::string probe = test::run_capture(
+      "ffprobe -v error -count_frames -select_streams v:0 "
+      "-show_entries stream=width,height,nb_read_frames,r_frame_rate -of "
+      "csv=p=0:nk=1 '" +
+      path + "'");
+  return probe.substr(0, probe.find_last_not_of("\n") + 1);
+}
+
+TEST(TrackVideoTest, RunVideoHasTheTrackVideosDefaults) {
+  // one set of options and defaults for both commands: size, fps, the quick look, no debug drawing
+  RunCommand run;
+  run.record = "run.mp4";
+  EXPECT_TRUE(run.size.empty());  // a video's default size: VideoOptions'
+  EXPECT_EQ(run.debug_draw, "off");
+  const RecordOptions from_run = video_record_options({.video = "run.mp4", .fps = run.fps});
+  BvhTrackCommand track;
+  track.bvh = synthetic_walk_file(false);
+  VideoOptions defaults;
+  defaults.video = "track.mp4";
+  const RecordOptions from_track = track_record_options(track, defaults);
+  EXPECT_EQ(from_run.width, 640);
+  EXPECT_EQ(from_run.height, 360);
+  EXPECT_EQ(from_track.width, from_run.width);
+  EXPECT_EQ(from_track.height, from_run.height);
+  EXPECT_EQ(run.fps, defaults.fps);
+  EXPECT_EQ(from_track.fps, 30);
+  EXPECT_TRUE(from_run.draft_look && from_track.draft_look);
+  EXPECT_FALSE(from_run.debug_draw || from_track.debug_draw);
+  // a run has no clip to stand beside: side and front are refused, follow and free kept
+  EXPECT_THROW(video_record_options({.video = "v.mp4", .camera = "side"}), InputError);
+  EXPECT_EQ(video_record_options({.video = "v.mp4", .camera = "free"}).camera, CameraMode::kFree);
+  EXPECT_FALSE(video_record_options({.video = "v.mp4"}).camera.has_value());
+  EXPECT_TRUE(video_record_options({.video = "v.mp4", .debug_draw = "on"}).debug_draw);
+
+  try {
+    OffscreenGlContext gl;
+  } catch (const std::exception& e) {
+    GTEST_SKIP() << "no offscreen OpenGL: " << e.what();
+  }
+  if (!test::have_tool("ffprobe")) GTEST_SKIP() << "no ffprobe";
+  // `stance run --record` with no video option: 640x360 at 30 frames per simulated second
+  run.scenario = test::source_dir() + "/scenarios/pd_hold.yaml";
+  run.duration = 0.2;
+  run.quiet = true;
+  run.out_dir = (scratch_dir() / "run").string();
+  run.record = (scratch_dir() / "run" / "run.mp4").string();
+  ASSERT_EQ(record_command(run), kExitOk);
+  EXPECT_EQ(probe_video(run.record), "640,360,30/1,6");
+  run.size = "320x240";
+  run.fps = 20;
+  ASSERT_EQ(record_command(run), kExitOk);
+  EXPECT_EQ(probe_video(run.record), "320,240,20/1,4");
 }
 
 }  // namespace
