@@ -60,14 +60,11 @@ struct Cli {
   stance::RunCommand run;
   std::string export_bvh;  // run --export-bvh
   stance::ViewCommand view;
-  std::string shots_dir = "scenarios", shots_out = "docs/img", shots_size = "800x500";
-  double shots_at = 2.0;
-  bool shots_gif = false;
+  stance::ScreenshotsCommand shots;
   stance::InfoCommand info;
-  std::string convert_in, convert_out;
-  std::string bvh_file;
-  bool bvh_json = false;
-  std::string synth_out;
+  stance::ConvertCommand convert;
+  stance::BvhInfoCommand bvh_info;
+  stance::BvhSynthCommand synth;
   stance::BvhRetargetCommand retarget;
   stance::BvhTrackCommand track;
   std::string track_record;
@@ -77,7 +74,7 @@ struct Cli {
   bool track_view = false;
   double track_quit_after = 0;
   stance::Bvh2MjcfCommand bvh2mjcf;
-  std::string list_what;
+  stance::ListCommand list;
   stance::SweepCommand sweep, sweep_gain;
   stance::PushThresholdCommand push_threshold;
   stance::RobustnessCommand robustness;
@@ -120,28 +117,13 @@ void add_run_commands(CLI::App& app, Cli& c) {
                         "(default off)");
 
   c.view_cmd = app.add_subcommand("view", "watch, push and tune a scenario in a window");
-  c.view_cmd->add_option("scenario", c.view.scenario, "scenario YAML")->required();
-  c.view_cmd->add_option("--engine", c.view.engine, "mujoco or dart (default: the scenario's)");
-  c.view_cmd->add_option("--quit-after", c.view.quit_after_s,
-                         "close after S s of wall time and print the pace (benchmarks)");
-  c.view_cmd->add_option("--set", c.view.sets, "override a parameter: key.path=value")
-      ->allow_extra_args(false);
-
+  stance::add_cli_options(*c.view_cmd, c.view);
   c.shots_cmd = app.add_subcommand("screenshots", "one PNG per scenario (README images)");
-  c.shots_cmd->add_option("--dir", c.shots_dir, "scenario folder");
-  c.shots_cmd->add_option("--out", c.shots_out, "image folder");
-  c.shots_cmd->add_option("--at", c.shots_at, "simulated time of each picture, s");
-  c.shots_cmd->add_option("--size", c.shots_size, "WxH (GIFs: default 480x300)");
-  c.shots_cmd->add_flag("--gif", c.shots_gif, "short looping GIFs of the seed systems instead");
-
+  stance::add_cli_options(*c.shots_cmd, c.shots);
   c.info_cmd = app.add_subcommand("info", "model sizes and mass");
-  c.info_cmd->add_option("model", c.info.model, "MJCF, URDF or SKEL file")->required();
-  c.info_cmd->add_option("--engine", c.info.engine, "mujoco or dart");
-  c.info_cmd->add_flag("--json", c.info.json, "print JSON");
-
+  stance::add_cli_options(*c.info_cmd, c.info);
   c.convert_cmd = app.add_subcommand("convert", "translate a DART .skel to MJCF");
-  c.convert_cmd->add_option("input", c.convert_in, ".skel file")->required();
-  c.convert_cmd->add_option("output", c.convert_out, "MJCF file to write")->required();
+  stance::add_cli_options(*c.convert_cmd, c.convert);
 }
 
 // bvh info/synth/retarget/track, bvh2mjcf, run --export-bvh, list
@@ -149,28 +131,15 @@ void add_bvh_commands(CLI::App& app, Cli& c) {
   c.bvh_cmd = app.add_subcommand("bvh", "motion-capture files");
   c.bvh_cmd->require_subcommand(1);
   c.bvh_info_cmd = c.bvh_cmd->add_subcommand("info", "frames, joints, channels, orders, units");
-  c.bvh_info_cmd->add_option("file", c.bvh_file, "BVH file")->required();
-  c.bvh_info_cmd->add_flag("--json", c.bvh_json, "print JSON");
-
+  stance::add_cli_options(*c.bvh_info_cmd, c.bvh_info);
   c.bvh_synth_cmd = c.bvh_cmd->add_subcommand("synth-walk", "write the synthetic walking clip");
-  c.bvh_synth_cmd->add_option("output", c.synth_out, "BVH file to write")->required();
+  stance::add_cli_options(*c.bvh_synth_cmd, c.synth);
   c.bvh_synth_run_cmd =
       c.bvh_cmd->add_subcommand("synth-run", "write the synthetic running clip (a flight phase)");
-  c.bvh_synth_run_cmd->add_option("output", c.synth_out, "BVH file to write")->required();
-
+  stance::add_cli_options(*c.bvh_synth_run_cmd, c.synth);
   c.bvh_retarget_cmd = c.bvh_cmd->add_subcommand(
       "retarget", "a clip mapped onto a model, as a table of its q and v");
-  c.bvh_retarget_cmd->add_option("input", c.retarget.bvh, "BVH file")->required();
-  c.bvh_retarget_cmd->add_option("output", c.retarget.out, "CSV file to write")->required();
-  c.bvh_retarget_cmd->add_option("--map", c.retarget.map, "YAML joint map")->required();
-  c.bvh_retarget_cmd->add_option("--model", c.retarget.model, "model file (MJCF, URDF, SKEL)")
-      ->required();
-  c.bvh_retarget_cmd->add_option("--engine", c.retarget.engine, "mujoco or dart");
-  c.bvh_retarget_cmd->add_flag("--loop", c.retarget.loop, "repeat the clip for --duration");
-  c.bvh_retarget_cmd->add_option("--duration", c.retarget.duration_s, "seconds to write");
-  c.bvh_retarget_cmd->add_option("--first-frame", c.retarget.first_frame,
-                                 "first frame of the range");
-  c.bvh_retarget_cmd->add_option("--last-frame", c.retarget.last_frame, "last frame (-1: the end)");
+  stance::add_cli_options(*c.bvh_retarget_cmd, c.retarget);
   c.bvh_track_cmd = c.bvh_cmd->add_subcommand(
       "track", "track clips in free mode with the sampling planner (no per-clip tuning)");
   c.bvh_track_cmd
@@ -220,24 +189,13 @@ void add_bvh_commands(CLI::App& app, Cli& c) {
                             "where the clip starts, to overlay it)");
 
   c.bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");
-  c.bvh2mjcf_cmd->add_option("input", c.bvh2mjcf.bvh, "BVH file")->required();
-  c.bvh2mjcf_cmd->add_option("output", c.bvh2mjcf.mjcf, "MJCF file to write")->required();
-  c.bvh2mjcf_cmd->add_option("--mass", c.bvh2mjcf.mass_kg, "total mass, kg");
-  c.bvh2mjcf_cmd->add_option("--first-frame", c.bvh2mjcf.first_frame,
-                             "frame of the start keyframe (default: after a leading T-pose)");
-  c.bvh2mjcf_cmd->add_option("--timestep", c.bvh2mjcf.timestep_s, "simulation timestep, s");
-  c.bvh2mjcf_cmd->add_flag("--human-limits", c.bvh2mjcf.human_limits,
-                           "human-like joint torque limits, scaled by --mass (docs/mocap.md)");
-  c.bvh2mjcf_cmd->add_option("--scale-to-meters", c.bvh2mjcf.scale_to_meters,
-                             "metres per file unit (default: detected from the legs)");
+  stance::add_cli_options(*c.bvh2mjcf_cmd, c.bvh2mjcf);
   // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion
   c.run_cmd->add_option("--export-bvh", c.export_bvh,
                         "mocap_tracker / mocap_retarget: write the simulated motion");
 
   c.list_cmd = app.add_subcommand("list", "controllers and scenarios; a controller's parameters");
-  c.list_cmd->add_option("what", c.list_what,
-                         "a scenario folder (default scenarios), 'controllers' or a controller "
-                         "type: its parameters with unit, range and help");
+  stance::add_cli_options(*c.list_cmd, c.list);
 }
 
 // sweep, sweep-gain, push-threshold, robustness, tune
@@ -281,24 +239,24 @@ int dispatch(Cli& c) {
   if (*c.view_cmd || *c.shots_cmd) {
 #ifdef STANCE_HAVE_VIEWER
     if (*c.view_cmd) return stance::view_command(c.view);
-    if (int code = stance::check_screenshots_options(c.shots_dir, c.shots_at);
+    if (int code = stance::check_screenshots_options(c.shots.dir, c.shots.at);
         code != stance::kExitOk)
       return code;
-    if (c.shots_gif)
-      return stance::gifs_command(c.shots_dir, c.shots_out,
-                                  c.shots_cmd->count("--size") ? c.shots_size : "480x300");
-    return stance::screenshots_command(c.shots_dir, c.shots_out, c.shots_at, c.shots_size);
+    if (c.shots.gif)
+      return stance::gifs_command(c.shots.dir, c.shots.out,
+                                  c.shots_cmd->count("--size") ? c.shots.size : "480x300");
+    return stance::screenshots_command(c.shots.dir, c.shots.out, c.shots.at, c.shots.size);
 #else
     std::cerr << "error: this stance was built without the viewer (STANCE_WITH_VIEWER)\n";
     return stance::kExitBadInput;
 #endif
   }
   if (*c.info_cmd) return stance::info_command(c.info);
-  if (*c.convert_cmd) return stance::convert_command(c.convert_in, c.convert_out);
-  if (*c.bvh_info_cmd) return stance::bvh_info_command(c.bvh_file, c.bvh_json);
+  if (*c.convert_cmd) return stance::convert_command(c.convert.input, c.convert.output);
+  if (*c.bvh_info_cmd) return stance::bvh_info_command(c.bvh_info.file, c.bvh_info.json);
   if (*c.bvh2mjcf_cmd) return stance::bvh2mjcf_command(c.bvh2mjcf);
-  if (*c.bvh_synth_cmd) return stance::bvh_synth_command(c.synth_out, false);
-  if (*c.bvh_synth_run_cmd) return stance::bvh_synth_command(c.synth_out, true);
+  if (*c.bvh_synth_cmd) return stance::bvh_synth_command(c.synth.output, false);
+  if (*c.bvh_synth_run_cmd) return stance::bvh_synth_command(c.synth.output, true);
   if (*c.bvh_retarget_cmd) return stance::bvh_retarget_command(c.retarget);
   if (*c.bvh_track_cmd) {
     if (stance::is_track_batch(c.track_batch.inputs) || c.track_batch.resume) {
@@ -321,7 +279,7 @@ int dispatch(Cli& c) {
     return stance::kExitBadInput;
 #endif
   }
-  if (*c.list_cmd) return stance::list_command(c.list_what);
+  if (*c.list_cmd) return stance::list_command(c.list.what);
   if (*c.sweep_cmd) return stance::sweep_command(c.sweep);
   if (*c.sweep_gain_cmd) return stance::sweep_command(c.sweep_gain);
   if (*c.push_threshold_cmd) return stance::push_threshold_command(c.push_threshold);

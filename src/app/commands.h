@@ -73,20 +73,81 @@ struct ViewCommand {
   std::vector<std::string> sets;
   int width = 1400, height = 900;
   double quit_after_s = 0;  // wall s; then prints the simulated time over the wall time
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
+    v("engine", engine, {.help = "mujoco or dart (default: the scenario's)"});
+    v("quit_after_s", quit_after_s,
+      {.help = "close after S s of wall time and print the pace (benchmarks)",
+       .names = "--quit-after",
+       .unit = "s"});
+    v("sets", sets, {.help = "override a parameter: key.path=value", .names = "--set"});
+  }
+};
+
+// `stance screenshots [--dir D] [--out O] [--gif]`: runs in src/viz (viz/viz_commands.h)
+struct ScreenshotsCommand {
+  std::string dir = "scenarios";
+  std::string out = "docs/img";
+  double at = 2.0;  // s
+  std::string size = "800x500";
+  bool gif = false;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("dir", dir, {.help = "scenario folder"});
+    v("out", out, {.help = "image folder"});
+    v("at", at, {.help = "simulated time of each picture, s", .unit = "s", .min = 0});
+    v("size", size, {.help = "WxH (GIFs: default 480x300)"});
+    v("gif", gif, {.help = "short looping GIFs of the seed systems instead"});
+  }
 };
 
 struct InfoCommand {
   std::string model;
   std::string engine = "mujoco";
   bool json = false;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("model", model, {.help = "MJCF, URDF or SKEL file", .names = "model", .required = true});
+    v("engine", engine, {.help = "mujoco or dart"});
+    v("json", json, {.help = "print JSON"});
+  }
 };
 int info_command(const InfoCommand& cmd);
 
+// `stance convert IN.skel OUT.xml`
+struct ConvertCommand {
+  std::string input, output;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("input", input, {.help = ".skel file", .names = "input", .required = true});
+    v("output", output, {.help = "MJCF file to write", .names = "output", .required = true});
+  }
+};
 int convert_command(const std::string& in_path, const std::string& out_path);
 
 // `stance bvh info FILE [--json]`: bvh_info_text/json, and what the tracker makes of the file:
 // the root body and the joints that carry it, and the legs (JSON: root_body, root_carriers,
 // legs {left, right: {thigh, foot}})
+struct BvhInfoCommand {
+  std::string file;
+  bool json = false;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("file", file, {.help = "BVH file", .names = "file", .required = true});
+    v("json", json, {.help = "print JSON"});
+  }
+};
 int bvh_info_command(const std::string& path, bool json);
 
 // `stance bvh2mjcf IN.bvh OUT.xml [--mass KG] [--first-frame N] [--timestep S]`: a character
@@ -98,10 +159,35 @@ struct Bvh2MjcfCommand {
   double timestep_s = 0.002;
   double scale_to_meters = 0;  // metres per file unit; 0: detect from the legs
   bool human_limits = false;   // human-like torque limits on the joints (docs/mocap.md)
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("bvh", bvh, {.help = "BVH file", .names = "input", .required = true});
+    v("mjcf", mjcf, {.help = "MJCF file to write", .names = "output", .required = true});
+    v("mass_kg", mass_kg, {.help = "total mass, kg", .names = "--mass", .unit = "kg", .min = 0});
+    v("first_frame", first_frame,
+      {.help = "frame of the start keyframe (default: after a leading T-pose)", .min = 0});
+    v("timestep_s", timestep_s,
+      {.help = "simulation timestep, s", .names = "--timestep", .unit = "s", .min = 0});
+    v("human_limits", human_limits,
+      {.help = "human-like joint torque limits, scaled by --mass (docs/mocap.md)"});
+    v("scale_to_meters", scale_to_meters,
+      {.help = "metres per file unit (default: detected from the legs)", .unit = "m", .min = 0});
+  }
 };
 int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
 
 // `bvh synth-walk` / `bvh synth-run`: the synthetic clip (run: synthetic_run_options())
+struct BvhSynthCommand {
+  std::string output;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("output", output, {.help = "BVH file to write", .names = "output", .required = true});
+  }
+};
 int bvh_synth_command(const std::string& out_path, bool run);
 
 // `stance bvh retarget IN.bvh --map MAP.yaml --model MODEL OUT.csv`: the clip mapped onto a
@@ -114,6 +200,21 @@ struct BvhRetargetCommand {
   bool loop = false;
   int first_frame = 0;
   int last_frame = -1;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("bvh", bvh, {.help = "BVH file", .names = "input", .required = true});
+    v("out", out, {.help = "CSV file to write", .names = "output", .required = true});
+    v("map", map, {.help = "YAML joint map", .required = true});
+    v("model", model, {.help = "model file (MJCF, URDF, SKEL)", .required = true});
+    v("engine", engine, {.help = "mujoco or dart"});
+    v("loop", loop, {.help = "repeat the clip for --duration"});
+    v("duration_s", duration_s,
+      {.help = "seconds to write", .names = "--duration", .unit = "s", .min = 0});
+    v("first_frame", first_frame, {.help = "first frame of the range", .min = 0});
+    v("last_frame", last_frame, {.help = "last frame (-1: the end)", .min = -1});
+  }
 };
 int bvh_retarget_command(const BvhRetargetCommand& cmd);
 
@@ -147,6 +248,18 @@ int bvh_track_command(const BvhTrackCommand& cmd, const RunObserverMaker& observ
 // `stance list [WHAT]`: the registered controllers and the scenarios in a folder (WHAT, default
 // scenarios); WHAT "controllers" or a controller type: their parameters with default, unit,
 // range and help. Anything else is bad input (exit 2).
+struct ListCommand {
+  std::string what;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("what", what,
+      {.help = "a scenario folder (default scenarios), 'controllers' or a controller type: its "
+               "parameters with unit, range and help",
+       .names = "what"});
+  }
+};
 int list_command(const std::string& what);
 
 // `stance sweep SCENARIO --param key.path (--from A --to B --steps N | --values a,b,c)`:
