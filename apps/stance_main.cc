@@ -58,7 +58,6 @@ namespace {
 // every command's options and its CLI::App: filled by the add_*_commands, read by dispatch()
 struct Cli {
   stance::RunCommand run;
-  std::string export_bvh;  // run --export-bvh
   stance::ViewCommand view;
   stance::ScreenshotsCommand shots;
   stance::InfoCommand info;
@@ -90,32 +89,8 @@ struct Cli {
 // run, view, screenshots, info, convert
 void add_run_commands(CLI::App& app, Cli& c) {
   c.run_cmd = app.add_subcommand("run", "run a scenario headless");
-  c.run_cmd->add_option("scenario", c.run.scenario, "scenario YAML")->required();
-  c.run_cmd->add_option("--engine", c.run.engine, "mujoco or dart (default: the scenario's)");
-  c.run_cmd->add_option("--duration", c.run.duration, "simulated seconds");
-  c.run_cmd->add_option("--set", c.run.sets, "override a parameter: key.path=value")
-      ->allow_extra_args(false);
-  c.run_cmd->add_option("--push", c.run.pushes, "body,fx,fy,fz,start,duration (repeatable)")
-      ->allow_extra_args(false);
-  c.run_cmd->add_option("--out", c.run.out_dir, "output folder (summary.json, log.csv)");
-  c.run_cmd->add_flag("--quiet", c.run.quiet, "no summary on stdout");
-  c.run_cmd->add_flag("--past-fall", c.run.past_fall,
-                      "go on to the end after a fall (default: stop 1 s after it)");
-  c.run_cmd->add_option("--record", c.run.record, "render an MP4 offscreen (ffmpeg)");
-  c.run_cmd->add_option("--screenshot", c.run.screenshot, "render one PNG frame at --at");
-  c.run_cmd
-      ->add_flag("--check", c.run.check, "exit 4 when the scenario's expect block does not hold")
-      ->excludes("--record")
-      ->excludes("--screenshot");
-  c.run_cmd->add_option("--at", c.run.screenshot_at, "screenshot time, s");
-  c.run_cmd->add_option("--fps", c.run.fps, "video frames per simulated second (default 30)");
-  c.run_cmd->add_option("--size", c.run.size,
-                        "frame size WxH (default 640x360; a screenshot 1280x720)");
-  c.run_cmd->add_option("--camera", c.run.camera, "follow or free (default: the scenario's)");
-  c.run_cmd->add_option("--debug-draw", c.run.debug_draw,
-                        "on draws the COM, contacts, markers, planner path and reference ghost "
-                        "(default off)");
-
+  stance::add_cli_options(*c.run_cmd, c.run);
+  c.run_cmd->get_option("--check")->excludes("--record")->excludes("--screenshot");
   c.view_cmd = app.add_subcommand("view", "watch, push and tune a scenario in a window");
   stance::add_cli_options(*c.view_cmd, c.view);
   c.shots_cmd = app.add_subcommand("screenshots", "one PNG per scenario (README images)");
@@ -190,9 +165,6 @@ void add_bvh_commands(CLI::App& app, Cli& c) {
 
   c.bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");
   stance::add_cli_options(*c.bvh2mjcf_cmd, c.bvh2mjcf);
-  // `run --export-bvh`: the mocap_tracker (controllers[0]) writes the simulated motion
-  c.run_cmd->add_option("--export-bvh", c.export_bvh,
-                        "mocap_tracker / mocap_retarget: write the simulated motion");
 
   c.list_cmd = app.add_subcommand("list", "controllers and scenarios; a controller's parameters");
   stance::add_cli_options(*c.list_cmd, c.list);
@@ -232,9 +204,9 @@ int dispatch(Cli& c) {
     return stance::kExitBadInput;
 #endif
   }
-  if (*c.run_cmd && !c.export_bvh.empty())
+  if (*c.run_cmd && !c.run.export_bvh.empty())
     c.run.sets.push_back("controllers.0.export_bvh=" +
-                         std::filesystem::absolute(c.export_bvh).string());
+                         std::filesystem::absolute(c.run.export_bvh).string());
   if (*c.run_cmd) return stance::run_command(c.run);
   if (*c.view_cmd || *c.shots_cmd) {
 #ifdef STANCE_HAVE_VIEWER

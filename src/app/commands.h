@@ -51,6 +51,36 @@ struct RunCommand {
   std::string size;    // WxH; empty: 640x360 for a video, 1280x720 for a screenshot
   std::string camera;  // follow or free (fixed); empty: the scenario's (camera.mode)
   std::string debug_draw = "off";  // on: COM ball, contacts, markers, planner path, ghost
+  // mocap_tracker / mocap_retarget (controllers[0]): write the simulated motion as BVH here
+  // (the CLI turns it into the override controllers.0.export_bvh=<absolute path>)
+  std::string export_bvh;
+
+  // the command-line options, in --help's order (app/cli_options.h)
+  template <class V>
+  void visit(V& v) {
+    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
+    v("engine", engine, {.help = "mujoco or dart (default: the scenario's)"});
+    v("duration", duration, {.help = "simulated seconds", .unit = "s", .min = 0});
+    v("sets", sets, {.help = "override a parameter: key.path=value", .names = "--set"});
+    v("pushes", pushes, {.help = "body,fx,fy,fz,start,duration (repeatable)", .names = "--push"});
+    v("out_dir", out_dir, {.help = "output folder (summary.json, log.csv)", .names = "--out"});
+    v("quiet", quiet, {.help = "no summary on stdout"});
+    v("past_fall", past_fall,
+      {.help = "go on to the end after a fall (default: stop 1 s after it)"});
+    v("record", record, {.help = "render an MP4 offscreen (ffmpeg)"});
+    v("screenshot", screenshot, {.help = "render one PNG frame at --at"});
+    v("check", check, {.help = "exit 4 when the scenario's expect block does not hold"});
+    v("screenshot_at", screenshot_at,
+      {.help = "screenshot time, s", .names = "--at", .unit = "s", .min = 0});
+    v("fps", fps, {.help = "video frames per simulated second (default 30)", .min = 0});
+    v("size", size, {.help = "frame size WxH (default 640x360; a screenshot 1280x720)"});
+    v("camera", camera, {.help = "follow or free (default: the scenario's)"});
+    v("debug_draw", debug_draw,
+      {.help = "on draws the COM, contacts, markers, planner path and reference ghost "
+               "(default off)"});
+    v("export_bvh", export_bvh,
+      {.help = "mocap_tracker / mocap_retarget: write the simulated motion"});
+  }
 };
 int run_command(const RunCommand& cmd, const RunObserverMaker& observe = {});
 // the Simulation run_command runs: the scenario with cmd.sets (named after its file when it has
