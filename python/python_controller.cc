@@ -43,7 +43,7 @@ class PyControllerState final : public ControllerState {
 };
 
 // a Python object with compute(engine, out) and optionally reset(engine) and metrics()
-class PyController final : public Controller {
+class PyController final : public Controller, public Reporting {
  public:
   PyController(py::object instance, YAML::Node params)
       : instance_(std::move(instance)), params_(std::move(params)) {
@@ -79,6 +79,7 @@ class PyController final : public Controller {
     compute_(s.engine_obj, s.out_obj);
     s.view->out = nullptr;
   }
+  // metrics() into summary.json, when the class has one
   void add_metrics(const ControllerState&, nlohmann::json& metrics) const override {
     py::gil_scoped_acquire gil;
     if (!py::hasattr(instance_, "metrics")) return;
@@ -86,9 +87,14 @@ class PyController final : public Controller {
     if (m.is_object())
       for (auto it = m.begin(); it != m.end(); ++it) metrics[it.key()] = it.value();
   }
+  // not Retunable (no sliders): a live edit rebuilds through the registry, which Python
+  // classes are not in
   YAML::Node params_yaml() const override { return params_; }
-  // no sliders: a live edit rebuilds through the registry, which Python classes are not in
-  std::vector<ParamEntry> tunable_params() const override { return {}; }
+
+ protected:
+  const void* find_interface(ControllerInterface id) const override {
+    return id == Reporting::kInterface ? static_cast<const Reporting*>(this) : nullptr;
+  }
 
  private:
   static void bind(PyControllerState& s, const Engine& engine) {

@@ -64,16 +64,16 @@ void metric_paths(const nlohmann::json& j, const std::string& prefix,
 }
 
 // the numeric defaults of a loaded scenario: its own fields and its controllers' parameters
-std::optional<double> default_value(const LoadedScenario& loaded, Simulation& probe,
-                                    const std::string& key) {
+// (typed at load: no controller is built)
+std::optional<double> default_value(const LoadedScenario& loaded, const std::string& key) {
   std::vector<std::string> parts = split_path(key);
   if (parts.size() >= 3 && parts[0] == "controllers") {
     char* end = nullptr;
     long idx = std::strtol(parts[1].c_str(), &end, 10);
-    if (*end || idx < 0 || idx >= static_cast<long>(probe.controllers().size()))
+    if (*end || idx < 0 || idx >= static_cast<long>(loaded.controllers.size()))
       return std::nullopt;
     std::string rest = key.substr(parts[0].size() + parts[1].size() + 2);
-    for (const ParamEntry& e : probe.controllers()[idx]->tunable_params())
+    for (const ParamEntry& e : controller_params(loaded, idx))
       if (e.path == rest) return e.value;
     return std::nullopt;
   }
@@ -83,15 +83,14 @@ std::optional<double> default_value(const LoadedScenario& loaded, Simulation& pr
 }
 
 // the numeric key paths a scenario offers (for "did you mean")
-std::vector<std::string> known_keys(const YAML::Node& doc, Simulation& probe,
-                                    const LoadedScenario& loaded) {
+std::vector<std::string> known_keys(const YAML::Node& doc, const LoadedScenario& loaded) {
   std::vector<ParamEntry> entries;
   list_yaml_params(doc, "", entries);
   std::vector<std::string> out;
   for (const auto& e : entries) out.push_back(e.path);
   for (const auto& e : list_params(loaded.scenario)) out.push_back(e.path);
-  for (size_t i = 0; i < probe.controllers().size(); ++i)
-    for (const auto& e : probe.controllers()[i]->tunable_params())
+  for (size_t i = 0; i < loaded.controllers.size(); ++i)
+    for (const auto& e : controller_params(loaded, i))
       out.push_back(fmt::format("controllers.{}.{}", i, e.path));
   return out;
 }
@@ -191,14 +190,13 @@ void load_tune_base(const TuneOptions& o, TuneSetup& s, TuneResult& result) {
   s.run_options.quiet = true;
   s.run_options.cache = &s.cache;
   LoadedScenario loaded = parse_doc(o, s.base);
-  Simulation probe(loaded, s.run_options);
   result.duration = o.duration ? *o.duration : loaded.scenario.duration;
   auto resolve = [&](const std::string& key, const std::string& arg) {
     if (yaml_number_at(s.base, key)) return;
-    std::optional<double> v = default_value(loaded, probe, key);
+    std::optional<double> v = default_value(loaded, key);
     if (!v)
       throw InputError(fmt::format("{}: no number at key path '{}' in {}{}", arg, key, o.scenario,
-                                   did_you_mean(key, known_keys(s.base, probe, loaded))));
+                                   did_you_mean(key, known_keys(s.base, loaded))));
     apply_yaml_override(s.base, key + "=" + format_sweep_value(*v));
   };
   for (const auto& p : o.params) resolve(p.key, fmt::format("--param '{}'", param_text(p)));
@@ -224,8 +222,9 @@ void find_start(const TuneOptions& o, TuneSetup& s, TuneResult& result) {
   }
 }
 
-// every neighbour of the start, and each parameter at its bounds, must build: bad keys, values
-// out of a parameter's range and malformed neighbours fail here, before any run
+// before any run: every neighbour of the start must build (it may change the world: an engine,
+// a model, a timestep), and each parameter at its bounds must load (the loader types every
+// parameter, controllers' too, so a value out of range fails there without a build)
 void check_probe_builds(const TuneOptions& o, TuneSetup& s) {
   s.runs_per = 1 + static_cast<int>(o.neighbours.size());
   for (int j = 0; j < static_cast<int>(o.neighbours.size()); ++j) {
@@ -242,7 +241,7 @@ void check_probe_builds(const TuneOptions& o, TuneSetup& s) {
       std::vector<double> v = s.start;
       v[i] = bound;
       try {
-        Simulation probe(parse_doc(o, run_doc(o, s.base, v, -1)), s.run_options);
+        parse_doc(o, run_doc(o, s.base, v, -1));
       } catch (const InputError& e) {
         throw InputError(fmt::format("--param '{}': {} = {} is rejected: {}",
                                      param_text(o.params[i]), o.params[i].key,

@@ -124,7 +124,8 @@ void AnkleStrategy::signal_names(std::vector<std::string>& names) const {
   names.push_back("ankle_capture_point_m");
   names.push_back("ankle_capture_torque_nm");
 }
-void AnkleStrategy::state_signals(const State& s, std::vector<double>& values) const {
+void AnkleStrategy::signals(const ControllerState& state, std::vector<double>& values) const {
+  const State& s = cast(state);
   values.push_back(s.offset);
   values.push_back(s.rate);
   values.push_back(s.band);
@@ -132,7 +133,8 @@ void AnkleStrategy::state_signals(const State& s, std::vector<double>& values) c
   values.push_back(s.capture_point);
   values.push_back(s.capture_torque);
 }
-void AnkleStrategy::state_metrics(const State& s, nlohmann::json& metrics) const {
+void AnkleStrategy::add_metrics(const ControllerState& state, nlohmann::json& metrics) const {
+  const State& s = cast(state);
   metrics["max_com_offset_m"] = s.max_abs_offset;
   metrics["mean_abs_ankle_offset_m"] = s.samples ? s.abs_offset_sum / s.samples : 0.0;
 }

@@ -112,7 +112,7 @@ struct AnkleStrategyState {
   }
 };
 
-class AnkleStrategy final : public TypedController<AnkleStrategyState> {
+class AnkleStrategy final : public TypedController<AnkleStrategyState, Reporting, Retunable> {
  public:
   struct Model {
     AnkleStrategyParams params;
@@ -135,7 +135,7 @@ class AnkleStrategy final : public TypedController<AnkleStrategyState> {
   const Model& model() const { return model_; }
 
   // the Controller's compute(state, engine, out) beside the static one below
-  using TypedController<AnkleStrategyState>::compute;
+  using TypedController::compute;
   // one step on a given model: the measurement and the band's torques (not the statistics)
   static void compute(const Model& model, State& state, const Engine& engine, ControlOutput& out);
   // the offset and its rate, dims scalar
@@ -144,11 +144,12 @@ class AnkleStrategy final : public TypedController<AnkleStrategyState> {
   // the capture term's heel torque for a capture point xi (m, relative to the heel point)
   static double capture_torque(const AnkleCaptureTerm& c, double xi);
 
+  void signals(const ControllerState& state, std::vector<double>& values) const override;
+  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const override;
+
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const State& state, std::vector<double>& values) const override;
-  void state_metrics(const State& state, nlohmann::json& metrics) const override;
 
  private:
   Model model_;

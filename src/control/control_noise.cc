@@ -90,11 +90,13 @@ void ControlNoise::signal_names(std::vector<std::string>& names) const {
   names.push_back("control_noise_rms");
 }
 
-void ControlNoise::state_signals(const State& s, std::vector<double>& values) const {
+void ControlNoise::signals(const ControllerState& state, std::vector<double>& values) const {
+  const State& s = cast(state);
   values.push_back(std::sqrt(s.noise.squaredNorm() / static_cast<double>(s.noise.size())));
 }
 
-void ControlNoise::state_metrics(const State& s, nlohmann::json& metrics) const {
+void ControlNoise::add_metrics(const ControllerState& state, nlohmann::json& metrics) const {
+  const State& s = cast(state);
   metrics["control_noise_rms"] = s.samples ? std::sqrt(s.sq_sum / s.samples) : 0.0;
 }
 

@@ -58,7 +58,7 @@ struct ControlNoiseState {
   }
 };
 
-class ControlNoise final : public TypedController<ControlNoiseState> {
+class ControlNoise final : public TypedController<ControlNoiseState, Reporting, Retunable> {
  public:
   ControlNoise(const ControlNoiseParams& params, const ControllerContext& ctx,
                const Engine& engine);
@@ -73,11 +73,12 @@ class ControlNoise final : public TypedController<ControlNoiseState> {
   const Eigen::VectorXd& std_per_actuator() const { return std_; }
   uint64_t seed() const { return seed_; }
 
+  void signals(const ControllerState& state, std::vector<double>& values) const override;
+  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const override;
+
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const State& state, std::vector<double>& values) const override;
-  void state_metrics(const State& state, nlohmann::json& metrics) const override;
 
  private:
   ControlNoiseParams params_;

@@ -95,9 +95,24 @@ class ReferenceHorizon {
   virtual ~ReferenceHorizon() = default;
 };
 
+// the optional interfaces a controller may offer (Controller::as<I>())
+enum class ControllerInterface {
+  kReporting,
+  kDrawable,
+  kTracking,
+  kFallJudge,
+  kCorrectable,
+  kHorizonSampling,
+  kInitialState,
+  kRetunable,
+};
+
 // A controller is its immutable Model: parameters and what was resolved from them once (indices,
 // gains, LQR K, tables). It is const after construction and can be shared by many runs on many
 // threads; each run holds its own ControllerState.
+//
+// Controller holds what every controller does; what only some offer is an optional interface
+// (below) that a client asks for: `if (const auto* t = c.as<Tracking>()) ...`.
 class Controller {
  public:
   virtual ~Controller() = default;
@@ -109,72 +124,151 @@ class Controller {
   virtual void reset(ControllerState& state, const Engine& engine) const = 0;
   // add this step's outputs; engine.forward() has been called. No allocation.
   virtual void compute(ControllerState& state, const Engine& engine, ControlOutput& out) const = 0;
+  // the parameters as YAML (for saving a tuned scenario; a live edit rebuilds from it)
+  virtual YAML::Node params_yaml() const = 0;
 
-  // key signals for log.csv: names fixed after construction, values filled per log row
+  // the optional interface I (one of those below) when this controller offers it, else null.
+  // No allocation, no dynamic_cast: cheap enough for the step loop.
+  template <class I>
+  const I* as() const {
+    return static_cast<const I*>(find_interface(I::kInterface));
+  }
+
+ protected:
+  // `this` as the interface `id` (a pointer to the interface's class), or null
+  virtual const void* find_interface(ControllerInterface id) const { return nullptr; }
+};
+
+// --- optional interfaces: a controller offers them by listing them in TypedController<S, ...>
+
+// log.csv columns, summary.json metrics and extra output files (Simulation, observers)
+class Reporting {
+ public:
+  static constexpr ControllerInterface kInterface = ControllerInterface::kReporting;
+  // key signals for log.csv: names fixed after construction (appended), values per log row
   virtual void signal_names(std::vector<std::string>& names) const {}
   virtual void signals(const ControllerState& state, std::vector<double>& values) const {}
   // end-of-run metrics, merged into summary.json "metrics"
   virtual void add_metrics(const ControllerState& state, nlohmann::json& metrics) const {}
   // extra output files (e.g. steps.csv) into the run's output folder, at the end of a run
   virtual void write_outputs(const ControllerState& state, const std::string& out_dir) const {}
-  // the parameters as YAML (for saving a tuned scenario)
-  virtual YAML::Node params_yaml() const = 0;
-  // the numeric parameters for live tuning, in params_yaml()'s key paths (the viewer's panel).
-  // The default lists params_yaml()'s numbers without units or ranges; controllers override it
-  // with list_params(params) to give the visit's units, ranges and help.
-  virtual std::vector<ParamEntry> tunable_params() const {
-    std::vector<ParamEntry> out;
-    list_yaml_params(params_yaml(), "", out);
-    return out;
-  }
-  // whether a state made by `previous` (the same type, other parameters) can go on under this
-  // model, so that a live parameter edit keeps the walk in its FSM phase
-  virtual bool keeps_state_of(const Controller& previous) const {
-    return previous.type() == type();
-  }
-  // what the viewer and the recorder draw for this controller (appended to `out`, world frame)
+
+ protected:
+  ~Reporting() = default;
+};
+
+// what the viewer and the recorder draw for this controller (appended to `out`, world frame)
+class Drawable {
+ public:
+  static constexpr ControllerInterface kInterface = ControllerInterface::kDrawable;
   virtual void markers(const ControllerState& state, const Engine& engine,
-                       std::vector<Marker>& out) const {}
-  // the pose being tracked (dim nq, the engine's layout) at the engine's time, drawn as a ghost;
-  // false when the controller tracks no pose
+                       std::vector<Marker>& out) const = 0;
+
+ protected:
+  ~Drawable() = default;
+};
+
+// a controller that tracks a pose (the viewer's ghost, the planner's cost terms)
+class Tracking {
+ public:
+  static constexpr ControllerInterface kInterface = ControllerInterface::kTracking;
+  // the pose being tracked (dim nq, the engine's layout) at the engine's time; false: none now
   virtual bool reference_qpos(const ControllerState& state, const Engine& engine,
-                              Eigen::VectorXd& qpos) const {
-    return false;
-  }
-  // the planner's hook: the dimensions of the correction this controller applies to its targets
-  // when ControlOutput::correction is set (appended); none by default, and the planner then
-  // corrects with residual joint torques
-  virtual void correction_dims(std::vector<CorrectionDim>& dims) const {}
-  // the planner's per-step work (control/controller.h, ReferenceHorizon): null when nothing a
-  // rollout computes depends on the time only
-  virtual std::unique_ptr<ReferenceHorizon> make_reference_horizon() const { return nullptr; }
+                              Eigen::VectorXd& qpos) const = 0;
+  // the error against what the controller tracks now; false when it tracks nothing
+  virtual bool tracking_error(const ControllerState& state, const Engine& engine,
+                              TrackingError& error) const = 0;
+
+ protected:
+  ~Tracking() = default;
+};
+
+// a controller that judges a fall itself (a crouch in a tracked clip is no fall); without it,
+// or on kNoOpinion, the scenario's fall criterion decides
+class FallJudge {
+ public:
+  static constexpr ControllerInterface kInterface = ControllerInterface::kFallJudge;
+  // `reason` is set on kFell
+  virtual FallVerdict fall_verdict(const ControllerState& state, const Engine& engine,
+                                   std::string& reason) const = 0;
+
+ protected:
+  ~FallJudge() = default;
+};
+
+// the planner's hook: the dimensions of the correction this controller applies to its targets
+// when ControlOutput::correction is set; without it the planner corrects with residual torques
+class Correctable {
+ public:
+  static constexpr ControllerInterface kInterface = ControllerInterface::kCorrectable;
+  // appended; may append none (then the planner uses residual torques)
+  virtual void correction_dims(std::vector<CorrectionDim>& dims) const = 0;
+
+ protected:
+  ~Correctable() = default;
+};
+
+// the planner's per-step work (ReferenceHorizon) for controllers whose rollouts compute things
+// that depend on the time only
+class HorizonSampling {
+ public:
+  static constexpr ControllerInterface kInterface = ControllerInterface::kHorizonSampling;
+  virtual std::unique_ptr<ReferenceHorizon> make_reference_horizon() const = 0;
   // fill `horizon` for `steps` steps of the engine's timestep from its time `t0` (the engine
   // gives the position arithmetic; its state is not read)
   virtual void sample_reference_horizon(ReferenceHorizon& horizon, const Engine& engine, double t0,
-                                        int steps) const {}
+                                        int steps) const = 0;
   // a rollout's `state` reads `horizon` (null: none) at the times it holds, and computes other
   // times as a run does, so its outputs are the same to the bit either way. The horizon must
   // outlive the rollout.
   virtual void use_reference_horizon(ControllerState& state,
-                                     const ReferenceHorizon* horizon) const {}
-  // the error against what the controller tracks now; false when it tracks nothing
-  virtual bool tracking_error(const ControllerState& state, const Engine& engine,
-                              TrackingError& error) const {
-    return false;
-  }
-  // a fall judged against the tracked reference (a crouch in a clip is no fall); kNoOpinion
-  // leaves it to the scenario's fall criterion. `reason` is set on kFell.
-  virtual FallVerdict fall_verdict(const ControllerState& state, const Engine& engine,
-                                   std::string& reason) const {
-    return FallVerdict::kNoOpinion;
-  }
-  // the state a run should start from (dim nq and nv), applied by the simulation once the
-  // controllers are built (a tracked clip's first frame); false: the scenario's own start
-  virtual bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
-                             Eigen::VectorXd& qvel) const {
-    return false;
-  }
+                                     const ReferenceHorizon* horizon) const = 0;
+
+ protected:
+  ~HorizonSampling() = default;
 };
+
+// a controller that gives the state a run starts from (a tracked clip's first frame), applied
+// by the simulation once the controllers are built
+class InitialState {
+ public:
+  static constexpr ControllerInterface kInterface = ControllerInterface::kInitialState;
+  // dim nq and nv; false: the scenario's own start
+  virtual bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
+                             Eigen::VectorXd& qvel) const = 0;
+
+ protected:
+  ~InitialState() = default;
+};
+
+// a controller whose parameters a live edit may change (the viewer's panel, live_tuning.h)
+class Retunable {
+ public:
+  static constexpr ControllerInterface kInterface = ControllerInterface::kRetunable;
+  // the numeric parameters, in params_yaml()'s key paths, with units, ranges and help
+  virtual std::vector<ParamEntry> tunable_params() const = 0;
+  // whether a state made by `previous` (the same type, other parameters) can go on under this
+  // model, so that a live parameter edit keeps the walk in its FSM phase
+  virtual bool keeps_state_of(const Controller& previous) const { return true; }
+  // a rebuild slow enough to run in the background (the LQR designs)
+  virtual bool slow_to_rebuild() const { return false; }
+
+ protected:
+  ~Retunable() = default;
+};
+
+// the tunable parameters of `c` (none when it is not Retunable)
+inline std::vector<ParamEntry> tunable_params(const Controller& c) {
+  const Retunable* r = c.as<Retunable>();
+  return r ? r->tunable_params() : std::vector<ParamEntry>{};
+}
+// whether the state of `previous` goes on under `next` after a live edit: the same type, and
+// `next` agrees when it is Retunable
+inline bool keeps_state_of(const Controller& next, const Controller& previous) {
+  if (previous.type() != next.type()) return false;
+  const Retunable* r = next.as<Retunable>();
+  return !r || r->keeps_state_of(previous);
+}
 
 // the per-run data of a TypedController: a value of type S. S lists its persistent fields with
 // `template <class A> void serialize(A& a)` (see core/state_archive.h).
@@ -204,9 +298,10 @@ class StateOf final : public ControllerState {
 };
 
 // the base of every controller: the type-erased calls cast the state once and forward to the
-// typed ones, which a controller overrides with its own State type
-template <class S>
-class TypedController : public Controller {
+// typed ones, which a controller overrides with its own State type. `Offers` are the optional
+// interfaces it implements (Reporting, Tracking, ...); as<I>() finds exactly these.
+template <class S, class... Offers>
+class TypedController : public Controller, public Offers... {
  public:
   using State = S;
 
@@ -221,31 +316,6 @@ class TypedController : public Controller {
   void compute(ControllerState& state, const Engine& engine, ControlOutput& out) const final {
     compute_step(cast(state), engine, out);
   }
-  void signals(const ControllerState& state, std::vector<double>& values) const final {
-    state_signals(cast(state), values);
-  }
-  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const final {
-    state_metrics(cast(state), metrics);
-  }
-  void write_outputs(const ControllerState& state, const std::string& out_dir) const final {
-    state_outputs(cast(state), out_dir);
-  }
-  void markers(const ControllerState& state, const Engine& engine,
-               std::vector<Marker>& out) const final {
-    state_markers(cast(state), engine, out);
-  }
-  bool reference_qpos(const ControllerState& state, const Engine& engine,
-                      Eigen::VectorXd& qpos) const final {
-    return state_reference_qpos(cast(state), engine, qpos);
-  }
-  bool tracking_error(const ControllerState& state, const Engine& engine,
-                      TrackingError& error) const final {
-    return state_tracking_error(cast(state), engine, error);
-  }
-  FallVerdict fall_verdict(const ControllerState& state, const Engine& engine,
-                           std::string& reason) const final {
-    return state_fall_verdict(cast(state), engine, reason);
-  }
 
   static S& cast(ControllerState& s) { return static_cast<StateOf<S>&>(s).value; }
   static const S& cast(const ControllerState& s) { return static_cast<const StateOf<S>&>(s).value; }
@@ -257,22 +327,11 @@ class TypedController : public Controller {
   // (re)start a run: size the work vectors, capture targets, clear the FSM and the metrics
   virtual void reset_state(S& state, const Engine& engine) const = 0;
   virtual void compute_step(S& state, const Engine& engine, ControlOutput& out) const = 0;
-  virtual void state_signals(const S& state, std::vector<double>& values) const {}
-  virtual void state_metrics(const S& state, nlohmann::json& metrics) const {}
-  virtual void state_outputs(const S& state, const std::string& out_dir) const {}
-  virtual void state_markers(const S& state, const Engine& engine, std::vector<Marker>& out) const {
-  }
-  virtual bool state_reference_qpos(const S& state, const Engine& engine,
-                                    Eigen::VectorXd& qpos) const {
-    return false;
-  }
-  virtual bool state_tracking_error(const S& state, const Engine& engine,
-                                    TrackingError& error) const {
-    return false;
-  }
-  virtual FallVerdict state_fall_verdict(const S& state, const Engine& engine,
-                                         std::string& reason) const {
-    return FallVerdict::kNoOpinion;
+
+  const void* find_interface(ControllerInterface id) const final {
+    const void* found = nullptr;
+    ((found = id == Offers::kInterface ? static_cast<const Offers*>(this) : found), ...);
+    return found;
   }
 };
 
@@ -293,12 +352,20 @@ struct ControllerContext {
 using ControllerFactory = std::function<std::shared_ptr<const Controller>(
     const YAML::Node& params, const ControllerContext& ctx, const Engine& engine)>;
 
+// reads a controller block (a scenario's `controllers[i]` mapping, with "type") into the type's
+// parameter struct and lists its numeric entries, defaults filled in; throws InputError with
+// ctx.source's file and line and the key (unknown key, wrong type, out of range). No engine.
+using ControllerParamsCheck = std::function<std::vector<ParamEntry>(const YAML::Node& params,
+                                                                    const ControllerContext& ctx)>;
+
 struct ControllerType {
   std::string name;
   std::string summary;
   ControllerFactory make;
   // its parameters with their defaults, units, ranges and help (`stance list NAME`)
   std::function<std::vector<ParamDoc>()> params;
+  // the typed check of a block, run when a scenario is loaded (before any engine is built)
+  ControllerParamsCheck check_params;
 };
 
 const std::vector<ControllerType>& controller_registry();

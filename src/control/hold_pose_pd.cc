@@ -63,7 +63,8 @@ void HoldPosePd::compute_step(State& s, const Engine& engine, ControlOutput& out
 void HoldPosePd::signal_names(std::vector<std::string>& names) const {
   names.push_back("hold_error_rad");
 }
-void HoldPosePd::state_signals(const State& s, std::vector<double>& values) const {
+void HoldPosePd::signals(const ControllerState& state, std::vector<double>& values) const {
+  const State& s = cast(state);
   values.push_back(s.last_error_norm);
 }
 

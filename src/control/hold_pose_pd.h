@@ -38,7 +38,7 @@ struct HoldPosePdState {
   }
 };
 
-class HoldPosePd final : public TypedController<HoldPosePdState> {
+class HoldPosePd final : public TypedController<HoldPosePdState, Reporting, Retunable> {
  public:
   // model: gains and dof indices, fixed after construction
   struct Model {
@@ -58,10 +58,11 @@ class HoldPosePd final : public TypedController<HoldPosePdState> {
 
   const Model& model() const { return model_; }
 
+  void signals(const ControllerState& state, std::vector<double>& values) const override;
+
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const State& state, std::vector<double>& values) const override;
 
  private:
   Model model_;

@@ -221,12 +221,21 @@ void Lqr::signal_names(std::vector<std::string>& names) const {
   names.push_back("lqr_state_error_norm");
 }
 
-void Lqr::state_signals(const LqrState& s, std::vector<double>& values) const {
+// the YAML's numbers, without the visit's units and ranges (as before the typed panel)
+std::vector<ParamEntry> Lqr::tunable_params() const {
+  std::vector<ParamEntry> out;
+  list_yaml_params(params_yaml(), "", out);
+  return out;
+}
+
+void Lqr::signals(const ControllerState& state, std::vector<double>& values) const {
+  const State& s = cast(state);
   values.push_back(s.com_foot_distance_m);
   values.push_back(s.x.norm());
 }
 
-void Lqr::state_metrics(const LqrState& s, nlohmann::json& metrics) const {
+void Lqr::add_metrics(const ControllerState& state, nlohmann::json& metrics) const {
+  const State& s = cast(state);
   const LqrSetPoint& sp = design_.setpoint;
   metrics["height_offset_mm"] = sp.height_offset_m * 1e3;
   metrics["residual_vertical_force_N"] = sp.residual_vertical_force_N;
@@ -306,7 +315,7 @@ void plot_force_offset(const LqrSetPoint& sp, const std::string& csv_path,
   rename_into_place(png_tmp, png);
 }
 
-void Lqr::state_outputs(const LqrState&, const std::string& out_dir) const {
+void Lqr::write_outputs(const ControllerState&, const std::string& out_dir) const {
   namespace fs = std::filesystem;
   const fs::path dir(out_dir);
   {

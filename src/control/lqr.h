@@ -184,23 +184,27 @@ void compute_lqr(const LqrDesign& design, bool feedback, LqrState& s, const Engi
 
 // the model is the design, made once in the constructor (on ctx.scratch_engine, at `engine`'s
 // pose) and shared by every run; a run's State is LqrState
-class Lqr final : public TypedController<LqrState> {
+class Lqr final : public TypedController<LqrState, Reporting, Retunable> {
  public:
   Lqr(const LqrParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return "lqr"; }
   void signal_names(std::vector<std::string>& names) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
+  std::vector<ParamEntry> tunable_params() const override;
+  // a rebuild designs the LQR again (linearisation and DARE): seconds on a large model
+  bool slow_to_rebuild() const override { return true; }
 
   const LqrParams& params() const { return params_; }
   const LqrDesign& design() const { return design_; }
 
+  void signals(const ControllerState& state, std::vector<double>& values) const override;
+  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const override;
+  // K.csv, force_offset.csv and (force_plot) force_offset.png
+  void write_outputs(const ControllerState& state, const std::string& out_dir) const override;
+
  protected:
   void reset_state(LqrState& state, const Engine& engine) const override;
   void compute_step(LqrState& state, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const LqrState& state, std::vector<double>& values) const override;
-  void state_metrics(const LqrState& state, nlohmann::json& metrics) const override;
-  // K.csv, force_offset.csv and (force_plot) force_offset.png
-  void state_outputs(const LqrState& state, const std::string& out_dir) const override;
 
  private:
   const LqrParams params_;

@@ -256,8 +256,9 @@ void MocapRetargetTracker::use_reference_horizon(ControllerState& state,
   cast(state).horizon = static_cast<const MocapReferenceHorizon*>(horizon);
 }
 
-bool MocapRetargetTracker::state_tracking_error(const State& s, const Engine& engine,
-                                                TrackingError& error) const {
+bool MocapRetargetTracker::tracking_error(const ControllerState& state, const Engine& engine,
+                                          TrackingError& error) const {
+  const State& s = cast(state);
   const double t = engine.time();
   const auto& bodies = motion_->bodies();
   const int k = s.horizon ? s.horizon->find(t) : -1;
@@ -332,8 +333,9 @@ MocapFallCause MocapRetargetTracker::judge_fall(const Engine& engine,
   return MocapFallCause::kNone;
 }
 
-FallVerdict MocapRetargetTracker::state_fall_verdict(const State& s, const Engine& engine,
-                                                     std::string& reason) const {
+FallVerdict MocapRetargetTracker::fall_verdict(const ControllerState& state, const Engine& engine,
+                                               std::string& reason) const {
+  const State& s = cast(state);
   int body = -1;
   double h = 0, h_ref = 0;
   switch (judge_fall(engine, s.horizon, body, h, h_ref)) {
@@ -360,14 +362,21 @@ bool MocapRetargetTracker::initial_state(const Engine& engine, Eigen::VectorXd& 
   return true;
 }
 
+// the YAML's numbers, without the visit's units and ranges (as before the typed panel)
+std::vector<ParamEntry> MocapRetargetTracker::tunable_params() const {
+  std::vector<ParamEntry> out;
+  list_yaml_params(params_yaml(), "", out);
+  return out;
+}
+
 bool MocapRetargetTracker::keeps_state_of(const Controller& previous) const {
   const auto* p = dynamic_cast<const MocapRetargetTracker*>(&previous);
   return p && p->params_.mode == params_.mode && p->params_.joint_map == params_.joint_map &&
          same_mocap_clip(p->params_, params_);
 }
 
-bool MocapRetargetTracker::state_reference_qpos(const State&, const Engine& engine,
-                                                Eigen::VectorXd& qpos) const {
+bool MocapRetargetTracker::reference_qpos(const ControllerState&, const Engine& engine,
+                                          Eigen::VectorXd& qpos) const {
   qpos.resize(engine.nq());
   Eigen::VectorXd v(engine.nv()), scratch(engine.nv());
   motion_->sample(engine, engine.time(), qpos, v, scratch);
@@ -663,12 +672,16 @@ void MocapRetargetTracker::signal_names(std::vector<std::string>& names) const {
   for (const char* s : {"mocap_joint_error_deg", "mocap_root_error_m"}) names.emplace_back(s);
 }
 
-void MocapRetargetTracker::state_signals(const State& s, std::vector<double>& values) const {
+void MocapRetargetTracker::signals(const ControllerState& state,
+                                   std::vector<double>& values) const {
+  const State& s = cast(state);
   values.push_back(s.last_error_deg);
   values.push_back(s.last_root_error);
 }
 
-void MocapRetargetTracker::state_metrics(const State& s, nlohmann::json& metrics) const {
+void MocapRetargetTracker::add_metrics(const ControllerState& state,
+                                       nlohmann::json& metrics) const {
+  const State& s = cast(state);
   const double steps = std::max<long>(s.steps, 1);
   nlohmann::json j;
   j["mode"] = params_.mode;
@@ -741,7 +754,9 @@ BvhClip MocapRetargetTracker::recorded_clip(const State& s) const {
   return clip_from_segment_poses(clip_, locals, roots, params_.export_origin_centred);
 }
 
-void MocapRetargetTracker::state_outputs(const State& s, const std::string& out_dir) const {
+void MocapRetargetTracker::write_outputs(const ControllerState& state,
+                                         const std::string& out_dir) const {
+  const State& s = cast(state);
   if (params_.export_bvh.empty() || s.recorded_roots.empty()) return;
   write_exported_bvh(recorded_clip(s), params_.export_bvh, out_dir);
 }

@@ -153,7 +153,9 @@ struct MocapRetargetState {
 // why fall_verdict() judged a fall
 enum class MocapFallCause { kNone, kComLow, kBodyTouches };
 
-class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
+class MocapRetargetTracker final
+    : public TypedController<MocapRetargetState, Reporting, Retunable, Tracking, FallJudge,
+                             Correctable, HorizonSampling, InitialState> {
  public:
   // the table is built once here on ctx.scratch_engine (overwritten while it is probed), long
   // enough for ctx.duration_s (looping clips); relative bvh and joint_map paths start at the
@@ -165,6 +167,7 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
   std::string_view type() const override { return type_name_; }
   void signal_names(std::vector<std::string>& names) const override;
   YAML::Node params_yaml() const override { return params_to_yaml(params_, type()); }
+  std::vector<ParamEntry> tunable_params() const override;
   bool initial_state(const Engine& engine, Eigen::VectorXd& qpos,
                      Eigen::VectorXd& qvel) const override;
   // a State goes on under other gains, not under another clip, map (its sizes) or mode
@@ -196,19 +199,20 @@ class MocapRetargetTracker final : public TypedController<MocapRetargetState> {
   // read)
   BvhClip recorded_clip(const State& state) const;
 
+  void signals(const ControllerState& s, std::vector<double>& values) const override;
+  void add_metrics(const ControllerState& s, nlohmann::json& metrics) const override;
+  // export_bvh: the recorded motion
+  void write_outputs(const ControllerState& s, const std::string& out_dir) const override;
+  bool reference_qpos(const ControllerState& s, const Engine& engine,
+                      Eigen::VectorXd& qpos) const override;
+  bool tracking_error(const ControllerState& s, const Engine& engine,
+                      TrackingError& error) const override;
+  FallVerdict fall_verdict(const ControllerState& s, const Engine& engine,
+                           std::string& reason) const override;
+
  protected:
   void reset_state(State& s, const Engine& engine) const override;
   void compute_step(State& s, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const State& s, std::vector<double>& values) const override;
-  void state_metrics(const State& s, nlohmann::json& metrics) const override;
-  // export_bvh: the recorded motion
-  void state_outputs(const State& s, const std::string& out_dir) const override;
-  bool state_reference_qpos(const State& s, const Engine& engine,
-                            Eigen::VectorXd& qpos) const override;
-  bool state_tracking_error(const State& s, const Engine& engine,
-                            TrackingError& error) const override;
-  FallVerdict state_fall_verdict(const State& s, const Engine& engine,
-                                 std::string& reason) const override;
 
  private:
   void accumulate_metrics(State& s, const Engine& engine) const;

@@ -28,22 +28,43 @@ ControllerFactory factory_of() {
         std::make_shared<const C>(read_params<P>(node, ctx), ctx, engine));
   };
 }
+// the typed check of a block against P's visit (what factory_of<C, P> reads first)
+template <class P>
+ControllerParamsCheck check_of() {
+  return [](const YAML::Node& node, const ControllerContext& ctx) {
+    return list_params(read_params<P>(node, ctx));
+  };
+}
+// a registry entry: built from P by C(params, context, engine), documented and checked by P's
+// visit
+template <class C, class P>
+ControllerType type_of(std::string name, std::string summary) {
+  return {std::move(name), std::move(summary), factory_of<C, P>(), document_params<P>,
+          check_of<P>()};
+}
 // `mocap_tracker`, the old bvh2mjcf-only tracker, is now a name for mocap_retarget (without a
 // joint_map: the identity map of the clip's own character). Its keys are mocap_retarget's but
 // for the free mode's extra tuning terms, which went with it: those are accepted and ignored,
 // with one warning per process, so that old scenarios still load.
+const std::vector<std::string>& removed_tracker_keys() {
+  static const std::vector<std::string> removed = {
+      "stance_hip_world", "torso_kp",          "torso_kd",          "contact_stance",
+      "com_feedback",     "root_force_kp_z",   "heading_gain",      "swing_heading_gain",
+      "path_gain",        "ankle_cd_sagittal", "ankle_cv_sagittal", "ankle_cd_coronal",
+      "ankle_cv_coronal"};
+  return removed;
+}
+// the keys the alias reads past: "type" and the removed ones
+std::vector<std::string> tracker_alias_skip() {
+  std::vector<std::string> skip = {"type"};
+  for (const auto& key : removed_tracker_keys()) skip.push_back(key);
+  return skip;
+}
 ControllerFactory mocap_tracker_alias() {
   return [](const YAML::Node& node, const ControllerContext& ctx, const Engine& engine) {
-    static const std::vector<std::string> kRemoved = {
-        "stance_hip_world", "torso_kp",          "torso_kd",          "contact_stance",
-        "com_feedback",     "root_force_kp_z",   "heading_gain",      "swing_heading_gain",
-        "path_gain",        "ankle_cd_sagittal", "ankle_cv_sagittal", "ankle_cd_coronal",
-        "ankle_cv_coronal"};
-    std::vector<std::string> skip = {"type"}, ignored;
-    for (const auto& key : kRemoved) {
-      skip.push_back(key);
+    std::vector<std::string> ignored;
+    for (const auto& key : removed_tracker_keys())
       if (node.IsMap() && node[key]) ignored.push_back(key);
-    }
     static std::atomic<bool> warned{false};
     if (!ignored.empty() && !warned.exchange(true))
       std::cerr << fmt::format(
@@ -51,39 +72,44 @@ ControllerFactory mocap_tracker_alias() {
           "keys: {}\n",
           ctx.source.file, ctx.path, fmt::join(ignored, ", "));
     return std::shared_ptr<const Controller>(std::make_shared<const MocapRetargetTracker>(
-        read_params<MocapRetargetParams>(node, ctx, skip), ctx, engine, "mocap_tracker"));
+        read_params<MocapRetargetParams>(node, ctx, tracker_alias_skip()), ctx, engine,
+        "mocap_tracker"));
+  };
+}
+ControllerParamsCheck mocap_tracker_alias_check() {
+  return [](const YAML::Node& node, const ControllerContext& ctx) {
+    return list_params(read_params<MocapRetargetParams>(node, ctx, tracker_alias_skip()));
   };
 }
 }  // namespace
 
 const std::vector<ControllerType>& controller_registry() {
   static const std::vector<ControllerType> registry = {
-      {"hold_pose_pd", "joint-space PD holding the initial (or a given) pose",
-       factory_of<HoldPosePd, HoldPosePdParams>(), document_params<HoldPosePdParams>},
-      {"stable_pd", "stable PD (Tan et al. 2011) tracking a pose, root dofs free",
-       factory_of<StablePd, JointPdParams>(), document_params<JointPdParams>},
-      {"pd", "plain joint PD with the stable_pd parameters, for comparison",
-       factory_of<PlainPd, JointPdParams>(), document_params<JointPdParams>},
-      {"ankle_strategy", "heel/toe torques keeping the COM over the feet (DART biped tutorial)",
-       factory_of<AnkleStrategy, AnkleStrategyParams>(), document_params<AnkleStrategyParams>},
-      {"skateboard_drive", "velocity commands on skateboard wheels, with a speed ramp (seed 000)",
-       factory_of<SkateboardDrive, SkateboardDriveParams>(),
-       document_params<SkateboardDriveParams>},
-      {"simbicon", "SIMBICON walking: FSM targets with swing-hip balance feedback",
-       factory_of<Simbicon, SimbiconParams>(), document_params<SimbiconParams>},
-      {"slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)",
-       factory_of<SlopeWalker, SlopeWalkerParams>(), document_params<SlopeWalkerParams>},
-      {"lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE",
-       factory_of<Lqr, LqrParams>(), document_params<LqrParams>},
-      {"mocap_retarget",
-       "BVH tracking with SPD: kinematic, assisted or free root; a joint map, or the identity "
-       "on a bvh2mjcf character",
-       factory_of<MocapRetargetTracker, MocapRetargetParams>(),
-       document_params<MocapRetargetParams>},
+      type_of<HoldPosePd, HoldPosePdParams>("hold_pose_pd",
+                                            "joint-space PD holding the initial (or a given) pose"),
+      type_of<StablePd, JointPdParams>(
+          "stable_pd", "stable PD (Tan et al. 2011) tracking a pose, root dofs free"),
+      type_of<PlainPd, JointPdParams>(
+          "pd", "plain joint PD with the stable_pd parameters, for comparison"),
+      type_of<AnkleStrategy, AnkleStrategyParams>(
+          "ankle_strategy", "heel/toe torques keeping the COM over the feet (DART biped tutorial)"),
+      type_of<SkateboardDrive, SkateboardDriveParams>(
+          "skateboard_drive",
+          "velocity commands on skateboard wheels, with a speed ramp (seed 000)"),
+      type_of<Simbicon, SimbiconParams>(
+          "simbicon", "SIMBICON walking: FSM targets with swing-hip balance feedback"),
+      type_of<SlopeWalker, SlopeWalkerParams>(
+          "slope_walker", "2D biped down a slope: hip and knee state machines (seed 003)"),
+      type_of<Lqr, LqrParams>(
+          "lqr", "LQR balance about a static pose: inverse-dynamics set-point, FD model, DARE"),
+      type_of<MocapRetargetTracker, MocapRetargetParams>(
+          "mocap_retarget",
+          "BVH tracking with SPD: kinematic, assisted or free root; a joint map, or the identity "
+          "on a bvh2mjcf character"),
       {"mocap_tracker", "alias of mocap_retarget, for old scenarios", mocap_tracker_alias(),
-       document_params<MocapRetargetParams>},
-      {"control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)",
-       factory_of<ControlNoise, ControlNoiseParams>(), document_params<ControlNoiseParams>},
+       document_params<MocapRetargetParams>, mocap_tracker_alias_check()},
+      type_of<ControlNoise, ControlNoiseParams>(
+          "control_noise", "smoothed Gaussian noise added to the actuator controls (seeded)"),
   };
   return registry;
 }

@@ -467,11 +467,14 @@ void Simbicon::signal_names(std::vector<std::string>& names) const {
                {"simbicon_state", "simbicon_swing_hip_target", "simbicon_d", "simbicon_v"});
 }
 
-void Simbicon::state_signals(const State& s, std::vector<double>& values) const {
+void Simbicon::signals(const ControllerState& state, std::vector<double>& values) const {
+  const State& s = cast(state);
   values.insert(values.end(), {double(s.fsm), s.swing_hip_target, s.d, s.v});
 }
 
-void Simbicon::state_markers(const State& s, const Engine& engine, std::vector<Marker>& out) const {
+void Simbicon::markers(const ControllerState& state, const Engine& engine,
+                       std::vector<Marker>& out) const {
+  const State& s = cast(state);
   const Model& m = model_;
   const int stance = s.fsm < 2 ? kRight : kLeft;
   const Eigen::Vector3d lateral = m.heading * Eigen::Vector3d::UnitY();
@@ -524,7 +527,8 @@ void Simbicon::state_markers(const State& s, const Engine& engine, std::vector<M
   out.push_back(head);
 }
 
-void Simbicon::state_metrics(const State& s, nlohmann::json& metrics) const {
+void Simbicon::add_metrics(const ControllerState& state, nlohmann::json& metrics) const {
+  const State& s = cast(state);
   const double elapsed = s.last_time - s.start_time;
   const double distance = s.last_x - s.start_x;
   metrics["distance_m"] = distance;
@@ -556,7 +560,8 @@ void Simbicon::state_metrics(const State& s, nlohmann::json& metrics) const {
   metrics["simbicon_states"] = per_state;
 }
 
-void Simbicon::state_outputs(const State& s, const std::string& out_dir) const {
+void Simbicon::write_outputs(const ControllerState& state, const std::string& out_dir) const {
+  const State& s = cast(state);
   AtomicFile file(std::filesystem::path(out_dir) / "steps.csv");
   std::ostream& f = file.stream();
   f << "time,foot,ankle_x,length_m,duration_s,width_m\n";

@@ -263,7 +263,8 @@ struct SimbiconState {
   }
 };
 
-class Simbicon final : public TypedController<SimbiconState> {
+class Simbicon final
+    : public TypedController<SimbiconState, Reporting, Retunable, Correctable, Drawable> {
  public:
   enum Side { kRight = 0, kLeft = 1 };
 
@@ -300,17 +301,18 @@ class Simbicon final : public TypedController<SimbiconState> {
 
   const Model& model() const { return model_; }
 
+  void signals(const ControllerState& state, std::vector<double>& values) const override;
+  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const override;
+  void write_outputs(const ControllerState& state, const std::string& out_dir) const override;
+  // the seed's circles: the stance ankle and the balance point (hip centre or COM) with the
+  // distance d between them, and the swing thigh's target direction after feedback
+  void markers(const ControllerState& state, const Engine& engine,
+               std::vector<Marker>& out) const override;
+
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   // one control step: advance the FSM, then add the torques to out.tau. No allocation.
   void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const State& state, std::vector<double>& values) const override;
-  void state_metrics(const State& state, nlohmann::json& metrics) const override;
-  void state_outputs(const State& state, const std::string& out_dir) const override;
-  // the seed's circles: the stance ankle and the balance point (hip centre or COM) with the
-  // distance d between them, and the swing thigh's target direction after feedback
-  void state_markers(const State& state, const Engine& engine,
-                     std::vector<Marker>& out) const override;
 
  private:
   Model model_;

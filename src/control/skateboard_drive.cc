@@ -43,11 +43,13 @@ void SkateboardDrive::signal_names(std::vector<std::string>& names) const {
   names.push_back("wheel_speed_command");
   names.push_back("board_distance_m");
 }
-void SkateboardDrive::state_signals(const State& s, std::vector<double>& values) const {
+void SkateboardDrive::signals(const ControllerState& state, std::vector<double>& values) const {
+  const State& s = cast(state);
   values.push_back(s.command);
   values.push_back(s.distance);
 }
-void SkateboardDrive::state_metrics(const State& s, nlohmann::json& metrics) const {
+void SkateboardDrive::add_metrics(const ControllerState& state, nlohmann::json& metrics) const {
+  const State& s = cast(state);
   metrics["board_distance_m"] = s.distance;
   metrics["wheel_speed"] = params_.speed;
 }

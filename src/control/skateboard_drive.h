@@ -46,7 +46,7 @@ struct SkateboardDriveState {
   }
 };
 
-class SkateboardDrive final : public TypedController<SkateboardDriveState> {
+class SkateboardDrive final : public TypedController<SkateboardDriveState, Reporting, Retunable> {
  public:
   SkateboardDrive(const SkateboardDriveParams& params, const ControllerContext& ctx,
                   const Engine& engine);
@@ -57,11 +57,12 @@ class SkateboardDrive final : public TypedController<SkateboardDriveState> {
 
   double speed() const { return params_.speed; }  // rad/s, what the ramp reaches
 
+  void signals(const ControllerState& state, std::vector<double>& values) const override;
+  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const override;
+
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const State& state, std::vector<double>& values) const override;
-  void state_metrics(const State& state, nlohmann::json& metrics) const override;
 
  private:
   SkateboardDriveParams params_;

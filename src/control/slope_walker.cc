@@ -151,8 +151,9 @@ void SlopeWalker::compute_step(State& s, const Engine& engine, ControlOutput& ou
   }
 }
 
-FallVerdict SlopeWalker::state_fall_verdict(const State& s, const Engine&,
-                                            std::string& reason) const {
+FallVerdict SlopeWalker::fall_verdict(const ControllerState& state, const Engine&,
+                                      std::string& reason) const {
+  const State& s = cast(state);
   if (!s.fell) return FallVerdict::kUp;
   reason = fmt::format("hip below {} m above the floor", model_.params.fall_hip_height_m);
   return FallVerdict::kFell;
@@ -164,7 +165,8 @@ void SlopeWalker::signal_names(std::vector<std::string>& names) const {
     names.emplace_back(n);
 }
 
-void SlopeWalker::state_signals(const State& s, std::vector<double>& values) const {
+void SlopeWalker::signals(const ControllerState& state, std::vector<double>& values) const {
+  const State& s = cast(state);
   values.push_back(s.hip_vel.x());
   values.push_back(s.hip_vel.z());
   values.push_back(s.leg1_angle);
@@ -185,7 +187,8 @@ std::vector<double> SlopeWalker::steady_step_lengths(const State& s) const {
   return out;
 }
 
-void SlopeWalker::state_metrics(const State& s, nlohmann::json& m) const {
+void SlopeWalker::add_metrics(const ControllerState& state, nlohmann::json& m) const {
+  const State& s = cast(state);
   const SlopeWalkerParams& p = model_.params;
   std::vector<double> lengths;
   std::vector<int> legs;
@@ -230,7 +233,8 @@ void write_steps_csv(const std::string& path, const std::vector<WalkerStep>& ste
   file.commit();
 }
 
-void SlopeWalker::state_outputs(const State& s, const std::string& out_dir) const {
+void SlopeWalker::write_outputs(const ControllerState& state, const std::string& out_dir) const {
+  const State& s = cast(state);
   write_steps_csv((std::filesystem::path(out_dir) / "steps.csv").string(), s.steps);
 }
 

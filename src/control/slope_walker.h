@@ -137,7 +137,8 @@ struct SlopeWalkerState {
   }
 };
 
-class SlopeWalker final : public TypedController<SlopeWalkerState> {
+class SlopeWalker final
+    : public TypedController<SlopeWalkerState, Reporting, Retunable, FallJudge> {
  public:
   using HipState = SlopeWalkerHipState;
   using KneeState = SlopeWalkerKneeState;
@@ -160,16 +161,17 @@ class SlopeWalker final : public TypedController<SlopeWalkerState> {
   // the step lengths after the transient, in order (m)
   std::vector<double> steady_step_lengths(const State& state) const;
 
+  void signals(const ControllerState& state, std::vector<double>& values) const override;
+  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const override;
+  // the walker judges its own fall (hip below fall_hip_height_m above the floor): the run's
+  // COM criterion measures along tilted gravity, which drops as the walker goes downhill
+  FallVerdict fall_verdict(const ControllerState& state, const Engine& engine,
+                           std::string& reason) const override;
+  void write_outputs(const ControllerState& state, const std::string& out_dir) const override;
+
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const State& state, std::vector<double>& values) const override;
-  void state_metrics(const State& state, nlohmann::json& metrics) const override;
-  // the walker judges its own fall (hip below fall_hip_height_m above the floor): the run's
-  // COM criterion measures along tilted gravity, which drops as the walker goes downhill
-  FallVerdict state_fall_verdict(const State& state, const Engine& engine,
-                                 std::string& reason) const override;
-  void state_outputs(const State& state, const std::string& out_dir) const override;
 
  private:
   Model model_;

@@ -172,11 +172,13 @@ void JointPd<kStable>::signal_names(std::vector<std::string>& names) const {
   names.push_back(std::string(type()) + "_rms_error_rad");
 }
 template <bool kStable>
-void JointPd<kStable>::state_signals(const State& s, std::vector<double>& values) const {
+void JointPd<kStable>::signals(const ControllerState& state, std::vector<double>& values) const {
+  const State& s = cast(state);
   values.push_back(s.last_error_norm);
 }
 template <bool kStable>
-void JointPd<kStable>::state_metrics(const State& s, nlohmann::json& metrics) const {
+void JointPd<kStable>::add_metrics(const ControllerState& state, nlohmann::json& metrics) const {
+  const State& s = cast(state);
   metrics[std::string(type()) + "_rms_error_rad"] =
       s.error_samples ? std::sqrt(s.error_sq_sum / s.error_samples) : 0.0;
 }

@@ -88,7 +88,7 @@ void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine&
 
 // SPD (kStable) or plain PD on the same Model: the registry's stable_pd and pd
 template <bool kStable>
-class JointPd final : public TypedController<StablePdState> {
+class JointPd final : public TypedController<StablePdState, Reporting, Retunable, Correctable> {
  public:
   JointPd(const JointPdParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return kStable ? "stable_pd" : "pd"; }
@@ -103,11 +103,12 @@ class JointPd final : public TypedController<StablePdState> {
 
   const JointPdModel& model() const { return model_; }
 
+  void signals(const ControllerState& state, std::vector<double>& values) const override;
+  void add_metrics(const ControllerState& state, nlohmann::json& metrics) const override;
+
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
-  void state_signals(const State& state, std::vector<double>& values) const override;
-  void state_metrics(const State& state, nlohmann::json& metrics) const override;
 
  private:
   JointPdModel model_;

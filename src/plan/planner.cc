@@ -42,7 +42,9 @@ bool tracking_error(const Simulation& sim, TrackingError& total) {
   TrackingError one;
   for (size_t i = 0; i < sim.controllers().size(); ++i) {
     one = TrackingError{};
-    if (!sim.controllers()[i]->tracking_error(sim.controller_state(i), sim.engine(), one)) continue;
+    const Tracking* tracking = sim.controllers()[i]->as<Tracking>();
+    if (!tracking || !tracking->tracking_error(sim.controller_state(i), sim.engine(), one))
+      continue;
     tracked = true;
     total.joint_rad += one.joint_rad;
     total.root_m += one.root_m;
@@ -112,7 +114,7 @@ std::shared_ptr<const PlannerModel> make_planner_model(
   std::vector<CorrectionDim> dims;
   for (size_t i = 0; i < model.controllers.size(); ++i) {
     dims.clear();
-    model.controllers[i]->correction_dims(dims);
+    if (const Correctable* c = model.controllers[i]->as<Correctable>()) c->correction_dims(dims);
     if (dims.empty()) continue;
     pm->controller_first[i] = static_cast<int>(pm->dimensions.size());
     for (const CorrectionDim& d : dims)
@@ -225,7 +227,8 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
   }
   sim.restore(*start_);
   for (size_t i = 0; i < horizons_.size(); ++i)
-    sim.controllers()[i]->use_reference_horizon(sim.controller_state(i), horizons_[i].get());
+    if (const HorizonSampling* h = sim.controllers()[i]->as<HorizonSampling>())
+      h->use_reference_horizon(sim.controller_state(i), horizons_[i].get());
   CorrectionPlan& plan = sim.correction_plan();
   const double t0 = plan.t0, t_end = t0 + p.horizon_s;
   plan.knots = c.knots;
@@ -288,13 +291,17 @@ void Planner::sample_horizons() {
   const Simulation& sim = *workers_[0];
   const auto& controllers = sim.controllers();
   if (horizons_.empty())
-    for (const auto& c : controllers) horizons_.push_back(c->make_reference_horizon());
+    for (const auto& c : controllers) {
+      const HorizonSampling* h = c->as<HorizonSampling>();
+      horizons_.push_back(h ? h->make_reference_horizon() : nullptr);
+    }
   // every step a rollout may take, and one more for the rounding of its clock
   const Engine& e = sim.engine();
   const int steps = static_cast<int>(std::ceil(model_->params.horizon_s / e.timestep())) + 2;
   for (size_t i = 0; i < controllers.size(); ++i)
     if (horizons_[i])
-      controllers[i]->sample_reference_horizon(*horizons_[i], e, start_->engine.time, steps);
+      controllers[i]->as<HorizonSampling>()->sample_reference_horizon(*horizons_[i], e,
+                                                                     start_->engine.time, steps);
 }
 
 void Planner::plan(Simulation& sim) {

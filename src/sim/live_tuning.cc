@@ -24,7 +24,7 @@ ParamEntry find_entry(Simulation& run, int index, const std::string& path) {
     throw InputError(
         fmt::format("controller {} does not exist ({} controllers)", index, controllers.size()));
   const Controller& c = *controllers[index];
-  for (const auto& e : c.tunable_params())
+  for (const auto& e : tunable_params(c))
     if (e.path == path) return e;
   throw InputError(fmt::format("{}: no tunable parameter '{}'", c.type(), path));
 }
@@ -137,7 +137,8 @@ bool BackgroundRetune::swap_into(Simulation& run) {
 }
 
 bool rebuild_is_slow(const Controller& controller) {
-  return controller.type() == "lqr";
+  const Retunable* r = controller.as<Retunable>();
+  return r && r->slow_to_rebuild();
 }
 
 }  // namespace stance

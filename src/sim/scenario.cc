@@ -30,7 +30,29 @@ void check_timesteps(const Scenario& s, const YAML::Node& doc, const std::string
                                          line > 0 ? "" : "(from --set) ", name, problem, zero)));
   }
 }
+
+// a controller block against its type's parameter struct: an unknown type, an unknown key or a
+// bad value fails here, with the file and line, before any engine is built. Returns the entries.
+std::vector<ParamEntry> check_controller(const YAML::Node& entry, const std::string& source,
+                                         size_t index) {
+  const ControllerType* type = nullptr;
+  try {
+    type = &find_controller_type(entry["type"].Scalar());
+  } catch (const InputError& e) {
+    throw InputError(located(source, entry["type"].Mark().line + 1, e.what()));
+  }
+  ControllerContext ctx;
+  ctx.source = {source};
+  ctx.path = fmt::format("controllers[{}]", index);
+  return type->check_params(entry, ctx);
+}
 }  // namespace
+
+std::vector<ParamEntry> controller_params(const LoadedScenario& loaded, size_t index) {
+  const YAML::Node& entry = loaded.controllers.at(index);
+  if (entry["type"].Scalar() == kExternalControllerType) return {};
+  return check_controller(entry, loaded.source, index);
+}
 
 LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& source,
                               const std::string& base_dir) {
@@ -104,13 +126,8 @@ LoadedScenario parse_scenario(const YAML::Node& doc_in, const std::string& sourc
       if (!entry.IsMap() || !entry["type"] || !entry["type"].IsScalar())
         throw InputError(located(source, entry.Mark().line + 1,
                                  fmt::format("controllers[{}]: needs a 'type'", i)));
-      try {
-        // python entries are resolved when the simulation is built (RunOptions)
-        if (entry["type"].Scalar() != kExternalControllerType)
-          find_controller_type(entry["type"].Scalar());
-      } catch (const InputError& e) {
-        throw InputError(located(source, entry["type"].Mark().line + 1, e.what()));
-      }
+      // python entries are resolved when the simulation is built (RunOptions)
+      if (entry["type"].Scalar() != kExternalControllerType) check_controller(entry, source, i);
       out.controllers.push_back(entry);
     }
   }

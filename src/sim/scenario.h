@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "params/param_list.h"
 #include "params/params.h"
 #include "sim/expectation.h"
 #include "sim/planner_params.h"
@@ -173,5 +174,8 @@ LoadedScenario load_scenario(const std::string& path,
                              const std::vector<std::string>& overrides = {});
 LoadedScenario parse_scenario(const YAML::Node& doc, const std::string& source,
                               const std::string& base_dir);
+// the numeric parameters of controller `index`, defaults filled in, read from its block by its
+// type's parameter struct as the loader checked it (no engine); none for a Python controller
+std::vector<ParamEntry> controller_params(const LoadedScenario& loaded, size_t index);
 
 }  // namespace stance

@@ -307,7 +307,9 @@ void Simulation::detect_fall() {
   // fall); the scenario's criterion applies when no controller has an opinion
   bool judged = false;
   for (size_t i = 0; i < controllers_.size() && !s.fell; ++i) {
-    const FallVerdict v = controllers_[i]->fall_verdict(*states_[i], e, s.fall_reason);
+    const FallJudge* judge = controllers_[i]->as<FallJudge>();
+    const FallVerdict v =
+        judge ? judge->fall_verdict(*states_[i], e, s.fall_reason) : FallVerdict::kNoOpinion;
     if (v == FallVerdict::kNoOpinion) continue;
     judged = true;
     if (v == FallVerdict::kFell) {
@@ -341,7 +343,7 @@ void Simulation::detect_fall() {
 // once per run, on the step that detects the fall (the only allocation of a step)
 void Simulation::snapshot_controller_metrics() {
   nlohmann::json m = nlohmann::json::object();
-  for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->add_metrics(*states_[i], m);
+  add_controller_metrics(m);
   progress_.controller_metrics_at_fall = m.dump();
 }
 
@@ -354,7 +356,13 @@ bool Simulation::done() const {
 }
 
 void Simulation::signals(std::vector<double>& values) const {
-  for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->signals(*states_[i], values);
+  for (size_t i = 0; i < controllers_.size(); ++i)
+    if (const Reporting* r = controllers_[i]->as<Reporting>()) r->signals(*states_[i], values);
+}
+
+void Simulation::add_controller_metrics(nlohmann::json& metrics) const {
+  for (size_t i = 0; i < controllers_.size(); ++i)
+    if (const Reporting* r = controllers_[i]->as<Reporting>()) r->add_metrics(*states_[i], metrics);
 }
 
 RunResult Simulation::result() const {
@@ -412,7 +420,7 @@ RunResult Simulation::result() const {
   if (diverged_after_fall && !s.controller_metrics_at_fall.empty())
     m.update(nlohmann::json::parse(s.controller_metrics_at_fall));
   else
-    for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->add_metrics(*states_[i], m);
+    add_controller_metrics(m);
   if (model_->plans) {
     const CorrectionPlan& plan = s.plan;
     nlohmann::json& pm = m["planner"];
@@ -461,7 +469,8 @@ RunResult Simulation::run(long max_steps) {
   if (log) {
     remove_observer(log.get());
     for (size_t i = 0; i < controllers_.size(); ++i)
-      controllers_[i]->write_outputs(*states_[i], run_files_.out_dir);
+      if (const Reporting* r = controllers_[i]->as<Reporting>())
+        r->write_outputs(*states_[i], run_files_.out_dir);
     // bytes that are not UTF-8 (a file name's) are written as U+FFFD rather than lost with the file
     write_file_atomically(
         std::filesystem::path(run_files_.out_dir) / "summary.json",
@@ -481,7 +490,7 @@ void Simulation::add_controller(std::shared_ptr<const Controller> controller) {
 }
 
 void Simulation::replace_controller(size_t i, std::shared_ptr<const Controller> controller) {
-  const bool keep = controller->keeps_state_of(*controllers_.at(i));
+  const bool keep = keeps_state_of(*controller, *controllers_.at(i));
   if (!keep) states_[i] = controller->make_state(*engine_);
   controllers_[i] = std::move(controller);
 }

@@ -328,6 +328,8 @@ class Simulation {
   void start_run();
   void detect_fall();
   void snapshot_controller_metrics();
+  // the Reporting controllers' end-of-run metrics, merged into `metrics`
+  void add_controller_metrics(nlohmann::json& metrics) const;
   // the controllers' (and the planner's) outputs into out_; false (diverged) when non-finite
   bool compute_controls();
   void limit_torques();

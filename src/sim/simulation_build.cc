@@ -322,7 +322,8 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
   // a controller that tracks a clip may start the run on the clip's first frame
   for (const auto& c : m->controllers) {
     Eigen::VectorXd q0, v0;
-    if (c->initial_state(e, q0, v0)) {
+    const InitialState* start = c->as<InitialState>();
+    if (start && start->initial_state(e, q0, v0)) {
       e.set_positions(q0);
       e.set_velocities(v0);
       e.forward();
@@ -364,7 +365,8 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
   }
   m->clamp_torques = sc.torque_limits == "on" || (sc.torque_limits == "auto" && robot_model);
   e.save_state(m->initial);
-  for (const auto& c : m->controllers) c->signal_names(m->signal_names);
+  for (const auto& c : m->controllers)
+    if (const Reporting* r = c->as<Reporting>()) r->signal_names(m->signal_names);
   const double dt = e.timestep();
   // a run too long to finish in any reasonable time (duration, timestep or both absurd)
   if (const std::string problem = step_count_problem(sc.duration, dt); !problem.empty())

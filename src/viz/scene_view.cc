@@ -72,7 +72,8 @@ SceneView::SceneView(Simulation& run, int offscreen_width, int offscreen_height,
   // a ghost when a controller tracks a pose: its own engine of the scenario (the same dof
   // layout as the run's) turns the reference q into body poses
   for (size_t i = 0; i < run.controllers().size(); ++i) {
-    if (!run.controllers()[i]->reference_qpos(run.controller_state(i), engine, ghost_q_)) continue;
+    const Tracking* tracking = run.controllers()[i]->as<Tracking>();
+    if (!tracking || !tracking->reference_qpos(run.controller_state(i), engine, ghost_q_)) continue;
     std::lock_guard<std::mutex> lock(model_load_mutex());
     ghost_engine_ = make_scenario_engine(run.scenario(), std::string(engine.engine_name()));
     if (!ghost_engine_->render_model().model) ghost_engine_.reset();
@@ -232,7 +233,8 @@ void SceneView::add_marker(const Marker& m) {
 
 void SceneView::add_ghost(Simulation& run) {
   for (size_t i = 0; i < run.controllers().size(); ++i) {
-    if (!run.controllers()[i]->reference_qpos(run.controller_state(i), run.engine(), ghost_q_))
+    const Tracking* tracking = run.controllers()[i]->as<Tracking>();
+    if (!tracking || !tracking->reference_qpos(run.controller_state(i), run.engine(), ghost_q_))
       continue;
     if (ghost_q_.size() != ghost_engine_->nq()) return;
     ghost_engine_->set_positions(ghost_q_);
@@ -380,7 +382,8 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
   if (options.markers) {
     markers_.clear();
     for (size_t i = 0; i < run.controllers().size(); ++i)
-      run.controllers()[i]->markers(run.controller_state(i), engine, markers_);
+      if (const Drawable* drawn = run.controllers()[i]->as<Drawable>())
+        drawn->markers(run.controller_state(i), engine, markers_);
     for (const auto& m : markers_) add_marker(m);
     // the planner's chosen rollout: where the root goes over the horizon
     if (const Planner* planner = run.planner()) {

@@ -53,7 +53,8 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options,
     s.plots.push_back({"joint torque RMS (N m)", std::vector<float>(samples, 0.0f)});
     s.plots.push_back({"largest joint torque (N m)", std::vector<float>(samples, 0.0f)});
   }
-  for (auto& c : s.run->controllers()) c->signal_names(s.signal_names);
+  for (auto& c : s.run->controllers())
+    if (const Reporting* r = c->as<Reporting>()) r->signal_names(s.signal_names);
   for (size_t i = 0; i < s.signal_names.size() && i < 8; ++i)
     s.plots.push_back({s.signal_names[i], std::vector<float>(samples, 0.0f)});
   s.refresh_entries();

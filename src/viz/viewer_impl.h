@@ -274,7 +274,7 @@ struct Viewer::Impl {
 
   void refresh_entries() {
     entries.clear();
-    for (auto& c : run->controllers()) entries.push_back(c->tunable_params());
+    for (auto& c : run->controllers()) entries.push_back(tunable_params(*c));
     planner_entries = planner_params(*run);
   }
 

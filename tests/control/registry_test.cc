@@ -4,6 +4,7 @@
 // threads gives the runs it gives in sequence, and saving its State mid-run (in memory, on a
 // clone, through a state file) reproduces the rest of the run exactly. Allocation per step is
 // checked for every type in alloc_test.cc.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -121,7 +122,7 @@ TEST_P(Registry, RejectsABadValueNamingTheParameter) {
   std::vector<ParamEntry> entries;
   {
     Simulation sim(host.loaded, test::quiet());
-    entries = sim.controllers()[host.index]->tunable_params();
+    entries = tunable_params(*sim.controllers()[host.index]);
   }
   ASSERT_FALSE(entries.empty()) << "no tunable parameters";
   // a value outside the visit's range where one is given, else a NaN
@@ -143,6 +144,45 @@ TEST_P(Registry, RejectsABadValueNamingTheParameter) {
   } catch (const InputError& e) {
     const std::string last = pick->path.substr(pick->path.rfind('.') + 1);
     EXPECT_NE(std::string(e.what()).find(last), std::string::npos) << e.what();
+  }
+}
+
+// parameters are typed at load: a misspelt key or a value out of range fails when the scenario
+// is loaded (no engine, no controller built), naming the file and the parameter
+TEST_P(Registry, BadKeyOrValueFailsWhenTheScenarioIsLoaded) {
+  auto h = hosts();
+  ASSERT_TRUE(h.count(GetParam()));
+  const Host& host = h[GetParam()];
+  const std::string block = fmt::format("controllers.{}.", host.index);
+  const std::string file = std::filesystem::path(host.file).filename().string();
+  try {
+    load_scenario(host.file, {block + "gain_typo=1"});
+    ADD_FAILURE() << "an unknown key was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(file), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("unknown parameter 'gain_typo'"), std::string::npos)
+        << e.what();
+  }
+  for (const ParamEntry& e : controller_params(host.loaded, host.index)) {
+    if (e.kind != ParamEntry::Kind::kDouble || !std::isfinite(e.meta.min)) continue;
+    const std::string set = fmt::format("{}{}={}", block, e.path, e.meta.min - 1);
+    EXPECT_THROW(load_scenario(host.file, {set}), InputError) << set;
+    break;
+  }
+}
+
+// what the loader reads (tune's defaults) is what the built model offers the viewer's panel
+TEST_P(Registry, ParamsTypedAtLoadAreTheBuiltModelsTunableParams) {
+  auto h = hosts();
+  ASSERT_TRUE(h.count(GetParam()));
+  const Host& host = h[GetParam()];
+  Simulation sim(host.loaded, test::quiet());
+  std::vector<ParamEntry> built = tunable_params(*sim.controllers()[host.index]);
+  std::vector<ParamEntry> loaded = controller_params(host.loaded, host.index);
+  ASSERT_EQ(built.size(), loaded.size());
+  for (size_t i = 0; i < built.size(); ++i) {
+    EXPECT_EQ(built[i].path, loaded[i].path);
+    EXPECT_EQ(built[i].value, loaded[i].value) << built[i].path;
   }
 }
 
@@ -220,6 +260,26 @@ TEST_P(Registry, StateFileReproducesTheRestOfTheRun) {
   EXPECT_TRUE(from_file == reference);
   EXPECT_EQ(without_wall_clock(fresh.result().metrics).dump(),
             without_wall_clock(sim.result().metrics).dump());
+}
+
+// a client finds an optional interface exactly where a controller offers it
+TEST(ControllerInterfaces, FoundWhereOfferedOnly) {
+  Simulation walk(load_scenario(test::scenario_path("simbicon_walk.yaml")), test::quiet());
+  const Controller& simbicon = *walk.controllers().at(0);
+  ASSERT_EQ(simbicon.type(), "simbicon");
+  EXPECT_EQ(simbicon.as<Drawable>(), dynamic_cast<const Drawable*>(&simbicon));
+  EXPECT_NE(simbicon.as<Correctable>(), nullptr);
+  EXPECT_NE(simbicon.as<Reporting>(), nullptr);
+  EXPECT_EQ(simbicon.as<Tracking>(), nullptr);
+  EXPECT_EQ(simbicon.as<FallJudge>(), nullptr);
+  EXPECT_EQ(simbicon.as<HorizonSampling>(), nullptr);
+  EXPECT_EQ(simbicon.as<InitialState>(), nullptr);
+  // slow to rebuild is declared, not inferred from a type name
+  ASSERT_NE(simbicon.as<Retunable>(), nullptr);
+  EXPECT_FALSE(simbicon.as<Retunable>()->slow_to_rebuild());
+  Simulation lqr(load_scenario(test::scenario_path("lqr_one_leg.yaml")), test::quiet());
+  ASSERT_NE(lqr.controllers().at(0)->as<Retunable>(), nullptr);
+  EXPECT_TRUE(lqr.controllers().at(0)->as<Retunable>()->slow_to_rebuild());
 }
 
 std::vector<std::string> registered_types() {

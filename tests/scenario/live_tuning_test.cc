@@ -37,7 +37,7 @@ TEST(ParamList, FlattensNestedStructsWithMeta) {
   RunOptions opt;
   opt.quiet = true;
   Simulation run(biped_stand(), opt);
-  std::vector<ParamEntry> pd = run.controllers()[0]->tunable_params();
+  std::vector<ParamEntry> pd = tunable_params(*run.controllers()[0]);
   const ParamEntry* kp = nullptr;
   for (const auto& e : pd)
     if (e.path == "kp") kp = &e;
@@ -46,7 +46,7 @@ TEST(ParamList, FlattensNestedStructsWithMeta) {
   EXPECT_EQ(kp->meta.min, 0);  // from the visit, not from YAML
   EXPECT_EQ(kp->meta.unit, "N m/rad");
   // 3-vectors become three entries in --set syntax
-  std::vector<ParamEntry> ankle = run.controllers()[1]->tunable_params();
+  std::vector<ParamEntry> ankle = tunable_params(*run.controllers()[1]);
   bool found = false;
   for (const auto& e : ankle) found |= e.path == "heel_point.0" && e.value == 0.05;
   EXPECT_TRUE(found);

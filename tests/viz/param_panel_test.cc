@@ -18,7 +18,7 @@ std::vector<ParamEntry> simbicon_entries() {
   RunOptions ro;
   ro.quiet = true;
   Simulation run(loaded, ro);
-  return run.controllers().at(0)->tunable_params();
+  return tunable_params(*run.controllers().at(0));
 }
 
 const ParamEntry& find_entry(const std::vector<ParamEntry>& entries, const std::string& path) {
