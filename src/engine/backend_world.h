@@ -34,6 +34,8 @@ struct BackendModel {
   // with the attributes of a newer MuJoCo that stance applies itself removed
   // (model/mjcf_newer.h); their joint limits are in `effort_limits`, on both engines
   std::vector<std::pair<std::string, std::string>> patched_files;
+  // MJCF on DART: joints welded after parsing (on MuJoCo the factory removes them from the text)
+  std::vector<std::string> lock_joints;
 };
 
 struct BackendWorld {
@@ -55,5 +57,16 @@ std::unique_ptr<Engine> open_dart_engine(const BackendWorld& world);
 // summed per joint (DART's MJCF parser reads no actuators), each the tighter of that and the
 // model's `effort_limits`
 std::vector<std::pair<std::string, double>> mjcf_joint_force_limits(const BackendModel& model);
+// where a model's joints and actuators sit in MuJoCo's state vectors
+struct MjcfJointSlots {
+  std::string name;
+  int qpos_adr = 0, nq = 0, dof_adr = 0, nv = 0;
+};
+struct MjcfLayout {
+  std::vector<MjcfJointSlots> joints;
+  std::vector<std::string> actuator_joints;  // per actuator, its joint's name ("" if none)
+};
+// compiles a model file with MuJoCo's compiler (its error thrown, located) and returns its layout
+MjcfLayout mjcf_layout(const BackendModel& model);
 
 }  // namespace stance

@@ -2,8 +2,11 @@
 // hands the backend its input (engine/backend_world.h).
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
 #include <iostream>
+#include <iterator>
 #include <mutex>
 #include <set>
 
@@ -12,6 +15,7 @@
 #include "engine/backend_world.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "model/mjcf_lock.h"
 #include "model/mjcf_newer.h"
 #include "model/model_path.h"
 #include "model/robot_model.h"
@@ -53,6 +57,44 @@ std::string apply_newer_mjcf(const ModelFile& mf, BackendModel& model) {
   model.effort_limits.insert(model.effort_limits.end(), newer.joint_force_limits.begin(),
                              newer.joint_force_limits.end());
   return newer.note;
+}
+
+// lock_joints reads URDF, SDF and MJCF files
+void check_lockable(const ModelFile& mf, ModelFormat format) {
+  if (format == ModelFormat::kSkel && !mf.robot.lock_joints.empty())
+    throw InputError(mf.path +
+                     ": lock_joints: not for SKEL files (URDF, SDF and MJCF only; "
+                     "`stance convert` writes a SKEL file as MJCF)");
+}
+
+// lock_joints on an MJCF model (model/mjcf_lock.h): the main file's text without the joints, read
+// by MuJoCo in place of the file; checked on DART too, so that both engines refuse alike
+void lock_mjcf_joints(const ModelFile& mf, BackendModel& model) {
+  if (mf.robot.lock_joints.empty()) return;
+  auto patched = std::find_if(model.patched_files.begin(), model.patched_files.end(),
+                              [&](const auto& f) { return f.first == model.file; });
+  std::string text;
+  if (patched != model.patched_files.end()) {
+    text = patched->second;
+  } else {
+    std::ifstream in(model.file, std::ios::binary);
+    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  const MjcfLayout layout = mjcf_layout(model);  // compiles it unlocked: its errors, located
+  const std::set<std::string> names(mf.robot.lock_joints.begin(), mf.robot.lock_joints.end());
+  KeyframeEntries dropped;
+  for (const MjcfJointSlots& j : layout.joints) {
+    if (!names.count(j.name)) continue;
+    for (int k = 0; k < j.nq; ++k) dropped.qpos.insert(j.qpos_adr + k);
+    for (int k = 0; k < j.nv; ++k) dropped.qvel.insert(j.dof_adr + k);
+  }
+  for (size_t a = 0; a < layout.actuator_joints.size(); ++a)
+    if (names.count(layout.actuator_joints[a])) dropped.ctrl.insert(static_cast<int>(a));
+  std::string locked = mjcf_with_joints_locked(mf.path, text, mf.robot.lock_joints, dropped);
+  if (patched != model.patched_files.end())
+    patched->second = std::move(locked);
+  else
+    model.patched_files.emplace_back(model.file, std::move(locked));
 }
 
 // a load note, printed once per process and message
@@ -110,6 +152,7 @@ std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
   for (const auto& mf : spec.models) {
     std::string path = resolve_model_path(mf.path);
     const ModelFormat format = model_format(path);
+    check_lockable(mf, format);
     if (format == ModelFormat::kSkel) skel_inputs.push_back({path, mf.offset});
     if (is_robot_format(format)) robot_inputs.push_back({mf.path, path, mf.offset, mf.robot});
   }
@@ -149,6 +192,7 @@ std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
   check_mjcf_root(mf.path, path);
   world.models.push_back({path, path, "", model_format(path), mf.offset});
   const std::string note = apply_newer_mjcf(mf, world.models.back());
+  lock_mjcf_joints(mf, world.models.back());
   std::unique_ptr<Engine> engine = open_mujoco_engine(world);
   note_once(note);
   return engine;
@@ -168,11 +212,15 @@ std::unique_ptr<Engine> make_dart_engine(const WorldSpec& spec) {
     const std::string path = resolve_model_path(mf.path);
     BackendModel model{mf.path, path, "", model_format(path), mf.offset};
     // DART's parsers assert or crash on bad values: stance's own checks go first, located
+    check_lockable(mf, model.format);
     if (model.format == ModelFormat::kSkel) check_skel_for_dart(path);
     if (model.format == ModelFormat::kMjcf) {
       check_mjcf_root(mf.path, path);
       notes.push_back(apply_newer_mjcf(mf, model));
       model.effort_limits = mjcf_joint_force_limits(model);  // compiles it: its errors, located
+      BackendModel checked = model;
+      lock_mjcf_joints(mf, checked);
+      model.lock_joints = mf.robot.lock_joints;
     }
     if (is_robot_format(model.format)) {
       const RobotModel robot = read_robot(mf.path, path, mf.robot);

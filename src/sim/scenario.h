@@ -22,7 +22,7 @@ struct ModelEntry {
   bool fixed_base = false;
   std::vector<std::string> package_path;  // relative to the YAML
   std::string mesh_collision = "box";
-  std::vector<std::string> lock_joints;  // welded at their zero position
+  std::vector<std::string> lock_joints;  // welded at their zero position (URDF, SDF, MJCF)
 
   template <class V>
   void visit(V& v) {
@@ -34,7 +34,8 @@ struct ModelEntry {
     v("mesh_collision", mesh_collision,
       {.help = "URDF/SDF: box (collide with each mesh's bounding box) or mesh"});
     v("lock_joints", lock_joints,
-      {.help = "URDF/SDF: joints welded at their zero position (ankle rolls: one-axis ankles)"});
+      {.help = "URDF/SDF/MJCF: joints welded at their zero position (ankle rolls: one-axis "
+               "ankles)"});
   }
 };
 

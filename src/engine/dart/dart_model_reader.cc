@@ -1,6 +1,8 @@
 // Reading model files (SKEL, MJCF, URDF, SDF) with DART 6.12's parsers, on text patched first
 // (dart_model_patches.cc), with their console output turned into one error line.
+#include <fmt/format.h>
 #include <tinyxml2.h>
+#include <dart/dynamics/WeldJoint.hpp>
 #include <dart/utils/mjcf/MjcfParser.hpp>
 #include <dart/utils/sdf/SdfParser.hpp>
 #include <dart/utils/urdf/urdf.hpp>
@@ -135,6 +137,27 @@ void apply_effort_limits(dart::simulation::World& world,
 
 }  // namespace
 
+// lock_joints on MJCF (the names checked by the factory): each joint becomes a weld at its zero
+// position, as MuJoCo gets the file without it. A skeleton leaves the world while its joints
+// change: the world's collision group keeps the shape frames it had (a crash in the next collide)
+void weld_joints(dart::simulation::World& world, const BackendModel& model) {
+  for (const std::string& name : model.lock_joints) {
+    SkeletonPtr skeleton;
+    for (size_t s = 0; s < world.getNumSkeletons() && !skeleton; ++s)
+      if (world.getSkeleton(s)->getJoint(name)) skeleton = world.getSkeleton(s);
+    Joint* joint = skeleton ? skeleton->getJoint(name) : nullptr;
+    if (joint == nullptr || joint->getChildBodyNode() == nullptr)
+      throw InputError(fmt::format("{}: lock_joints: DART has no joint '{}'", model.name, name));
+    dart::dynamics::WeldJoint::Properties weld;
+    weld.mName = joint->getName();
+    weld.mT_ParentBodyToJoint = joint->getTransformFromParentBodyNode();
+    weld.mT_ChildBodyToJoint = joint->getTransformFromChildBodyNode();
+    world.removeSkeleton(skeleton);
+    joint->getChildBodyNode()->changeParentJointType<dart::dynamics::WeldJoint>(weld);
+    world.addSkeleton(skeleton);
+  }
+}
+
 // parses one model file into a temporary world of its own
 dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::string& warnings) {
   const std::string& shown_name = model.name;
@@ -167,6 +190,7 @@ dart::simulation::WorldPtr read_model_world(const BackendModel& model, std::stri
           world->setGravity(mjcf.gravity);
           apply_inertials(*world, mjcf.inertials);
           apply_effort_limits(*world, model.effort_limits);
+          weld_joints(*world, model);
         }
       } else {
         // URDF and SDF: checked and patched by the factory (model/robot_model.h)

@@ -161,6 +161,27 @@ std::vector<std::pair<std::string, double>> mjcf_joint_force_limits(const Backen
   return out;
 }
 
+MjcfLayout mjcf_layout(const BackendModel& model) {
+  BackendWorld world;
+  world.models.push_back(model);
+  world.models.back().offset.setZero();
+  mjModel* m = load_mujoco_model(world);
+  MjcfLayout layout;
+  for (int j = 0; j < m->njnt; ++j) {
+    const int nq = j + 1 < m->njnt ? m->jnt_qposadr[j + 1] : m->nq;
+    const int nv = j + 1 < m->njnt ? m->jnt_dofadr[j + 1] : m->nv;
+    layout.joints.push_back({name_of(m, mjOBJ_JOINT, j, fmt::format("joint{}", j)),
+                             m->jnt_qposadr[j], nq - m->jnt_qposadr[j], m->jnt_dofadr[j],
+                             nv - m->jnt_dofadr[j]});
+  }
+  for (int i = 0; i < m->nu; ++i)
+    layout.actuator_joints.push_back(m->actuator_trntype[i] == mjTRN_JOINT
+                                         ? name_of(m, mjOBJ_JOINT, m->actuator_trnid[2 * i], "")
+                                         : "");
+  mj_deleteModel(m);
+  return layout;
+}
+
 mjModel* load_mujoco_model(const BackendWorld& world) {
   if (world.models.size() != 1)
     throw InputError("MuJoCo loads one MJCF/URDF file per world; use <include> to compose");
