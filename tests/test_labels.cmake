@@ -18,7 +18,7 @@ set(stance_label_patterns
   physics "^SimbiconDart\\.Walks"
   physics "^(SimbiconHumanoid|SimbiconFullbody1|SimbiconSpine|SimbiconSteps)\\."
   physics "^SimbiconPitchAnkles\\.Walks"
-  physics "^StandPoseAuto\\.(Humanoid|Atlas)"
+  physics "^StandPoseAuto\\.(Humanoid|Atlas|SideLoaded)"
   physics "^SimbiconAtlasPitchAnkles\\..*Walks"
   physics "^SlopeWalker\\.(Walks|LockedKnees)"
   physics "^StablePd\\.StandsWherePlainPdDiverges$"

@@ -140,6 +140,108 @@ void atlas_stands_from_its_auto_pose(const std::string& engine) {
   }
 }
 
+// a biped holding 8 kg on a pole 0.7 m to its left: in its zero pose the COM is 0.14 m left of
+// the feet's centre, beyond the left foot's outer edge (0.12 m), and it falls sideways
+constexpr const char* kSideLoaded = R"(<mujoco model="side_load">
+  <option timestep="0.001"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="20 20 0.1"/>
+    <body name="trunk" pos="0 0 1.001">
+      <freejoint name="root"/>
+      <geom type="box" size="0.1 0.15 0.15" mass="20"/>
+      <geom name="pole" type="capsule" fromto="0 0.15 0.1 0 0.7 0.1" size="0.01" mass="0.1"/>
+      <geom name="load" type="sphere" pos="0 0.7 0.1" size="0.06" mass="8"/>
+      <body name="l_thigh" pos="0 0.08 -0.15">
+        <joint name="l_hip_x" type="hinge" axis="1 0 0"/>
+        <joint name="l_hip_y" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.04" mass="3"/>
+        <body name="l_shin" pos="0 0 -0.4">
+          <joint name="l_knee" type="hinge" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.035" mass="2"/>
+          <body name="l_foot" pos="0 0 -0.4">
+            <joint name="l_ankle_y" type="hinge" axis="0 1 0"/>
+            <joint name="l_ankle_x" type="hinge" axis="1 0 0"/>
+            <geom type="box" pos="0.03 0 -0.03" size="0.1 0.04 0.02" mass="1"/>
+          </body>
+        </body>
+      </body>
+      <body name="r_thigh" pos="0 -0.08 -0.15">
+        <joint name="r_hip_x" type="hinge" axis="1 0 0"/>
+        <joint name="r_hip_y" type="hinge" axis="0 1 0"/>
+        <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.04" mass="3"/>
+        <body name="r_shin" pos="0 0 -0.4">
+          <joint name="r_knee" type="hinge" axis="0 1 0"/>
+          <geom type="capsule" fromto="0 0 0 0 0 -0.4" size="0.035" mass="2"/>
+          <body name="r_foot" pos="0 0 -0.4">
+            <joint name="r_ankle_y" type="hinge" axis="0 1 0"/>
+            <joint name="r_ankle_x" type="hinge" axis="1 0 0"/>
+            <geom type="box" pos="0.03 0 -0.03" size="0.1 0.04 0.02" mass="1"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>)";
+
+std::string side_loaded_scenario(const std::string& extra) {
+  const std::string model = test::write_temp_file("side_loaded.xml", kSideLoaded);
+  return test::write_temp_file("side_loaded.yaml",
+                               "name: side_loaded\nengine: mujoco\nmodel: " + model + extra + R"(
+duration: 3
+seed: 1
+stand_pose: auto
+controllers:
+  - {type: stable_pd, kp: 3000, kd: 150}
+fall: {com_height_fraction: 0.8, allowed_contacts: [l_foot, r_foot]}
+)");
+}
+
+TEST(StandPoseAuto, LeansSidewaysUntilTheComIsOverTheFeet) {
+  const LoadedScenario l = load_scenario(side_loaded_scenario(""), {"stand_pose=off"});
+  std::unique_ptr<Engine> e = make_scenario_engine(l.scenario, "mujoco", &l);
+  const int left = e->require_body("l_foot"), right = e->require_body("r_foot");
+  const Eigen::Quaterniond left_before = e->body_pose(left).quat;
+  const StandingPose pose = find_standing_pose(*e, {});
+  ASSERT_TRUE(pose.roll_searched);
+  EXPECT_EQ(e->dof_name(pose.hip_roll[0]) + " " + e->dof_name(pose.ankle_roll[1]),
+            "l_hip_x r_ankle_x");
+  EXPECT_GT(pose.lateral_before_m, 0.13);
+  EXPECT_GT(pose.roll_rad, 0.1) << "the legs lean so that the trunk moves right";
+  // the engine is left in the pose: the COM over the feet both ways, the feet as they were
+  const Eigen::Vector3d centre = 0.5 * (e->body_com(left) + e->body_com(right));
+  EXPECT_NEAR(e->com().y() - centre.y(), 0, 1e-4);
+  EXPECT_NEAR(e->com().x() - centre.x(), 0, 1e-4);
+  EXPECT_NEAR(pose.lateral_m, e->com().y() - centre.y(), 1e-12);
+  EXPECT_LT(e->body_pose(left).quat.angularDistance(left_before), 1e-9);
+  EXPECT_LT(e->body_pose(right).quat.angularDistance(left_before), 1e-9);
+  EXPECT_NE(describe_standing_pose(pose, *e).find("sideways +0.2"), std::string::npos)
+      << describe_standing_pose(pose, *e);
+}
+
+// one-axis ankles (the ankle rolls locked): no flat-footed sideways lean exists, and it says so
+TEST(StandPoseAuto, OneAxisAnklesAreNotLeanedSideways) {
+  const LoadedScenario l = load_scenario(side_loaded_scenario(""), {"stand_pose=off"});
+  Scenario locked = l.scenario;
+  locked.model.front().lock_joints = {"l_ankle_x", "r_ankle_x"};
+  std::unique_ptr<Engine> e = make_scenario_engine(locked, "mujoco", &l);
+  const StandingPose pose = find_standing_pose(*e, {});
+  EXPECT_FALSE(pose.roll_searched);
+  EXPECT_EQ(pose.roll_rad, 0);
+  EXPECT_NE(describe_standing_pose(pose, *e).find("not leaned sideways (no roll hinge"),
+            std::string::npos);
+}
+
+TEST(StandPoseAuto, SideLoadedBipedFallsAsGivenAndStandsOnceLeaned) {
+  const std::string file = side_loaded_scenario("");
+  Simulation off(load_scenario(file, {"stand_pose=off"}), test::quiet());
+  EXPECT_TRUE(off.run().fell);
+  for (const auto& [what, sets] : nearby(3000, 150, {"0.0005", "0.002"})) {
+    SCOPED_TRACE(what);
+    Simulation run(load_scenario(file, sets), test::quiet());
+    expect_stands(run.run(), 3);
+  }
+}
+
 TEST(StandPoseAuto, AtlasStandsFromItsAutoPoseOnMujoco) {
   if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
   atlas_stands_from_its_auto_pose("mujoco");
