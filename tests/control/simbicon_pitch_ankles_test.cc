@@ -5,6 +5,7 @@
 // MuJoCo only: DART 6.12's MJCF parser rejects several joints in one body.
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <string>
 #include <vector>
 
@@ -124,6 +125,29 @@ TEST(SimbiconPitchAnkles, WalksSixtySecondsAtTheGaitAndNearby) {
   for (const auto& [what, sets] : settings) {
     SCOPED_TRACE(what);
     Simulation run(load_scenario(test::scenario_path(kScenario), sets), {});
+    expect_walks_sixty_seconds(run.run());
+  }
+}
+
+// without hip yaw as well, made from humanoid.xml by the model entry's lock_joints (MJCF): the
+// ankle rolls and hip yaws welded, neither named in the skeleton; 60 s at the gait and at the
+// SIMBICON gains x0.8 and x1.2 (MuJoCo only, as the humanoid is; about 4 s of CPU)
+TEST(SimbiconPitchAnkles, WalksWithoutHipYawAtTheGaitAndNearby) {
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "humanoid.xml missing";
+  const std::string k = "controllers.2.skeleton.";
+  const std::vector<std::string> without_hip_yaw = {
+      std::string("model=[{file: ") + test::kHumanoidXml +
+          ", lock_joints: [right_ankle_x, left_ankle_x, right_hip_z, left_hip_z]}]",
+      k + "left_hip_yaw=\"\"", k + "right_hip_yaw=\"\""};
+  for (const double factor : {1.0, 0.8, 1.2}) {
+    SCOPED_TRACE("gains x" + std::to_string(factor));
+    std::vector<std::string> sets = without_hip_yaw;
+    if (factor != 1.0)
+      for (const std::string& set : scaled_gains(factor)) sets.push_back(set);
+    Simulation run(load_scenario(test::scenario_path(kScenario), sets), {});
+    EXPECT_EQ(run.engine().dof_index("right_hip_z"), -1);
+    EXPECT_EQ(run.engine().dof_index("left_ankle_x"), -1);
+    EXPECT_EQ(simbicon_of(run).model().hip_yaw[0], -1);
     expect_walks_sixty_seconds(run.run());
   }
 }
