@@ -143,6 +143,9 @@ void add_bvh_commands(CLI::App& app, Cli& c) {
   c.bvh_track_cmd->add_option("--threads", c.track.threads, "rollout threads (default: all cores)");
   c.bvh_track_cmd->add_option("--scale-to-meters", c.track.scale_to_meters,
                               "metres per file unit (default: detected from the legs)");
+  c.bvh_track_cmd->add_flag("--human-limits", c.track.human_limits,
+                            "the clip's character gets a person's joint torques as its limits, "
+                            "clamped (docs/mocap.md)");
   c.bvh_track_cmd->add_option("--set", c.track.sets, "override: key.path=value")
       ->allow_extra_args(false);
   c.bvh_track_cmd->add_option("--record", c.track_record, "also render the run as an MP4");

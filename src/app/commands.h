@@ -266,6 +266,7 @@ struct BvhTrackCommand {
   bool quiet = false;
   bool origin_centred = false;  // tracked.bvh above the origin, not in the clip's own frame
   double scale_to_meters = 0;   // m per file unit, for the character and the tracker; 0: detect
+  bool human_limits = false;    // the character's joints get human torque limits, clamped
 };
 // writes the scenario (and the character) into cmd.out_dir once all of it has loaded (the clip,
 // --set, the model, the engine and the controllers): bad input leaves cmd.out_dir untouched.

@@ -200,6 +200,10 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
   check_option_number("--last-frame", cmd.last_frame, kLastFrameRange);
   check_option_number("--threads", cmd.threads, threads_range());
   check_option_number("--scale-to-meters", cmd.scale_to_meters, kScaleRange);
+  if (cmd.human_limits && !cmd.model.empty())
+    throw InputError(
+        "bvh track: --human-limits is for the clip's own character (without --model); "
+        "a model's limits are its own");
   check_utf8_file_name(cmd.bvh);
   const BvhClip clip = read_bvh(cmd.bvh);
   const int last = cmd.last_frame < 0 ? clip.frame_count - 1 : cmd.last_frame;
@@ -237,9 +241,11 @@ BvhTrackFiles make_bvh_track_files(const BvhTrackCommand& cmd) {
     BvhCharacterOptions o;
     o.reference.first_frame = first;
     o.skeleton.scale_to_meters = cmd.scale_to_meters;
+    o.human_limits = cmd.human_limits;
     files.character = make_bvh_character(clip, o).mjcf;
     doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
     doc["model"][0]["file"] = "character.xml";
+    if (cmd.human_limits) doc["torque_limits"] = "on";  // a person's strength, not only reported
   } else {
     doc["model"].push_back(YAML::Node(YAML::NodeType::Map));
     const std::string model =

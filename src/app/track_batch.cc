@@ -136,7 +136,8 @@ nlohmann::json batch_fingerprint(const BvhTrackBatchCommand& cmd,
       {"engine", t.engine},
       {"sets", t.sets},
       {"origin_centred", t.origin_centred},
-      {"scale_to_meters", t.scale_to_meters}};
+      {"scale_to_meters", t.scale_to_meters},
+      {"human_limits", t.human_limits}};
   // as it reads back from the file (a name that is not UTF-8 is written with U+FFFD)
   return nlohmann::json::parse(
       options.dump(-1, ' ', false, nlohmann::json::error_handler_t::replace));

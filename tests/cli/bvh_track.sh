@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # stance bvh track: a clip tracked in free mode with the planner writes the scenario it ran, the
-# character, summary.json with metrics.mocap, log.csv and tracked.bvh; bad input exits 2 and
-# leaves an earlier output folder as it was.
+# character, summary.json with metrics.mocap, log.csv and tracked.bvh; --human-limits clamps the
+# character to a person's torques; bad input exits 2 and leaves an earlier output folder as it was.
 set -u
 stance=$1
 tmp=$(mktemp -d)
@@ -33,6 +33,19 @@ assert abs(s["sim_time"] - 0.4) < 0.01, s["sim_time"]
 PY
 # the exported motion reads back as a BVH
 "$stance" bvh info "$tmp/t/tracked.bvh" >"$tmp/info" 2>&1 || fail "tracked.bvh: $(cat "$tmp/info")"
+
+# --human-limits: the character's joints get a person's peak torques (bvh2mjcf's), clamped
+"$stance" bvh track models/synthetic_walk.bvh --loop --duration 0.1 --threads 2 --human-limits \
+  --out "$tmp/h" --set planner.samples=12 --set planner.horizon_s=0.35 \
+  --quiet >"$tmp/hout" 2>&1 || fail "track --human-limits exited $?: $(cat "$tmp/hout")"
+grep -q 'name="LeftUpLeg".*actuatorfrcrange="-245 245"' "$tmp/h/character.xml" ||
+  fail "--human-limits: no hip limit in character.xml"
+grep -q "torque_limits: on" "$tmp/h/track.yaml" || fail "--human-limits: not clamped"
+python3 - "$tmp/h" <<'PY' || fail "--human-limits: summary.json's torque_limit"
+import json, sys
+t = json.load(open(sys.argv[1] + "/summary.json"))["metrics"]["torque_limit"]
+assert t["clamping"] is True and t["limit"] > 0, t
+PY
 
 # a clip that begins with a T-pose frame (cgspeed's CMU release): info says where the motion
 # starts, and track starts there

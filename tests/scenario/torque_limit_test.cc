@@ -1,10 +1,13 @@
 // Torque limits: a pendulum held horizontal by joint PD against gravity (9.81 N m) with a 5 N m
 // limit sags until gravity's torque is the limit, cos(theta) = 5 / 9.81, on both engines; the
-// metrics report the peak against the limit.
+// metrics report the peak against the limit. Ball joints clamp alike on both engines.
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <map>
 
+#include "model/bvh_to_mjcf.h"
+#include "motion/bvh.h"
 #include "sim/scenario.h"
 #include "sim/simulation.h"
 #include "test_support.h"
@@ -111,15 +114,64 @@ TEST(TorqueLimit, SummaryReportsTheShareOfStepsAtALimit) {
 TEST(TorqueLimit, MjcfGearTimesCtrlrange) {
   const std::string xml = test::write_temp_file("pendulum_limit.xml", kPendulumMjcf);
   const double sag = std::acos(5 / (2 * 9.81 * 0.5));
-  // auto: MJCF models are not clamped, but reported, on both engines (DART's from the factory)
+  // auto: an MJCF motor's gear x ctrlrange clamps as a URDF effort does, on both engines
+  // (DART's limits from the factory); off: reported only
   for (const char* engine : {"mujoco", "dart"}) {
-    const Held reported = hold(xml, engine, "auto");
+    const Held reported = hold(xml, engine, "off");
     EXPECT_NEAR(reported.angle, 9.81 / 200, 0.005) << engine;
     EXPECT_EQ(reported.result.metrics["torque_limit"]["limit"], 5.0) << engine;
     EXPECT_EQ(reported.result.metrics["torque_limit"]["clamping"], false) << engine;
-    const Held clamped = hold(xml, engine, "on");
-    EXPECT_NEAR(clamped.angle, sag, 0.01) << engine;
+    for (const char* limits : {"auto", "on"}) {
+      const Held clamped = hold(xml, engine, limits);
+      EXPECT_NEAR(clamped.angle, sag, 0.01) << engine << " " << limits;
+      EXPECT_EQ(clamped.result.metrics["torque_limit"]["clamping"], true) << engine;
+    }
   }
+}
+
+// a ball-jointed character (bvh2mjcf --human-limits: each ball joint's actuatorfrcrange): both
+// engines read the same limit per joint, and clamp every dof of a ball joint to it (DART's MJCF
+// reader leaves ball joints without; the backend reads the limits set on their dofs)
+TEST(TorqueLimit, BallJointsClampedAlikeOnBothEngines) {
+  BvhCharacterOptions o;
+  o.human_limits = true;
+  const std::string character = test::write_temp_file(
+      "ball_limits.xml",
+      make_bvh_character(read_bvh(test::source_dir() + "/models/synthetic_walk.bvh"), o).mjcf);
+  // stable PD holds the pose against 1000 N on the head for 0.1 s: far beyond the neck's 28 N m
+  const std::string yaml =
+      "name: ball_limits\nmodel: " + character +
+      "\nduration: 0.3\ntorque_limits: on\nfall: {enabled: false}\nperturbations: [{body: Head, "
+      "force: [0, 1000, 0], start: 0.02, duration: 0.1}]\ncontrollers:\n  - {type: stable_pd, "
+      "kp: 2000, kd: 50}\n";
+  std::map<std::string, double> limits[2];
+  const char* engines[] = {"mujoco", "dart"};
+  for (int k = 0; k < 2; ++k) {
+    SCOPED_TRACE(engines[k]);
+    RunOptions opt;
+    opt.engine = engines[k];
+    opt.quiet = true;
+    Simulation run(parse_scenario(YAML::Load(yaml), "ball_limits.yaml", ""), opt);
+    const Engine& e = run.engine();
+    for (int j = 0; j < e.njoint(); ++j)
+      if (e.joint(j).type == JointType::kBall) limits[k][e.joint(j).name] = e.joint(j).force_limit;
+    long clamped = 0;
+    for (int i = 0; i < 150; ++i) {  // 0.3 s
+      ASSERT_TRUE(run.step());
+      const Eigen::VectorXd& tau = run.last_output().tau;
+      for (int d = 0; d < e.nv(); ++d) {
+        const double limit = e.joint(e.dof_joint(d)).force_limit;
+        ASSERT_LE(std::abs(tau[d]), limit + 1e-9) << e.dof_name(d);
+        if (e.joint(e.dof_joint(d)).type == JointType::kBall && std::abs(tau[d]) == limit)
+          ++clamped;
+      }
+    }
+    EXPECT_GT(clamped, 10) << "the push asks the ball joints for more than their limits";
+  }
+  ASSERT_FALSE(limits[0].empty());
+  EXPECT_EQ(limits[0], limits[1]);
+  // a hip: 3.5 N m per kg of the character's 70 kg
+  EXPECT_NEAR(limits[1].at("LeftUpLeg"), 3.5 * 70, 1e-9);
 }
 
 }  // namespace

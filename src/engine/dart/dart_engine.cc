@@ -195,6 +195,11 @@ void DartEngine::index_model() {
         group.kind = PositionGroupKind::kBall;
         add_joint(unique(skeleton_of_joint_name, j->getName()), JointType::kBall, child, first, n,
                   nullptr);
+        // its torque limit (a joint's actuatorfrcrange, set on every dof), as MuJoCo reads it
+        for (int k = 0; k < n; ++k)
+          joints_.back().force_limit = std::min(
+              joints_.back().force_limit,
+              std::max(std::abs(j->getForceLowerLimit(k)), std::abs(j->getForceUpperLimit(k))));
       } else if (n == 1) {
         add_joint(unique(skeleton_of_joint_name, j->getName()), dof_type(j, 0), child, first, 1,
                   j->getDof(0));
