@@ -8,6 +8,7 @@
 #include "app/cli_options.h"
 #include "app/commands.h"
 #include "app/track_batch.h"
+#include "app/track_command_line.h"
 #include "core/error.h"
 #ifdef STANCE_HAVE_VIEWER
 #include "viz/viz_commands.h"
@@ -65,13 +66,7 @@ struct Cli {
   stance::BvhInfoCommand bvh_info;
   stance::BvhSynthCommand synth;
   stance::BvhRetargetCommand retarget;
-  stance::BvhTrackCommand track;
-  std::string track_record;
-  stance::BvhTrackBatchCommand track_batch;  // several clips, a folder or a glob
-  std::string track_camera = "side", track_size = "640x360", track_debug_draw = "off";
-  double track_fps = 30;
-  bool track_view = false;
-  double track_quit_after = 0;
+  stance::BvhTrackCommandLine track;  // one clip, or several: a folder or a glob
   stance::Bvh2MjcfCommand bvh2mjcf;
   stance::ListCommand list;
   stance::SweepCommand sweep, sweep_gain;
@@ -117,54 +112,7 @@ void add_bvh_commands(CLI::App& app, Cli& c) {
   stance::add_cli_options(*c.bvh_retarget_cmd, c.retarget);
   c.bvh_track_cmd = c.bvh_cmd->add_subcommand(
       "track", "track clips in free mode with the sampling planner (no per-clip tuning)");
-  c.bvh_track_cmd
-      ->add_option("input", c.track_batch.inputs,
-                   "BVH files, folders or quoted globs (more than one: OUT/<clip>/ each, and "
-                   "OUT/results.csv)")
-      ->required();
-  c.bvh_track_cmd->add_option("--out", c.track.out_dir,
-                              "output folder (track.yaml, summary.json, log.csv, tracked.bvh)");
-  c.bvh_track_cmd->add_option("--jobs", c.track_batch.jobs,
-                              "several clips: clips at once per process (default: one per thread)");
-  c.bvh_track_cmd->add_flag("--resume", c.track_batch.resume,
-                            "several clips: keep --out's finished clips, track the rest");
-  c.bvh_track_cmd->add_flag("--plot,!--no-plot", c.track_batch.plot,
-                            "several clips: OUT/results.png (gnuplot; default on)");
-  c.bvh_track_cmd->add_option("--duration", c.track.duration, "seconds (default: the clip once)");
-  c.bvh_track_cmd->add_flag("--loop", c.track.loop, "repeat the clip, root carried forward");
-  c.bvh_track_cmd->add_option("--first-frame", c.track.first_frame,
-                              "first frame of the range (default: after a leading T-pose)");
-  c.bvh_track_cmd->add_option("--last-frame", c.track.last_frame, "last frame (-1: the end)");
-  c.bvh_track_cmd->add_option(
-      "--map", c.track.map,
-      "YAML joint map onto --model (default: found from its tree, written to --out/map.yaml)");
-  c.bvh_track_cmd->add_option("--model", c.track.model, "model file (MJCF, URDF, SKEL)");
-  c.bvh_track_cmd->add_option("--engine", c.track.engine, "mujoco or dart");
-  c.bvh_track_cmd->add_option("--threads", c.track.threads, "rollout threads (default: all cores)");
-  c.bvh_track_cmd->add_option("--scale-to-meters", c.track.scale_to_meters,
-                              "metres per file unit (default: detected from the legs)");
-  c.bvh_track_cmd->add_flag("--human-limits", c.track.human_limits,
-                            "the clip's character gets a person's joint torques as its limits, "
-                            "clamped (docs/mocap.md)");
-  c.bvh_track_cmd->add_option("--set", c.track.sets, "override: key.path=value")
-      ->allow_extra_args(false);
-  c.bvh_track_cmd->add_option("--record", c.track_record, "also render the run as an MP4");
-  c.bvh_track_cmd->add_option("--camera", c.track_camera,
-                              "--record: side, front (of the clip's heading), follow or free "
-                              "(the scenario's camera.*; default side)");
-  c.bvh_track_cmd->add_option("--size", c.track_size, "--record: frame size WxH (default 640x360)");
-  c.bvh_track_cmd->add_option("--debug-draw", c.track_debug_draw,
-                              "--record: on draws the COM, contacts, planner path and reference "
-                              "ghost (default off)");
-  c.bvh_track_cmd->add_option("--fps", c.track_fps,
-                              "--record: video frames per simulated second (default 30)");
-  c.bvh_track_cmd->add_flag("--view", c.track_view, "watch the tracking run in the viewer instead");
-  c.bvh_track_cmd->add_option("--quit-after", c.track_quit_after,
-                              "--view: close after S s of wall time and print the pace");
-  c.bvh_track_cmd->add_flag("--quiet", c.track.quiet, "no summary on stdout");
-  c.bvh_track_cmd->add_flag("--origin-centred", c.track.origin_centred,
-                            "tracked.bvh starts above the origin, on the ground (the default: "
-                            "where the clip starts, to overlay it)");
+  stance::add_cli_options(*c.bvh_track_cmd, c.track);
 
   c.bvh2mjcf_cmd = app.add_subcommand("bvh2mjcf", "a simulated character from a BVH skeleton");
   stance::add_cli_options(*c.bvh2mjcf_cmd, c.bvh2mjcf);
@@ -234,21 +182,19 @@ int dispatch(Cli& c) {
   if (*c.bvh_synth_run_cmd) return stance::bvh_synth_command(c.synth.output, true);
   if (*c.bvh_retarget_cmd) return stance::bvh_retarget_command(c.retarget);
   if (*c.bvh_track_cmd) {
-    if (stance::is_track_batch(c.track_batch.inputs) || c.track_batch.resume) {
-      c.track_batch.track = c.track;
-      c.track_batch.record = c.track_record;
-      c.track_batch.view = c.track_view;
-      return stance::bvh_track_batch_command(c.track_batch);
-    }
-    c.track.bvh = c.track_batch.inputs.front();
-    if (c.track_record.empty() && !c.track_view) return stance::bvh_track_command(c.track);
+    const stance::BvhTrackBatchCommand& batch = c.track.batch;
+    if (stance::is_track_batch(batch.inputs) || batch.resume)
+      return stance::bvh_track_batch_command(batch);
+    stance::BvhTrackCommand one = batch.track;
+    one.bvh = batch.inputs.front();
+    if (batch.record.empty() && !batch.view) return stance::bvh_track_command(one);
 #ifdef STANCE_HAVE_VIEWER
-    if (c.track_view) return stance::view_track_command(c.track, c.track_quit_after);
-    return stance::record_track_command(c.track, {.video = c.track_record,
-                                                  .camera = c.track_camera,
-                                                  .size = c.track_size,
-                                                  .debug_draw = c.track_debug_draw,
-                                                  .fps = c.track_fps});
+    if (batch.view) return stance::view_track_command(one, c.track.quit_after_s);
+    return stance::record_track_command(one, {.video = batch.record,
+                                              .camera = c.track.camera,
+                                              .size = c.track.size,
+                                              .debug_draw = c.track.debug_draw,
+                                              .fps = c.track.fps});
 #else
     std::cerr << "error: --record and --view need the viewer build (STANCE_WITH_VIEWER)\n";
     return stance::kExitBadInput;

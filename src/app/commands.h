@@ -58,28 +58,31 @@ struct RunCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
-    v("engine", engine, {.help = "mujoco or dart (default: the scenario's)"});
-    v("duration", duration, {.help = "simulated seconds", .unit = "s", .min = 0});
-    v("sets", sets, {.help = "override a parameter: key.path=value", .names = "--set"});
-    v("pushes", pushes, {.help = "body,fx,fy,fz,start,duration (repeatable)", .names = "--push"});
-    v("out_dir", out_dir, {.help = "output folder (summary.json, log.csv)", .names = "--out"});
-    v("quiet", quiet, {.help = "no summary on stdout"});
+    v("scenario", scenario,
+      OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
+    v("engine", engine, OptionMeta{.help = "mujoco or dart (default: the scenario's)"});
+    v("duration", duration, OptionMeta{.help = "simulated seconds", .unit = "s", .min = 0});
+    v("sets", sets, OptionMeta{.help = "override a parameter: key.path=value", .names = "--set"});
+    v("pushes", pushes,
+      OptionMeta{.help = "body,fx,fy,fz,start,duration (repeatable)", .names = "--push"});
+    v("out_dir", out_dir,
+      OptionMeta{.help = "output folder (summary.json, log.csv)", .names = "--out"});
+    v("quiet", quiet, OptionMeta{.help = "no summary on stdout"});
     v("past_fall", past_fall,
-      {.help = "go on to the end after a fall (default: stop 1 s after it)"});
-    v("record", record, {.help = "render an MP4 offscreen (ffmpeg)"});
-    v("screenshot", screenshot, {.help = "render one PNG frame at --at"});
-    v("check", check, {.help = "exit 4 when the scenario's expect block does not hold"});
+      OptionMeta{.help = "go on to the end after a fall (default: stop 1 s after it)"});
+    v("record", record, OptionMeta{.help = "render an MP4 offscreen (ffmpeg)"});
+    v("screenshot", screenshot, OptionMeta{.help = "render one PNG frame at --at"});
+    v("check", check, OptionMeta{.help = "exit 4 when the scenario's expect block does not hold"});
     v("screenshot_at", screenshot_at,
-      {.help = "screenshot time, s", .names = "--at", .unit = "s", .min = 0});
-    v("fps", fps, {.help = "video frames per simulated second (default 30)", .min = 0});
-    v("size", size, {.help = "frame size WxH (default 640x360; a screenshot 1280x720)"});
-    v("camera", camera, {.help = "follow or free (default: the scenario's)"});
+      OptionMeta{.help = "screenshot time, s", .names = "--at", .unit = "s", .min = 0});
+    v("fps", fps, OptionMeta{.help = "video frames per simulated second (default 30)", .min = 0});
+    v("size", size, OptionMeta{.help = "frame size WxH (default 640x360; a screenshot 1280x720)"});
+    v("camera", camera, OptionMeta{.help = "follow or free (default: the scenario's)"});
     v("debug_draw", debug_draw,
-      {.help = "on draws the COM, contacts, markers, planner path and reference ghost "
-               "(default off)"});
+      OptionMeta{.help = "on draws the COM, contacts, markers, planner path and reference ghost "
+                         "(default off)"});
     v("export_bvh", export_bvh,
-      {.help = "mocap_tracker / mocap_retarget: write the simulated motion"});
+      OptionMeta{.help = "mocap_tracker / mocap_retarget: write the simulated motion"});
   }
 };
 int run_command(const RunCommand& cmd, const RunObserverMaker& observe = {});
@@ -107,13 +110,14 @@ struct ViewCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
-    v("engine", engine, {.help = "mujoco or dart (default: the scenario's)"});
+    v("scenario", scenario,
+      OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
+    v("engine", engine, OptionMeta{.help = "mujoco or dart (default: the scenario's)"});
     v("quit_after_s", quit_after_s,
-      {.help = "close after S s of wall time and print the pace (benchmarks)",
-       .names = "--quit-after",
-       .unit = "s"});
-    v("sets", sets, {.help = "override a parameter: key.path=value", .names = "--set"});
+      OptionMeta{.help = "close after S s of wall time and print the pace (benchmarks)",
+                 .names = "--quit-after",
+                 .unit = "s"});
+    v("sets", sets, OptionMeta{.help = "override a parameter: key.path=value", .names = "--set"});
   }
 };
 
@@ -128,11 +132,11 @@ struct ScreenshotsCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("dir", dir, {.help = "scenario folder"});
-    v("out", out, {.help = "image folder"});
-    v("at", at, {.help = "simulated time of each picture, s", .unit = "s", .min = 0});
-    v("size", size, {.help = "WxH (GIFs: default 480x300)"});
-    v("gif", gif, {.help = "short looping GIFs of the seed systems instead"});
+    v("dir", dir, OptionMeta{.help = "scenario folder"});
+    v("out", out, OptionMeta{.help = "image folder"});
+    v("at", at, OptionMeta{.help = "simulated time of each picture, s", .unit = "s", .min = 0});
+    v("size", size, OptionMeta{.help = "WxH (GIFs: default 480x300)"});
+    v("gif", gif, OptionMeta{.help = "short looping GIFs of the seed systems instead"});
   }
 };
 
@@ -144,9 +148,10 @@ struct InfoCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("model", model, {.help = "MJCF, URDF or SKEL file", .names = "model", .required = true});
-    v("engine", engine, {.help = "mujoco or dart"});
-    v("json", json, {.help = "print JSON"});
+    v("model", model,
+      OptionMeta{.help = "MJCF, URDF or SKEL file", .names = "model", .required = true});
+    v("engine", engine, OptionMeta{.help = "mujoco or dart"});
+    v("json", json, OptionMeta{.help = "print JSON"});
   }
 };
 int info_command(const InfoCommand& cmd);
@@ -158,8 +163,9 @@ struct ConvertCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("input", input, {.help = ".skel file", .names = "input", .required = true});
-    v("output", output, {.help = "MJCF file to write", .names = "output", .required = true});
+    v("input", input, OptionMeta{.help = ".skel file", .names = "input", .required = true});
+    v("output", output,
+      OptionMeta{.help = "MJCF file to write", .names = "output", .required = true});
   }
 };
 int convert_command(const std::string& in_path, const std::string& out_path);
@@ -174,8 +180,8 @@ struct BvhInfoCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("file", file, {.help = "BVH file", .names = "file", .required = true});
-    v("json", json, {.help = "print JSON"});
+    v("file", file, OptionMeta{.help = "BVH file", .names = "file", .required = true});
+    v("json", json, OptionMeta{.help = "print JSON"});
   }
 };
 int bvh_info_command(const std::string& path, bool json);
@@ -193,17 +199,20 @@ struct Bvh2MjcfCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("bvh", bvh, {.help = "BVH file", .names = "input", .required = true});
-    v("mjcf", mjcf, {.help = "MJCF file to write", .names = "output", .required = true});
-    v("mass_kg", mass_kg, {.help = "total mass, kg", .names = "--mass", .unit = "kg", .min = 0});
+    v("bvh", bvh, OptionMeta{.help = "BVH file", .names = "input", .required = true});
+    v("mjcf", mjcf, OptionMeta{.help = "MJCF file to write", .names = "output", .required = true});
+    v("mass_kg", mass_kg,
+      OptionMeta{.help = "total mass, kg", .names = "--mass", .unit = "kg", .min = 0});
     v("first_frame", first_frame,
-      {.help = "frame of the start keyframe (default: after a leading T-pose)", .min = 0});
+      OptionMeta{.help = "frame of the start keyframe (default: after a leading T-pose)",
+                 .min = 0});
     v("timestep_s", timestep_s,
-      {.help = "simulation timestep, s", .names = "--timestep", .unit = "s", .min = 0});
+      OptionMeta{.help = "simulation timestep, s", .names = "--timestep", .unit = "s", .min = 0});
     v("human_limits", human_limits,
-      {.help = "human-like joint torque limits, scaled by --mass (docs/mocap.md)"});
+      OptionMeta{.help = "human-like joint torque limits, scaled by --mass (docs/mocap.md)"});
     v("scale_to_meters", scale_to_meters,
-      {.help = "metres per file unit (default: detected from the legs)", .unit = "m", .min = 0});
+      OptionMeta{
+          .help = "metres per file unit (default: detected from the legs)", .unit = "m", .min = 0});
   }
 };
 int bvh2mjcf_command(const Bvh2MjcfCommand& cmd);
@@ -215,7 +224,8 @@ struct BvhSynthCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("output", output, {.help = "BVH file to write", .names = "output", .required = true});
+    v("output", output,
+      OptionMeta{.help = "BVH file to write", .names = "output", .required = true});
   }
 };
 int bvh_synth_command(const std::string& out_path, bool run);
@@ -234,16 +244,16 @@ struct BvhRetargetCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("bvh", bvh, {.help = "BVH file", .names = "input", .required = true});
-    v("out", out, {.help = "CSV file to write", .names = "output", .required = true});
-    v("map", map, {.help = "YAML joint map", .required = true});
-    v("model", model, {.help = "model file (MJCF, URDF, SKEL)", .required = true});
-    v("engine", engine, {.help = "mujoco or dart"});
-    v("loop", loop, {.help = "repeat the clip for --duration"});
+    v("bvh", bvh, OptionMeta{.help = "BVH file", .names = "input", .required = true});
+    v("out", out, OptionMeta{.help = "CSV file to write", .names = "output", .required = true});
+    v("map", map, OptionMeta{.help = "YAML joint map", .required = true});
+    v("model", model, OptionMeta{.help = "model file (MJCF, URDF, SKEL)", .required = true});
+    v("engine", engine, OptionMeta{.help = "mujoco or dart"});
+    v("loop", loop, OptionMeta{.help = "repeat the clip for --duration"});
     v("duration_s", duration_s,
-      {.help = "seconds to write", .names = "--duration", .unit = "s", .min = 0});
-    v("first_frame", first_frame, {.help = "first frame of the range", .min = 0});
-    v("last_frame", last_frame, {.help = "last frame (-1: the end)", .min = -1});
+      OptionMeta{.help = "seconds to write", .names = "--duration", .unit = "s", .min = 0});
+    v("first_frame", first_frame, OptionMeta{.help = "first frame of the range", .min = 0});
+    v("last_frame", last_frame, OptionMeta{.help = "last frame (-1: the end)", .min = -1});
   }
 };
 int bvh_retarget_command(const BvhRetargetCommand& cmd);
@@ -286,9 +296,10 @@ struct ListCommand {
   template <class V>
   void visit(V& v) {
     v("what", what,
-      {.help = "a scenario folder (default scenarios), 'controllers' or a controller type: its "
-               "parameters with unit, range and help",
-       .names = "what"});
+      OptionMeta{
+          .help = "a scenario folder (default scenarios), 'controllers' or a controller type: its "
+                  "parameters with unit, range and help",
+          .names = "what"});
   }
 };
 int list_command(const std::string& what);
@@ -315,22 +326,26 @@ struct SweepCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
-    v("param", param, {.help = "key path to sweep, as in --set"});
-    v("from", from, {.help = "first value"});
-    v("to", to, {.help = "last value"});
-    v("steps", steps, {.help = "number of values from..to", .min = 1});
-    v("values", values, {.help = "comma-separated values instead of from/to/steps"});
-    v("threads", threads, {.help = "worker threads (default: all cores)", .min = 0});
-    v("engine", engine, {.help = "mujoco or dart (default: the scenario's)"});
-    v("duration", duration, {.help = "simulated seconds per run", .unit = "s", .min = 0});
-    v("sets", sets, {.help = "override for every run: key.path=value", .names = "--set"});
-    v("out_dir", out_dir, {.help = "output folder (sweep.csv, points.csv, PNG)", .names = "--out"});
+    v("scenario", scenario,
+      OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
+    v("param", param, OptionMeta{.help = "key path to sweep, as in --set"});
+    v("from", from, OptionMeta{.help = "first value"});
+    v("to", to, OptionMeta{.help = "last value"});
+    v("steps", steps, OptionMeta{.help = "number of values from..to", .min = 1});
+    v("values", values, OptionMeta{.help = "comma-separated values instead of from/to/steps"});
+    v("threads", threads, OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
+    v("engine", engine, OptionMeta{.help = "mujoco or dart (default: the scenario's)"});
+    v("duration", duration, OptionMeta{.help = "simulated seconds per run", .unit = "s", .min = 0});
+    v("sets", sets, OptionMeta{.help = "override for every run: key.path=value", .names = "--set"});
+    v("out_dir", out_dir,
+      OptionMeta{.help = "output folder (sweep.csv, points.csv, PNG)", .names = "--out"});
     v("plot", plot,
-      {.help = "plot a list metric against the value (gnuplot)", .names = "--plot,!--no-plot"});
-    v("plot_metric", plot_metric, {.help = "list metric to plot"});
-    v("quiet", quiet, {.help = "no progress lines"});
-    v("resume", resume, {.help = "finish an interrupted sweep in this folder (same options)"});
+      OptionMeta{.help = "plot a list metric against the value (gnuplot)",
+                 .names = "--plot,!--no-plot"});
+    v("plot_metric", plot_metric, OptionMeta{.help = "list metric to plot"});
+    v("quiet", quiet, OptionMeta{.help = "no progress lines"});
+    v("resume", resume,
+      OptionMeta{.help = "finish an interrupted sweep in this folder (same options)"});
   }
 };
 int sweep_command(const SweepCommand& cmd);
@@ -355,20 +370,23 @@ struct PushThresholdCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
-    v("body", body, {.help = "body to push", .required = true});
-    v("axis", axis, {.help = "x, y or z (world)"});
-    v("engine", engine, {.help = "mujoco or dart"});
-    v("duration", duration, {.help = "seconds per run", .unit = "s", .min = 0});
-    v("sets", sets, {.help = "override: key.path=value", .names = "--set"});
-    v("max_force", max_force, {.help = "largest force tried, N", .names = "--max", .unit = "N"});
+    v("scenario", scenario,
+      OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
+    v("body", body, OptionMeta{.help = "body to push", .required = true});
+    v("axis", axis, OptionMeta{.help = "x, y or z (world)"});
+    v("engine", engine, OptionMeta{.help = "mujoco or dart"});
+    v("duration", duration, OptionMeta{.help = "seconds per run", .unit = "s", .min = 0});
+    v("sets", sets, OptionMeta{.help = "override: key.path=value", .names = "--set"});
+    v("max_force", max_force,
+      OptionMeta{.help = "largest force tried, N", .names = "--max", .unit = "N"});
     v("push_duration", push_duration,
-      {.help = "push, s", .names = "--push-duration,--duration-push", .unit = "s"});
-    v("point", point, {.help = "where the push acts: com, origin or x,y,z (body frame, m)"});
-    v("at", at, {.help = "push start, s", .unit = "s", .min = 0});
-    v("tolerance", tolerance, {.help = "bracket width, N", .unit = "N"});
-    v("threads", threads, {.help = "2: both directions at once, 1: one after the other"});
-    v("quiet", quiet, {.help = "no line per trial"});
+      OptionMeta{.help = "push, s", .names = "--push-duration,--duration-push", .unit = "s"});
+    v("point", point,
+      OptionMeta{.help = "where the push acts: com, origin or x,y,z (body frame, m)"});
+    v("at", at, OptionMeta{.help = "push start, s", .unit = "s", .min = 0});
+    v("tolerance", tolerance, OptionMeta{.help = "bracket width, N", .unit = "N"});
+    v("threads", threads, OptionMeta{.help = "2: both directions at once, 1: one after the other"});
+    v("quiet", quiet, OptionMeta{.help = "no line per trial"});
   }
 };
 int push_threshold_command(const PushThresholdCommand& cmd);
@@ -401,31 +419,38 @@ struct RobustnessCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
-    v("body", body, {.help = "body to push", .required = true});
-    v("directions", directions, {.help = "directions in the horizontal plane", .min = 1});
-    v("phases", phases, {.help = "gait phases (walkers) or push start times (standing)", .min = 1});
+    v("scenario", scenario,
+      OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
+    v("body", body, OptionMeta{.help = "body to push", .required = true});
+    v("directions", directions, OptionMeta{.help = "directions in the horizontal plane", .min = 1});
+    v("phases", phases,
+      OptionMeta{.help = "gait phases (walkers) or push start times (standing)", .min = 1});
     v("push_duration", push_duration,
-      {.help = "push, s", .names = "--push-duration,--duration-push", .unit = "s"});
-    v("max_force", max_force, {.help = "largest force tried, N", .names = "--max", .unit = "N"});
-    v("tolerance", tolerance, {.help = "bracket width, N", .unit = "N"});
-    v("at", at, {.help = "s: first push start (standing) or warm-up (walkers)", .unit = "s"});
+      OptionMeta{.help = "push, s", .names = "--push-duration,--duration-push", .unit = "s"});
+    v("max_force", max_force,
+      OptionMeta{.help = "largest force tried, N", .names = "--max", .unit = "N"});
+    v("tolerance", tolerance, OptionMeta{.help = "bracket width, N", .unit = "N"});
+    v("at", at,
+      OptionMeta{.help = "s: first push start (standing) or warm-up (walkers)", .unit = "s"});
     v("phase_spacing", phase_spacing,
-      {.help = "s between a standing scenario's push starts", .unit = "s"});
+      OptionMeta{.help = "s between a standing scenario's push starts", .unit = "s"});
     v("recovery_window", recovery_window,
-      {.help = "s after the push in which steps are counted", .unit = "s"});
-    v("max_steps", max_steps, {.help = "recovery steps allowed before outcome 3", .min = 0});
-    v("point", point, {.help = "where the push acts: com, origin or x,y,z (body frame, m)"});
-    v("engine", engine, {.help = "mujoco or dart"});
-    v("duration", duration, {.help = "seconds per run", .unit = "s", .min = 0});
-    v("sets", sets, {.help = "override: key.path=value", .names = "--set"});
-    v("threads", threads, {.help = "worker threads (default: all cores)", .min = 0});
+      OptionMeta{.help = "s after the push in which steps are counted", .unit = "s"});
+    v("max_steps", max_steps,
+      OptionMeta{.help = "recovery steps allowed before outcome 3", .min = 0});
+    v("point", point,
+      OptionMeta{.help = "where the push acts: com, origin or x,y,z (body frame, m)"});
+    v("engine", engine, OptionMeta{.help = "mujoco or dart"});
+    v("duration", duration, OptionMeta{.help = "seconds per run", .unit = "s", .min = 0});
+    v("sets", sets, OptionMeta{.help = "override: key.path=value", .names = "--set"});
+    v("threads", threads, OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
     v("out_dir", out_dir,
-      {.help = "output folder (robustness.csv, thresholds.csv, summary.json, PNG)",
-       .names = "--out"});
-    v("resume", resume, {.help = "finish an interrupted run in this folder (same options)"});
-    v("plot", plot, {.help = "the polar plot (gnuplot)", .names = "--plot,!--no-plot"});
-    v("quiet", quiet, {.help = "no line per direction and phase"});
+      OptionMeta{.help = "output folder (robustness.csv, thresholds.csv, summary.json, PNG)",
+                 .names = "--out"});
+    v("resume", resume,
+      OptionMeta{.help = "finish an interrupted run in this folder (same options)"});
+    v("plot", plot, OptionMeta{.help = "the polar plot (gnuplot)", .names = "--plot,!--no-plot"});
+    v("quiet", quiet, OptionMeta{.help = "no line per direction and phase"});
   }
 };
 int robustness_command(const RobustnessCommand& cmd);
@@ -455,26 +480,30 @@ struct TuneCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("scenario", scenario, {.help = "scenario YAML", .names = "scenario", .required = true});
-    v("params", params, {.help = "searched parameter: key.path=lo:hi[:log]", .names = "--param"});
+    v("scenario", scenario,
+      OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
+    v("params", params,
+      OptionMeta{.help = "searched parameter: key.path=lo:hi[:log]", .names = "--param"});
     v("neighbours", neighbours,
-      {.help = "a perturbed run scored too: \"k*=0.85,k2=0.001\" (repeatable)",
-       .names = "--neighbour,--neighbor"});
-    v("budget", budget, {.help = "candidates in all", .min = 1});
-    v("population", population, {.help = "candidates per generation", .min = 2});
-    v("seed", seed, {.help = "random seed of the search", .min = 0});
-    v("threads", threads, {.help = "worker threads (default: all cores)", .min = 0});
-    v("engine", engine, {.help = "mujoco or dart (default: the scenario's)"});
-    v("duration", duration, {.help = "simulated seconds per run", .unit = "s", .min = 0});
+      OptionMeta{.help = "a perturbed run scored too: \"k*=0.85,k2=0.001\" (repeatable)",
+                 .names = "--neighbour,--neighbor"});
+    v("budget", budget, OptionMeta{.help = "candidates in all", .min = 1});
+    v("population", population, OptionMeta{.help = "candidates per generation", .min = 2});
+    v("seed", seed, OptionMeta{.help = "random seed of the search", .min = 0});
+    v("threads", threads, OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
+    v("engine", engine, OptionMeta{.help = "mujoco or dart (default: the scenario's)"});
+    v("duration", duration, OptionMeta{.help = "simulated seconds per run", .unit = "s", .min = 0});
     v("metric", metric,
-      {.help = "summary metric added to the score, e.g. mocap.mean_joint_error_deg"});
-    v("fall_penalty", fall_penalty, {.help = "score per second of the duration not stayed up"});
-    v("sets", sets, {.help = "override for every run: key.path=value", .names = "--set"});
-    v("method", method, {.help = "search: cem (default) or cmaes"});
-    v("out_dir", out_dir, {.help = "output folder (tune.csv, best.yaml)", .names = "--out"});
+      OptionMeta{.help = "summary metric added to the score, e.g. mocap.mean_joint_error_deg"});
+    v("fall_penalty", fall_penalty,
+      OptionMeta{.help = "score per second of the duration not stayed up"});
+    v("sets", sets, OptionMeta{.help = "override for every run: key.path=value", .names = "--set"});
+    v("method", method, OptionMeta{.help = "search: cem (default) or cmaes"});
+    v("out_dir", out_dir,
+      OptionMeta{.help = "output folder (tune.csv, best.yaml)", .names = "--out"});
     v("resume", resume,
-      {.help = "folder of an interrupted tune: go on from its last finished generation"});
-    v("quiet", quiet, {.help = "no progress lines"});
+      OptionMeta{.help = "folder of an interrupted tune: go on from its last finished generation"});
+    v("quiet", quiet, OptionMeta{.help = "no progress lines"});
   }
 };
 int tune_command(const TuneCommand& cmd);
