@@ -96,7 +96,7 @@ void add_run_commands(CLI::App& app, Cli& c) {
   stance::add_cli_options(*c.convert_cmd, c.convert);
 }
 
-// bvh info/synth/retarget/track, bvh2mjcf, run --export-bvh, list
+// bvh info/synth/retarget/track, bvh2mjcf, list
 void add_bvh_commands(CLI::App& app, Cli& c) {
   c.bvh_cmd = app.add_subcommand("bvh", "motion-capture files");
   c.bvh_cmd->require_subcommand(1);
