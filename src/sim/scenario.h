@@ -121,7 +121,7 @@ struct Scenario {
   int seed = 0;
   double torque_scale = 1;  // multiplies the summed controller torques (seed: 0.8)
   // clamp the summed generalised forces to the model's limits (engine.h: force_limit): "auto"
-  // on URDF/SDF models only, "on", "off"
+  // wherever the model gives a limit (URDF/SDF effort, MJCF actuator ranges), "on", "off"
   std::string torque_limits = "auto";
   std::vector<Perturbation> perturbations;
   FallCriterion fall;
@@ -151,7 +151,7 @@ struct Scenario {
     v("seed", seed, {.min = 0});
     v("torque_scale", torque_scale, {.min = 0, .max = 10});
     v("torque_limits", torque_limits,
-      {.help = "clamp torques to the model's limits: auto (URDF/SDF models), on or off"});
+      {.help = "clamp torques to the model's limits: auto (where the model has any), on or off"});
     v("perturbations", perturbations);
     v("fall", fall);
     v("log", log);

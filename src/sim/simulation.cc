@@ -421,6 +421,13 @@ RunResult Simulation::result() const {
     m.update(nlohmann::json::parse(s.controller_metrics_at_fall));
   else
     add_controller_metrics(m);
+  // a success on a model with limits is one within them: an unclamped request over one voids it
+  if (!model_->clamp_torques && s.peak_limit_ratio > 1)
+    for (auto& [name, metrics] : m.items())
+      if (metrics.is_object() && metrics.value("success", false)) {
+        metrics["success"] = false;
+        metrics["success_voided"] = "torques over the model's limits (torque_limits: off)";
+      }
   if (model_->plans) {
     const CorrectionPlan& plan = s.plan;
     nlohmann::json& pm = m["planner"];

@@ -355,15 +355,12 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
     m->up = Eigen::Vector3d::UnitZ();
   else if (g.norm() > 0)
     m->up = -g.normalized();
-  // torque limits: per dof from its joint; clamped on URDF/SDF models unless asked otherwise
+  // torque limits: per dof from its joint (URDF/SDF effort, MJCF actuators, actuatorfrcrange);
+  // clamped wherever the model gives one unless asked otherwise
   m->force_limit.resize(e.nv());
   for (int d = 0; d < e.nv(); ++d) m->force_limit[d] = e.joint(e.dof_joint(d)).force_limit;
-  bool robot_model = false;
-  for (const auto& mf : sc.model) {
-    const ModelFormat f = model_format(mf.file);
-    robot_model = robot_model || f == ModelFormat::kUrdf || f == ModelFormat::kSdf;
-  }
-  m->clamp_torques = sc.torque_limits == "on" || (sc.torque_limits == "auto" && robot_model);
+  m->clamp_torques = sc.torque_limits == "on" || (sc.torque_limits == "auto" &&
+                                                  m->force_limit.array().isFinite().any());
   e.save_state(m->initial);
   for (const auto& c : m->controllers)
     if (const Reporting* r = c->as<Reporting>()) r->signal_names(m->signal_names);
