@@ -1,5 +1,6 @@
 // DART's Atlas (URDF, box feet fitted to its STL meshes) stands on the ground under stable PD on
-// both engines, at the shipped gains and nearby, and the two engines agree on where it stands.
+// both engines, at the shipped gains and nearby, within its effort limits, and the two engines
+// agree on where it stands.
 #include <gtest/gtest.h>
 
 #include <filesystem>
@@ -43,6 +44,10 @@ TEST(AtlasStand, StandsOnBothEnginesAtTheGainsAndNearby) {
       EXPECT_LT(s.result.metrics["com_displacement_m"].get<double>(), 0.05) << what;
       // the feet rest on the ground: the COM stays at its start height, 1.149 m
       EXPECT_NEAR(s.com.z(), 1.149, 0.02) << what;
+      // no torque asked for reaches a limit: the soles start on the ground (from 3 mm above,
+      // DART's touchdown asked 1.33x l_leg_hpx's 180 N m)
+      EXPECT_LT(s.result.metrics["torque_limit"]["peak_ratio"].get<double>(), 1) << what;
+      EXPECT_EQ(s.result.metrics["torque_limit"]["clamped_steps"].get<long>(), 0) << what;
     }
   }
 }
