@@ -7,6 +7,27 @@
 
 namespace stance {
 
+namespace {
+// Mesa's software rasterisers: no GPU (Xvfb, CI, containers)
+bool software_renderer() {
+  const auto* name = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
+  const std::string renderer = name ? name : "";
+  for (const char* software : {"llvmpipe", "softpipe", "swrast"})
+    if (renderer.find(software) != std::string::npos) return true;
+  return false;
+}
+
+// a window with its context current; throws EnvironmentError
+GLFWwindow* open_window(const ViewerOptions& o, const std::string& title, bool multisample) {
+  glfwWindowHint(GLFW_VISIBLE, o.visible ? GLFW_TRUE : GLFW_FALSE);
+  glfwWindowHint(GLFW_SAMPLES, multisample ? 4 : 0);
+  GLFWwindow* window = glfwCreateWindow(o.width, o.height, title.c_str(), nullptr, nullptr);
+  if (!window) throw EnvironmentError("cannot open a window (no display? try xvfb-run)");
+  glfwMakeContextCurrent(window);
+  return window;
+}
+}  // namespace
+
 Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options)
     : Viewer(loaded, options, nullptr) {}
 
@@ -23,15 +44,22 @@ Viewer::Viewer(const LoadedScenario& loaded, const ViewerOptions& options,
   s.run = run ? std::move(run) : std::make_unique<Simulation>(loaded, ro);
 
   if (!glfwInit()) throw EnvironmentError("cannot initialise GLFW (no display? try xvfb-run)");
-  glfwWindowHint(GLFW_VISIBLE, options.visible ? GLFW_TRUE : GLFW_FALSE);
-  glfwWindowHint(GLFW_SAMPLES, 4);
-  s.window =
-      glfwCreateWindow(options.width, options.height,
-                       fmt::format("stance: {}", loaded.scenario.name).c_str(), nullptr, nullptr);
-  if (!s.window) throw EnvironmentError("cannot open a window (no display? try xvfb-run)");
-  glfwMakeContextCurrent(s.window);
+  const std::string title = fmt::format("stance: {}", loaded.scenario.name);
+  s.window = open_window(options, title, !options.quick_look.value_or(false));
+  s.quick_look = options.quick_look.value_or(software_renderer());
+  if (s.quick_look && !options.quick_look) {
+    // the renderer is known once a context exists: again, without multisampling
+    glfwDestroyWindow(s.window);
+    s.window = open_window(options, title, false);
+  }
   glfwSwapInterval(options.threaded ? 1 : 0);
-  s.view = std::make_unique<SceneView>(*s.run, 640, 480, options.scene_look);
+  // frames at most at the display's rate, and at most 60 a second (30 in software rendering,
+  // where each frame takes CPU from the physics)
+  GLFWmonitor* monitor = glfwGetPrimaryMonitor();
+  const GLFWvidmode* mode = monitor ? glfwGetVideoMode(monitor) : nullptr;
+  const int refresh_hz = mode && mode->refreshRate > 0 ? mode->refreshRate : 60;
+  s.frame_period_s = 1.0 / std::clamp(refresh_hz, 1, s.quick_look ? 30 : 60);
+  s.view = std::make_unique<SceneView>(*s.run, 640, 480, options.scene_look, s.quick_look);
 
   Engine& e = s.run->engine();
   Eigen::Vector3d g = e.gravity();
@@ -176,17 +204,13 @@ void Viewer::frame() {
   ImGui::Render();
   s.view->render_window(width, height, overlay);
   ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
-  // keep what is shown, for screenshots
-  s.frame_w = width;
-  s.frame_h = height;
-  std::vector<unsigned char> bottom_up(static_cast<size_t>(width) * height * 3);
-  glPixelStorei(GL_PACK_ALIGNMENT, 1);
-  glReadBuffer(GL_BACK);
-  glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, bottom_up.data());
-  s.frame_rgb.resize(bottom_up.size());
-  size_t row = static_cast<size_t>(width) * 3;
-  for (int y = 0; y < height; ++y)
-    std::copy_n(bottom_up.data() + (height - 1 - y) * row, row, s.frame_rgb.data() + y * row);
+  // keep what is shown when it is asked for (a running window's frames only then: a read-back
+  // of every frame costs a software renderer a few ms)
+  if (!s.options.threaded || record_frame || s.capture_png) s.keep_frame(width, height);
+  if (s.capture_png) {
+    std::lock_guard<std::mutex> lock(s.mutex);
+    s.save_png();
+  }
   if (record_frame) {
     std::lock_guard<std::mutex> lock(s.mutex);
     try {
@@ -197,6 +221,10 @@ void Viewer::frame() {
     }
   }
   glfwSwapBuffers(s.window);
+}
+
+bool Viewer::quick_look() const {
+  return impl_->quick_look;
 }
 
 bool Viewer::recording() const {

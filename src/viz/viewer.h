@@ -27,6 +27,7 @@
 
 #include <Eigen/Core>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -49,6 +50,10 @@ struct ViewerOptions {
   double record_fps = 60;         // frames per simulated second of the r key's MP4
   bool scene_look = true;         // stance's sky, floor and shadows (viz/scene_look.h)
   double quit_after_s = 0;        // run() returns after this much wall time; 0: when closed
+  // no shadows and no multisampling: a third of a frame's time in software rendering (Mesa's
+  // llvmpipe, e.g. under Xvfb), whose frames would take the planner's cores. Empty: when the
+  // renderer is a software one
+  std::optional<bool> quick_look;
 };
 
 class Viewer {
@@ -79,6 +84,8 @@ class Viewer {
   // the last frame as it was shown (rgb, top row first); false when no frame was drawn yet
   bool screenshot(const std::string& png_path) const;
   const std::vector<unsigned char>& last_frame(int& width, int& height) const;
+  // true when drawn without shadows and multisampling (ViewerOptions::quick_look)
+  bool quick_look() const;
 
   // the parameter panel's path: set controller `index`'s parameter `path` (rebuilds it)
   void set_param(int index, const std::string& path, double value);

@@ -93,6 +93,9 @@ struct Viewer::Impl {
   std::string status;
   std::vector<unsigned char> frame_rgb;
   int frame_w = 0, frame_h = 0;
+  bool quick_look = false;   // no shadows, no multisampling (ViewerOptions::quick_look)
+  double frame_period_s = 1.0 / 60;  // the display's refresh period, at least 1/60 s (1/30 quick)
+  bool capture_png = false;  // the i key on a running window: save the next frame
   // mouse
   bool button_left = false, button_right = false;
   double last_x = 0, last_y = 0;
@@ -119,6 +122,39 @@ struct Viewer::Impl {
   std::string last_capture;
 
   // <capture_dir>/<scenario>_<n><ext>, the first n not taken
+  // the window's back buffer (rgb, top row first) into frame_rgb
+  void keep_frame(int width, int height) {
+    frame_w = width;
+    frame_h = height;
+    std::vector<unsigned char> bottom_up(static_cast<size_t>(width) * height * 3);
+    glPixelStorei(GL_PACK_ALIGNMENT, 1);
+    glReadBuffer(GL_BACK);
+    glReadPixels(0, 0, width, height, GL_RGB, GL_UNSIGNED_BYTE, bottom_up.data());
+    frame_rgb.resize(bottom_up.size());
+    const size_t row = static_cast<size_t>(width) * 3;
+    for (int y = 0; y < height; ++y)
+      std::copy_n(bottom_up.data() + (height - 1 - y) * row, row, frame_rgb.data() + y * row);
+  }
+
+  // the i key: the kept frame as <capture_dir>/<scenario>_<n>.png, said in the status line
+  void save_png() {
+    capture_png = false;
+    if (frame_rgb.empty()) {
+      status = "no frame drawn yet";
+      return;
+    }
+    try {
+      std::string path = next_capture_path(".png");
+      write_png(path, frame_w, frame_h, frame_rgb.data());
+      last_capture = path;
+      status = fmt::format("wrote {} ({}x{}, t = {:.3f} s)", path, frame_w, frame_h,
+                           run->engine().time());
+    } catch (const std::exception& err) {
+      status = err.what();
+    }
+    std::cout << status << std::endl;
+  }
+
   std::string next_capture_path(const std::string& ext) const {
     std::filesystem::path dir(options.capture_dir.empty() ? "." : options.capture_dir);
     std::string stem = loaded.scenario.name.empty() ? "stance" : loaded.scenario.name;
@@ -366,10 +402,10 @@ struct Viewer::Impl {
     }
   }
 
-  // at most 60 frames a second; while the physics cannot keep pace, the window takes at most a
+  // at most the display's rate; while the physics cannot keep pace, the window takes at most a
   // quarter of the wall time (software rendering would otherwise starve the planner's threads)
   void rest_after_frame(double frame_s) const {
-    double rest = 1.0 / 60 - frame_s;
+    double rest = frame_period_s - frame_s;
     bool behind;
     {
       std::lock_guard<std::mutex> lock(mutex);

@@ -110,20 +110,11 @@ void Viewer::key(int k) {
       }
       break;
     case GLFW_KEY_I:
-      if (s.frame_rgb.empty()) {
-        s.status = "no frame drawn yet";
-        break;
-      }
-      try {
-        std::string path = s.next_capture_path(".png");
-        write_png(path, s.frame_w, s.frame_h, s.frame_rgb.data());
-        s.last_capture = path;
-        s.status =
-            fmt::format("wrote {} ({}x{}, t = {:.3f} s)", path, s.frame_w, s.frame_h, e.time());
-      } catch (const std::exception& err) {
-        s.status = err.what();
-      }
-      std::cout << s.status << std::endl;
+      // a running window keeps no frames: the next one is read back and saved
+      if (s.options.threaded && !s.recording)
+        s.capture_png = true;
+      else
+        s.save_png();
       break;
     case GLFW_KEY_COMMA:
     case GLFW_KEY_PERIOD: {

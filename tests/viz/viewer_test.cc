@@ -279,6 +279,43 @@ TEST_F(ViewerTest, PhysicsThreadAdvancesAndPauses) {
   EXPECT_GT(v.sim_time(), t);
 }
 
+// a running window reads no frame back unless asked (a read-back of every frame costs a software
+// renderer a few ms): the i key keeps and saves the next one
+TEST_F(ViewerTest, RunningWindowKeepsAFrameOnlyWhenAsked) {
+  LoadedScenario loaded = load_scenario(test::scenario_path("pd_hold.yaml"));
+  ViewerOptions o = test_options();
+  o.threaded = true;
+  o.capture_dir = (shot_dir() / "asked").string();
+  fs::remove_all(o.capture_dir);
+  fs::create_directories(o.capture_dir);
+  Viewer v(loaded, o);
+  for (int i = 0; i < 3; ++i) v.frame();
+  EXPECT_TRUE(frame_of(v).empty());
+  v.key(GLFW_KEY_I);
+  EXPECT_TRUE(v.last_capture().empty());
+  v.frame();
+  const std::string png = (fs::path(o.capture_dir) / "pd_hold_001.png").string();
+  EXPECT_EQ(v.last_capture(), png);
+  EXPECT_TRUE(fs::exists(png));
+  int w = 0, h = 0;
+  const size_t kept = v.last_frame(w, h).size();
+  EXPECT_GT(w, 0);
+  EXPECT_EQ(kept, static_cast<size_t>(w) * h * 3);
+}
+
+// software rendering (Xvfb's llvmpipe) draws the quick look unless told otherwise
+TEST_F(ViewerTest, QuickLookFollowsTheOption) {
+  LoadedScenario loaded = load_scenario(test::scenario_path("pd_hold.yaml"));
+  ViewerOptions o = test_options();
+  o.quick_look = false;
+  EXPECT_FALSE(Viewer(loaded, o).quick_look());
+  o.quick_look = true;
+  Viewer quick(loaded, o);
+  EXPECT_TRUE(quick.quick_look());
+  quick.frame();
+  EXPECT_GT(non_background_fraction(frame_of(quick)), 0.01);
+}
+
 // the mouse spring pulls the selected body towards the target, on either engine
 TEST_F(ViewerTest, DraggingABodyMovesItTowardsTheTarget) {
   LoadedScenario loaded = load_scenario(test::scenario_path("biped_stand.yaml"));
