@@ -11,7 +11,7 @@
 //  - OUT/results.md: the same as a table, and the summary line (success rate, median and
 //    90th-percentile G-MPJPE);
 //  - OUT/results.png (and results.gp, its gnuplot script with the data): the G-MPJPE distribution
-//    and each clip's root error over time as a strip;
+//    and each clip's body position error (log.csv's tracking_body_error_m) over time as a strip;
 //  - OUT/track_batch.json: the clips and options, which `--resume` checks.
 // A clip's folder holds a summary.json only once its run has finished, so a killed batch keeps
 // its finished clips and `--resume` runs the rest.
@@ -61,7 +61,8 @@ struct TrackRow {
   double compute_s_per_sim_s = kNoValue;  // wall clock: the one column that is not reproducible
   std::string error;                      // not empty: the clip was not tracked, and why
   bool internal_error = false;            // the error is a bug in stance, not the clip's
-  // the root error over time (m): the mean over each strip_bin_s from t = 0 (NaN: no sample)
+  // the body position error over time (m): the mean over each strip_bin_s from t = 0 (NaN: no
+  // sample)
   double strip_bin_s = 0;
   std::vector<double> strip;
   bool done = false;  // finished (false: interrupted or not started)

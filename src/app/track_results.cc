@@ -42,8 +42,8 @@ std::vector<std::string> split_csv_line(const std::string& line) {
   return cells;
 }
 
-// log.csv's mocap_root_error_m as the mean over each bin of time
-void read_root_error_strip(const fs::path& log, TrackRow& row) {
+// log.csv's tracking_body_error_m (G-MPJPE's per-step term) as the mean over each bin of time
+void read_body_error_strip(const fs::path& log, TrackRow& row) {
   std::ifstream in(log);
   std::string line;
   if (!std::getline(in, line)) return;
@@ -51,7 +51,7 @@ void read_root_error_strip(const fs::path& log, TrackRow& row) {
   const auto column = [&](const char* name) {
     return static_cast<int>(std::find(header.begin(), header.end(), name) - header.begin());
   };
-  const int time_col = column("time"), error_col = column("mocap_root_error_m");
+  const int time_col = column("time"), error_col = column("tracking_body_error_m");
   const int width = static_cast<int>(header.size());
   if (time_col >= width || error_col >= width) return;
   std::vector<std::pair<double, double>> samples;
@@ -217,7 +217,8 @@ std::string track_plot_script(const TrackBatchResult& result) {
       0.9 * binw, (counts.rbegin()->first + 1) * binw, most + 1, std::max(1, (most + 4) / 5));
   s += fmt::format(
       "set size 1,{0:.4f}\nset origin 0,0\nunset grid\n"
-      "set title 'root error over time (m), one strip per clip'\nset xlabel 'time (s)'\n"
+      "set title 'body position error (m, G-MPJPE per step) over time, one strip per clip'\n"
+      "set xlabel 'time (s)'\n"
       "unset ylabel\nset xrange [0:{1:.9g}]\nset yrange [{2}-0.5:-0.5]\nset cbrange [0:{3:.9g}]\n"
       "set palette defined (0 '#0d0887', 0.35 '#7e03a8', 0.65 '#cc4778', 0.85 '#f89540', "
       "1 '#f0f921')\n",
@@ -307,7 +308,7 @@ TrackRow read_track_row(const std::string& clip, const std::string& dir) {
   } catch (const nlohmann::json::exception&) {
     return row;  // not a summary of stance: the clip runs again
   }
-  read_root_error_strip(fs::path(dir) / "log.csv", row);
+  read_body_error_strip(fs::path(dir) / "log.csv", row);
   row.done = true;
   return row;
 }

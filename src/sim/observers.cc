@@ -18,9 +18,29 @@ CsvLog::CsvLog(const std::string& out_dir) {
   file_ = std::make_unique<AtomicFile>(std::filesystem::path(out_dir) / "log.csv");
 }
 
+namespace {
+
+// the first tracking controller's mean body position error now (the per-step quantity its
+// G-MPJPE averages); false when no controller tracks a reference
+bool tracked_body_error(const Simulation& sim, double& body_m) {
+  TrackingError error;
+  for (size_t i = 0; i < sim.controllers().size(); ++i) {
+    const auto* tracking = sim.controllers()[i]->as<Tracking>();
+    if (tracking && tracking->tracking_error(sim.controller_state(i), sim.engine(), error)) {
+      body_m = error.body_m;
+      return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
 std::vector<std::string> log_columns(const Simulation& sim) {
   std::vector<std::string> c = {"time", "com_x", "com_y", "com_z", "root_x", "root_y", "root_z"};
   for (const auto& n : sim.model().signal_names) c.push_back(n);
+  double body_m = 0;
+  if (tracked_body_error(sim, body_m)) c.push_back("tracking_body_error_m");
   for (const char* n : {"push_fx", "push_fy", "push_fz", "push_tail_x", "push_tail_y",
                         "push_tail_z", "push_head_x", "push_head_y", "push_head_z"})
     c.push_back(n);
@@ -34,6 +54,7 @@ void log_row(const Simulation& sim, std::vector<double>& row) {
   row.clear();
   row.insert(row.end(), {e.time(), c.x(), c.y(), c.z(), root.x(), root.y(), root.z()});
   sim.signals(row);
+  if (double body_m = 0; tracked_body_error(sim, body_m)) row.push_back(body_m);
   // pushes: the force and the seed's arrow (force/30, ending at the body)
   Eigen::Vector3d f = Eigen::Vector3d::Zero(), head = Eigen::Vector3d::Zero();
   bool any = false;

@@ -16,8 +16,9 @@
 namespace stance {
 
 // the log's columns: time, com_x..z, root_x..z (the first mobile body's origin), the
-// controllers' signals, push_fx..z, push_tail_x..z, push_head_x..z (the force/30, ending at the
-// pushed body, as the seed draws it)
+// controllers' signals, tracking_body_error_m when a controller tracks a reference (its mean
+// body position error at the row's time, what G-MPJPE averages), push_fx..z, push_tail_x..z,
+// push_head_x..z (the force/30, ending at the pushed body, as the seed draws it)
 std::vector<std::string> log_columns(const Simulation& sim);
 // the values of those columns now; `row` is cleared, then filled (its capacity is kept)
 void log_row(const Simulation& sim, std::vector<double>& row);

@@ -15,7 +15,7 @@ fail() {
 # a smaller planner budget than the shipped one: this checks the outputs, and it also runs in
 # the sanitizer tree, where a rollout step is many times slower
 "$stance" bvh track models/synthetic_walk.bvh --loop --duration 0.4 --threads 2 --out "$tmp/t" \
-  --set planner.samples=12 --set planner.horizon_s=0.35 \
+  --set planner.samples=12 --set planner.horizon_s=0.35 --set log.rate_hz=1e6 \
   --quiet >"$tmp/out" 2>&1 || fail "track exited $?: $(cat "$tmp/out")"
 for f in track.yaml character.xml summary.json log.csv tracked.bvh; do
   [ -s "$tmp/t/$f" ] || fail "no $f"
@@ -30,6 +30,19 @@ for k in ("mean_body_position_error_m", "success", "mean_joint_error_deg", "mean
     assert k in m, k
 assert s["metrics"]["planner"]["plans"] >= 9, s["metrics"]["planner"]
 assert abs(s["sim_time"] - 0.4) < 0.01, s["sim_time"]
+PY
+# log.csv's per-step body error (a row every step here) is what G-MPJPE averages: its mean over
+# the rows of the steps computed (all but the last, the state after the last step) is the summary's
+python3 - "$tmp/t" <<'PY' || fail "log.csv's tracking_body_error_m against summary.json"
+import csv, json, sys
+rows = list(csv.DictReader(open(sys.argv[1] + "/log.csv")))
+s = json.load(open(sys.argv[1] + "/summary.json"))
+g = s["metrics"]["mocap"]["mean_body_position_error_m"]
+errors = [float(r["tracking_body_error_m"]) for r in rows[:-1]]
+assert len(errors) == s["steps"], (len(errors), s["steps"])
+assert min(errors) >= 0 and max(errors) > min(errors), (min(errors), max(errors))
+mean = sum(errors) / len(errors)
+assert abs(mean - g) <= 1e-7 * g, (mean, g)
 PY
 # the exported motion reads back as a BVH
 "$stance" bvh info "$tmp/t/tracked.bvh" >"$tmp/info" 2>&1 || fail "tracked.bvh: $(cat "$tmp/info")"
