@@ -4,7 +4,9 @@
 #  - what --record costs: the same 2 s `stance bvh track` with and without --record, twice each,
 #    alternated; the ratio of the quicker of each pair (goal: at most 1.3);
 #  - whether the viewer keeps real time: 10 s of wall time of `stance bvh track --view` under
-#    Xvfb, the simulated time over the wall time (goal: at least 0.9). Skipped without xvfb-run.
+#    Xvfb, the simulated time over the wall time (goal: at least 0.9), beside the pace of the run
+#    alone (the same 2 s without a window) and the viewer's pace with the planner off (what the
+#    window itself costs: 1.0x when it leaves the physics enough). Skipped without xvfb-run.
 #   bench/tracking_view.sh [BUILD_DIR]
 set -euo pipefail
 root=$(cd "$(dirname "$0")/.." && pwd)
@@ -39,6 +41,7 @@ import sys
 plain, rec = [float(x) for x in sys.argv[1:3]], [float(x) for x in sys.argv[3:5]]
 print(f"--record of 2 s of the tracked walk (640x360, 30 fps): {min(rec):.2f} s against "
       f"{min(plain):.2f} s without, {min(rec) / min(plain):.2f}x (runs: {rec} / {plain}; goal 1.3x)")
+print(f"the tracked walk alone, planner on: {2 / min(plain):.3f}x real time")
 PY
 
 if ! command -v xvfb-run >/dev/null; then
@@ -52,4 +55,10 @@ if xvfb-run -a -s "-screen 0 1400x900x24" "$stance" bvh track "$clip" --loop --d
   echo "viewer on the tracked walk, planner on (Xvfb, 10 s of wall time): ${pace:-no figure} (goal 0.9x)"
 else
   echo "viewer on the tracked walk: the viewer failed: $(tail -1 "$tmp/view.txt")"
+fi
+if xvfb-run -a -s "-screen 0 1400x900x24" "$stance" bvh track "$clip" --loop --duration 600 \
+  --threads 2 --out "$tmp/view_off" --view --quit-after 10 --set planner.enabled=false \
+  >"$tmp/view_off.txt" 2>&1; then
+  pace=$(grep -o '[0-9.]*x real time' "$tmp/view_off.txt" | head -1)
+  echo "viewer on the tracked walk, planner off (the window's own cost): ${pace:-no figure}"
 fi
