@@ -138,24 +138,26 @@ void apply_effort_limits(dart::simulation::World& world,
 }  // namespace
 
 // lock_joints on MJCF (the names checked by the factory): each joint becomes a weld at its zero
-// position, as MuJoCo gets the file without it. A skeleton leaves the world while its joints
-// change: the world's collision group keeps the shape frames it had (a crash in the next collide)
+// position, as MuJoCo gets the file without it. The skeletons leave the world while joints
+// change (its collision group keeps the shape frames it had: a crash in the next collide) and
+// come back in their order, so that the dofs keep theirs
 void weld_joints(dart::simulation::World& world, const BackendModel& model) {
+  if (model.lock_joints.empty()) return;
+  std::vector<SkeletonPtr> skeletons;
+  for (size_t s = 0; s < world.getNumSkeletons(); ++s) skeletons.push_back(world.getSkeleton(s));
+  for (const SkeletonPtr& skeleton : skeletons) world.removeSkeleton(skeleton);
   for (const std::string& name : model.lock_joints) {
-    SkeletonPtr skeleton;
-    for (size_t s = 0; s < world.getNumSkeletons() && !skeleton; ++s)
-      if (world.getSkeleton(s)->getJoint(name)) skeleton = world.getSkeleton(s);
-    Joint* joint = skeleton ? skeleton->getJoint(name) : nullptr;
+    Joint* joint = nullptr;
+    for (size_t s = 0; s < skeletons.size() && !joint; ++s) joint = skeletons[s]->getJoint(name);
     if (joint == nullptr || joint->getChildBodyNode() == nullptr)
       throw InputError(fmt::format("{}: lock_joints: DART has no joint '{}'", model.name, name));
     dart::dynamics::WeldJoint::Properties weld;
     weld.mName = joint->getName();
     weld.mT_ParentBodyToJoint = joint->getTransformFromParentBodyNode();
     weld.mT_ChildBodyToJoint = joint->getTransformFromChildBodyNode();
-    world.removeSkeleton(skeleton);
     joint->getChildBodyNode()->changeParentJointType<dart::dynamics::WeldJoint>(weld);
-    world.addSkeleton(skeleton);
   }
+  for (const SkeletonPtr& skeleton : skeletons) world.addSkeleton(skeleton);
 }
 
 // parses one model file into a temporary world of its own
