@@ -10,7 +10,9 @@
 #include <pybind11/stl.h>
 #include <pybind11/stl/filesystem.h>
 
+#include <atomic>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -89,6 +91,16 @@ py::dict log_arrays(const MemoryLog& log);
 // runs `sim` (max_steps < 0: to its end) with the GIL released and the log kept in memory;
 // raises DivergenceError when it diverges
 PyRunResult run_simulation(Simulation& sim, long max_steps);
+
+// ---- Ctrl-C (simulation_bindings.cc)
+// the interrupt flag of the runs the module makes (RunOptions::interrupt): set when Python's
+// signal handlers, run from the calling thread every 50 ms while C++ works, raise (SIGINT's
+// KeyboardInterrupt); cleared when a run starts
+std::atomic<bool>& python_interrupt();
+// work() on a thread of its own, the GIL released, while this thread runs Python's signal
+// handlers every 50 ms: on an exception from them (KeyboardInterrupt) python_interrupt() is set,
+// work is waited for and the exception raised
+void run_checking_signals(const std::function<void()>& work);
 
 // ---- the groups of bindings, in the order module.cc calls them
 void bind_engine(py::module_& m);      // engine_bindings.cc

@@ -247,7 +247,7 @@ PyTrackResult track_clip(const BvhTrackCommand& cmd, bool keep_out) {
   std::unique_ptr<Simulation> sim;
   {
     py::gil_scoped_release release;
-    sim = make_run_simulation(bvh_track_run(c, write_bvh_track_scenario(c)));
+    sim = make_run_simulation(bvh_track_run(c, write_bvh_track_scenario(c)), &python_interrupt());
   }
   result.run = run_simulation(*sim, -1);
   const fs::path tracked = fs::path(c.out_dir) / "tracked.bvh";

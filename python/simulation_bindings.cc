@@ -2,8 +2,12 @@
 // RunResult, and stance.view. The loop, the metrics and the files are the library's own.
 #include <fmt/format.h>
 
+#include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <mutex>
 #include <optional>
+#include <thread>
 
 #include "bindings.h"
 #include "core/error.h"
@@ -28,18 +32,90 @@ py::dict log_arrays(const MemoryLog& log) {
   return d;
 }
 
+namespace {
+
+constexpr auto kSignalCheckPeriod = std::chrono::milliseconds(50);
+
+// Python's signal handlers, run every kSignalCheckPeriod of a run from its step loop, on the
+// thread that called run() (they run on the main thread only): an exception they raise
+// (KeyboardInterrupt) is kept and the run's interrupt flag set, so it stops before its next step
+class SignalCheck final : public StepObserver {
+ public:
+  void on_start(const Simulation&) override { next_ = Clock::now() + kSignalCheckPeriod; }
+  void on_step(const Simulation&) override {
+    if (raised || Clock::now() < next_) return;
+    next_ = Clock::now() + kSignalCheckPeriod;
+    py::gil_scoped_acquire gil;
+    if (PyErr_CheckSignals() != 0) {
+      raised.emplace();  // fetches the exception
+      python_interrupt().store(true);
+    }
+  }
+  std::optional<py::error_already_set> raised;
+
+ private:
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point next_;
+};
+
+}  // namespace
+
+std::atomic<bool>& python_interrupt() {
+  static std::atomic<bool> flag{false};
+  return flag;
+}
+
+void run_checking_signals(const std::function<void()>& work) {
+  python_interrupt().store(false);
+  std::mutex mutex;
+  std::condition_variable finished_cv;
+  bool finished = false;
+  std::exception_ptr failure;
+  std::thread worker([&] {
+    try {
+      work();
+    } catch (...) {
+      failure = std::current_exception();
+    }
+    std::lock_guard<std::mutex> lock(mutex);
+    finished = true;
+    finished_cv.notify_all();
+  });
+  std::optional<py::error_already_set> raised;
+  for (bool done = false; !done;) {
+    {
+      py::gil_scoped_release release;
+      std::unique_lock<std::mutex> lock(mutex);
+      done = finished_cv.wait_for(lock, kSignalCheckPeriod, [&] { return finished; });
+    }
+    if (!done && !raised && PyErr_CheckSignals() != 0) {
+      raised.emplace();
+      python_interrupt().store(true);
+    }
+  }
+  worker.join();
+  if (raised) throw std::move(*raised);
+  if (failure) std::rethrow_exception(failure);
+}
+
 PyRunResult run_simulation(Simulation& sim, long max_steps) {
   MemoryLog log;
+  SignalCheck signals;
   sim.add_observer(&log);
+  sim.add_observer(&signals);
+  python_interrupt().store(false);
   RunResult r;
   try {
     py::gil_scoped_release release;
     r = sim.run(max_steps);
   } catch (...) {
+    sim.remove_observer(&signals);
     sim.remove_observer(&log);
     throw;
   }
+  sim.remove_observer(&signals);
   sim.remove_observer(&log);
+  if (signals.raised) throw std::move(*signals.raised);
   PyRunResult out{r, log_arrays(log)};
   if (r.diverged) raise_divergence(r, py::cast(out));
   return out;
@@ -66,6 +142,7 @@ py::object load_simulation(const PathArg& path, const py::object& overrides,
   opt.duration = duration;
   opt.out_dir = out_dir.string();
   opt.quiet = true;
+  opt.interrupt = &python_interrupt();
   for (const auto& p : pushes) opt.extra_pushes.push_back(parse_push(p));
   if (past_fall) opt.stop_after_fall_s = -1;
   std::string dir = path.parent_path().string();

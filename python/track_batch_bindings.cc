@@ -88,10 +88,8 @@ py::object track_batch(const BvhTrackCommand& track, const std::vector<std::stri
   cmd.resume = options.resume;
   cmd.plot = options.plot;
   PyTrackBatchResult result;
-  {
-    py::gil_scoped_release release;
-    result.r = run_track_batch(cmd);
-  }
+  // Ctrl-C stops the clips running and keeps the finished ones (resume=True does the rest)
+  run_checking_signals([&] { result.r = run_track_batch(cmd, &python_interrupt()); });
   if (cmd.plot) plot_results(track.out_dir, result.r);
   result.out = py::str(track.out_dir);
   return py::cast(std::move(result));
