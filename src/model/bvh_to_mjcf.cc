@@ -11,6 +11,7 @@
 
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "motion/bvh_measure.h"
 
 namespace stance {
 
@@ -38,19 +39,21 @@ std::string mjcf_quat(const Eigen::Quaterniond& q) {
 }
 
 // the sole box of a foot segment: from the heel behind the joint to the furthest bone end,
-// from the lowest bone point up to the joint (at least 3 cm tall)
-Geom foot_box(const MotionSegment& seg, const BvhCharacterOptions& o) {
+// from the lowest bone point up to the joint (at least 3 cm tall); `up` is the world's up in the
+// segment's frame as the foot stands
+Geom foot_box(const MotionSegment& seg, const BvhCharacterOptions& o, const Eigen::Vector3d& up) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
   for (const auto& e : seg.bone_ends) mean += e;
-  Eigen::Vector3d fwd(mean.x(), mean.y(), 0);
-  if (fwd.norm() < 1e-6) fwd = Eigen::Vector3d::UnitX();
+  Eigen::Vector3d fwd = mean - mean.dot(up) * up;
+  if (fwd.norm() < 1e-6) fwd = Eigen::Vector3d::UnitX() - up.x() * up;
+  if (fwd.norm() < 1e-6) fwd = Eigen::Vector3d::UnitY() - up.y() * up;
   fwd.normalize();
-  Eigen::Vector3d up = Eigen::Vector3d::UnitZ(), side = up.cross(fwd);
+  const Eigen::Vector3d side = up.cross(fwd);
   double f_min = -o.heel_length_m, f_max = 0, z_min = 0, z_max = 0;
   for (const auto& e : seg.bone_ends) {
     f_max = std::max(f_max, e.dot(fwd));
-    z_min = std::min(z_min, e.z());
-    z_max = std::max(z_max, e.z());
+    z_min = std::min(z_min, e.dot(up));
+    z_max = std::max(z_max, e.dot(up));
   }
   z_max = std::max(z_max, z_min + 0.03);
   Geom g;
@@ -61,6 +64,37 @@ Geom foot_box(const MotionSegment& seg, const BvhCharacterOptions& o) {
   axes << fwd, side, up;
   g.quat = Eigen::Quaterniond(axes);
   return g;
+}
+
+// per foot segment, the world's up in its own frame as it stands: +z where the rest pose
+// stands; else (Bandai Namco's bones lie along X) the mean over the posed frames of the clip's
+// first second from `first` in which the segment is within 2 cm of its lowest (planted)
+std::vector<Eigen::Vector3d> standing_up_of_feet(const ReferenceMotion& ref,
+                                                 const std::vector<bool>& feet, bool rest_stands,
+                                                 int first) {
+  const int n = ref.skeleton().segment_count();
+  std::vector<Eigen::Vector3d> up(n, Eigen::Vector3d::UnitZ());
+  if (rest_stands || ref.frame_count() == 0) return up;
+  first = std::clamp(first, 0, ref.frame_count() - 1);
+  const int last = std::min(ref.frame_count() - 1,
+                            first + static_cast<int>(std::ceil(1.0 / ref.frame_time_s())));
+  ReferencePose pose = ref.make_pose();
+  std::vector<std::vector<Eigen::Vector3d>> pos(last - first + 1);
+  std::vector<std::vector<Eigen::Quaterniond>> rot(last - first + 1);
+  for (int f = first; f <= last; ++f) {
+    ref.frame_pose(f, pose);
+    ref.forward_kinematics(pose, pos[f - first], rot[f - first]);
+  }
+  for (int k = 0; k < n; ++k) {
+    if (!feet[k]) continue;
+    double lowest = INFINITY;
+    for (const auto& p : pos) lowest = std::min(lowest, p[k].z());
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    for (size_t i = 0; i < pos.size(); ++i)
+      if (pos[i][k].z() <= lowest + 0.02) sum += rot[i][k].conjugate() * Eigen::Vector3d::UnitZ();
+    if (sum.norm() > 1e-9) up[k] = sum.normalized();
+  }
+  return up;
 }
 
 std::string joint_limit_attribute(const std::string& segment, const BvhCharacterOptions& o);
@@ -142,6 +176,12 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
   const MotionSkeleton& sk = ch.skeleton;
   const int n = sk.segment_count();
   const std::vector<bool> feet = foot_segments(sk);
+  // the reference: the start keyframe (t = 0) and the feet's standing pose
+  ReferenceMotion ref(clip, sk, o.reference);
+  const bool first_given = o.reference.first_frame > 0 || o.reference.start_s >= 0;
+  const std::vector<Eigen::Vector3d> sole_up = standing_up_of_feet(
+      ref, feet, measure_bvh_character(clip, sk.scale_to_meters).rest_pose_stands,
+      first_given ? 0 : detect_bvh_first_motion_frame(clip));
 
   // geometry per segment, then one density for the total mass
   std::vector<std::vector<Geom>> geoms(n);
@@ -149,7 +189,7 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
   for (int k = 0; k < n; ++k) {
     const MotionSegment& seg = sk.segments[k];
     if (feet[k] && !seg.bone_ends.empty()) {
-      geoms[k].push_back(foot_box(seg, o));
+      geoms[k].push_back(foot_box(seg, o, sole_up[k]));
       any_bone = true;
       continue;
     }
@@ -180,7 +220,6 @@ BvhCharacter make_bvh_character(const BvhClip& clip, const BvhCharacterOptions& 
   ch.density_kg_m3 = o.total_mass_kg / ch.total_volume_m3;
 
   // the start keyframe: the reference at t = 0
-  ReferenceMotion ref(clip, sk, o.reference);
   ReferencePose pose = ref.make_pose();
   ref.sample(0.0, pose);
 

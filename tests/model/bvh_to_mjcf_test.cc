@@ -6,11 +6,13 @@
 
 #include <cmath>
 #include <filesystem>
+#include <numbers>
 
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/mujoco/mujoco_engine.h"
 #include "engine/world_spec.h"
+#include "motion/clip_conventions.h"
 #include "test_support.h"
 
 namespace stance {
@@ -181,6 +183,91 @@ TEST(BvhToMjcf, StandsOnItsFeetNotOnItsShins) {
     const std::vector<std::string> touching = first_touching_bodies(clip, tag + "_rest");
     ASSERT_FALSE(touching.empty());
     for (const std::string& body : touching) EXPECT_TRUE(is_foot_segment_name(body)) << body;
+  }
+}
+
+// a foot's sole box in the world while the clip has the foot planted (its origin within 2 cm of
+// its lowest over the first second): per such frame, the box's up axis, the centre of its bottom
+// face and its half sizes, from the character's geom and the reference's forward kinematics
+struct WorldSole {
+  Eigen::Vector3d up, bottom, half;
+  double ankle_z = 0;
+};
+
+std::vector<WorldSole> planted_soles(const BvhClip& clip, const std::string& foot,
+                                     const std::string& tag) {
+  const BvhCharacter ch = make_bvh_character(clip, {});
+  WorldSpec spec;
+  spec.models.push_back({test::write_temp_file(tag + ".xml", ch.mjcf)});
+  auto engine = make_mujoco_engine(spec);
+  const mjModel* m = dynamic_cast<MujocoEngine*>(engine.get())->model();
+  const int g = mj_name2id(m, mjOBJ_GEOM, (foot + "_0").c_str());
+  const int k = ch.skeleton.find_segment(foot);
+  EXPECT_TRUE(g >= 0 && k >= 0) << foot;
+  if (g < 0 || k < 0) return {};
+  const Eigen::Vector3d local_pos(m->geom_pos[3 * g], m->geom_pos[3 * g + 1],
+                                  m->geom_pos[3 * g + 2]);
+  const Eigen::Quaterniond local_rot(m->geom_quat[4 * g], m->geom_quat[4 * g + 1],
+                                     m->geom_quat[4 * g + 2], m->geom_quat[4 * g + 3]);
+  const Eigen::Vector3d half(m->geom_size[3 * g], m->geom_size[3 * g + 1], m->geom_size[3 * g + 2]);
+  const ReferenceMotion ref(clip, ch.skeleton, {});
+  ReferencePose pose = ref.make_pose();
+  const int frames = std::min(ref.frame_count(), static_cast<int>(1 / ref.frame_time_s()) + 1);
+  std::vector<std::vector<Eigen::Vector3d>> pos(frames);
+  std::vector<std::vector<Eigen::Quaterniond>> rot(frames);
+  double lowest = INFINITY;
+  for (int f = 0; f < frames; ++f) {
+    ref.frame_pose(f, pose);
+    ref.forward_kinematics(pose, pos[f], rot[f]);
+    lowest = std::min(lowest, pos[f][k].z());
+  }
+  std::vector<WorldSole> soles;
+  for (int f = 0; f < frames; ++f) {
+    if (pos[f][k].z() > lowest + 0.02) continue;
+    WorldSole s;
+    s.up = rot[f][k] * local_rot * Eigen::Vector3d::UnitZ();
+    s.bottom = pos[f][k] + rot[f][k] * local_pos - half.z() * s.up;
+    s.half = half;
+    s.ankle_z = pos[f][k].z();
+    soles.push_back(s);
+  }
+  return soles;
+}
+
+// a rest pose that does not stand (every bone along X and rolled about it, as Bandai Namco's),
+// whose frames pose the synthetic walk: where the walk plants a foot, that foot's box is level
+// and under it, at the height and place of the standing rest pose's box, and about as large
+// (before: the rest frame's +z was taken for the sole's up, 90 deg off)
+TEST(BvhToMjcf, SoleBoxesOfARestPoseThatDoesNotStandLieUnderThePlantedFeet) {
+  const BvhClip plain = make_synthetic_walk_clip();
+  const std::vector<std::pair<std::string, BvhClip>> bent = {
+      {"rolled",
+       parse_bvh(format_bvh(test::with_bones_along_x(plain, std::numbers::pi / 2)), "rolled.bvh")},
+      {"bandai_like", parse_bvh(format_bvh(test::with_bones_along_x(
+                                    test::with_bones_in_position_channels(plain, 1.0), 0.3)),
+                                "bandai_like.bvh")}};
+  auto tilt_deg = [](const Eigen::Vector3d& up) {
+    return std::acos(std::clamp(up.normalized().z(), -1.0, 1.0)) * 180 / std::numbers::pi;
+  };
+  for (const char* foot : {"LeftFoot", "RightFoot"}) {
+    const std::vector<WorldSole> want = planted_soles(plain, foot, "sole_plain");
+    ASSERT_GE(want.size(), 5u) << foot;
+    for (const auto& [tag, clip] : bent) {
+      SCOPED_TRACE(tag + " " + foot);
+      const std::vector<WorldSole> got = planted_soles(clip, foot, "sole_" + tag);
+      ASSERT_EQ(got.size(), want.size());
+      Eigen::Vector3d mean_up = Eigen::Vector3d::Zero();
+      for (const WorldSole& sole : got) mean_up += sole.up;
+      EXPECT_LT(tilt_deg(mean_up), 2);  // level on the mean while planted
+      for (size_t i = 0; i < got.size(); ++i) {
+        // the foot rolls while it is down: its box within 8 deg of the standing rest's
+        EXPECT_LT(tilt_deg(got[i].up), tilt_deg(want[i].up) + 8);
+        EXPECT_NEAR(got[i].bottom.z(), want[i].bottom.z(), 0.015);
+        EXPECT_LT((got[i].bottom - want[i].bottom).head<2>().norm(), 0.03);
+        EXPECT_LT((got[i].half - want[i].half).cwiseAbs().maxCoeff(), 0.015);
+        EXPECT_LT(got[i].bottom.z(), got[i].ankle_z - 0.03);
+      }
+    }
   }
 }
 
