@@ -22,6 +22,7 @@
 #include "app/commands.h"
 #include "motion/bvh.h"
 #include "motion/reference_motion.h"
+#include "plan/planner.h"
 #include "step_share.h"
 
 namespace {
@@ -54,8 +55,8 @@ void measure_planner(benchmark::State& state, const std::string& file,
       sim.engine().save_state(track.emplace_back());  // ~1 us against a planning step's ms
     wall_s += bench::seconds_since(t0);
     sim_s += sim_length_s;
-    plan_s += sim.planner()->plan_seconds();
-    rollout_steps += sim.planner()->rollout_steps();
+    plan_s += planner_of(sim)->plan_seconds();
+    rollout_steps += planner_of(sim)->rollout_steps();
   }
   const double compute = sim_s > 0 ? wall_s / sim_s : 0.0;
   const double model_steps = sim_s > 0 ? rollout_steps / sim_s : 0.0;

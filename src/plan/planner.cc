@@ -24,138 +24,45 @@ uint64_t splitmix64(uint64_t x) {
   return x ^ (x >> 31);
 }
 
-Eigen::Vector3d horizontal(const Eigen::Vector3d& x, const Eigen::Vector3d& up) {
-  return x - up.dot(x) * up;
-}
-
-// the mean origin of the feet
-Eigen::Vector3d support_center(const PlannerModel& m, const Engine& e) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (int b : m.support_bodies) sum += e.body_pose(b).pos;
-  return sum / static_cast<double>(m.support_bodies.size());
-}
-
-// the controllers' tracking errors, summed; false when none tracks a reference
-bool tracking_error(const Simulation& sim, TrackingError& total) {
-  total = TrackingError{};
-  bool tracked = false;
-  TrackingError one;
-  for (size_t i = 0; i < sim.controllers().size(); ++i) {
-    one = TrackingError{};
-    const Tracking* tracking = sim.controllers()[i]->as<Tracking>();
-    if (!tracking || !tracking->tracking_error(sim.controller_state(i), sim.engine(), one))
-      continue;
-    tracked = true;
-    total.joint_rad += one.joint_rad;
-    total.root_m += one.root_m;
-    total.body_m += one.body_m;
-    total.root_tilt_rad += one.root_tilt_rad;
-  }
-  return tracked;
-}
-
 }  // namespace
-
-// ---- the plan
-
-void CorrectionPlan::evaluate(double t, Eigen::Ref<Eigen::VectorXd> out) const {
-  const int n = static_cast<int>(knots.cols());
-  if (n == 0 || knots.rows() != out.size()) {
-    out.setZero();
-    return;
-  }
-  if (n == 1 || knot_dt <= 0) {
-    out = knots.col(0);
-    return;
-  }
-  const double s = std::max(0.0, (t - t0) / knot_dt);
-  const int j = static_cast<int>(std::floor(s));
-  if (j >= n - 1) {
-    out = knots.col(n - 1);
-    return;
-  }
-  const double a = s - j;
-  out = (1 - a) * knots.col(j) + a * knots.col(j + 1);
-}
 
 // ---- the model
 
-void check_planner_params(const PlannerParams& params, const std::string& where) {
-  auto fail = [&](const std::string& msg) {
-    throw InputError(where.empty() ? msg : fmt::format("{}: {}", where, msg));
-  };
-  if (params.method != "sampling" && params.method != "cem")
-    fail(fmt::format("planner.method: expected sampling or cem, found '{}'", params.method));
-  if (params.method == "cem" && params.elites > params.samples)
-    fail(fmt::format("planner.elites: {} is more than planner.samples ({})", params.elites,
-                     params.samples));
-  if (params.interval_s > params.horizon_s)
-    fail(fmt::format("planner.interval_s: {} s is longer than planner.horizon_s ({} s)",
-                     params.interval_s, params.horizon_s));
-}
-
-std::shared_ptr<const PlannerModel> make_planner_model(
-    const PlannerParams& params, const SimulationModel& model,
-    std::shared_ptr<const SimulationModel> rollout) {
-  const std::string& where = model.source;
-  auto fail = [&](const std::string& msg) {
-    throw InputError(where.empty() ? msg : fmt::format("{}: {}", where, msg));
-  };
-  check_planner_params(params, where);
+std::shared_ptr<const CorrectionSourceMaker> make_planner_model(const SimulationModel& model,
+                                                                const Engine& e) {
+  check_objective(model.scenario.planner.objective, model.source);
   auto pm = std::make_shared<PlannerModel>();
-  pm->params = params;
-  pm->rollout = std::move(rollout);
-  std::unique_ptr<Engine> engine = model.make_engine();
-  engine->restore_state(model.initial);
-  engine->forward();
-  const Engine& e = *engine;
-  // the controllers' own corrections
-  pm->controller_first.assign(model.controllers.size(), -1);
-  std::vector<CorrectionDim> dims;
-  for (size_t i = 0; i < model.controllers.size(); ++i) {
-    dims.clear();
-    if (const Correctable* c = model.controllers[i]->as<Correctable>()) c->correction_dims(dims);
-    if (dims.empty()) continue;
-    pm->controller_first[i] = static_cast<int>(pm->dimensions.size());
-    for (const CorrectionDim& d : dims)
-      pm->dimensions.push_back(
-          {fmt::format("controllers[{}].{}", i, d.name), static_cast<int>(i), -1, d.scale});
-  }
-  // else residual torques
-  if (pm->dimensions.empty()) {
-    std::vector<int> dofs;
-    for (const std::string& name : params.residual_dofs) {
-      int dof = e.dof_index(name);
-      if (dof < 0)
-        fail(fmt::format("planner.residual_dofs: unknown dof '{}'{}", name,
-                         did_you_mean(name, e.dof_names())));
-      dofs.push_back(dof);
-    }
-    if (dofs.empty())
-      for (int dof = 0; dof < e.nv(); ++dof)
-        if (e.joint(e.dof_joint(dof)).type != JointType::kFree) dofs.push_back(dof);
-    for (int dof : dofs)
-      pm->dimensions.push_back({"residual." + e.dof_name(dof), -1, dof, params.residual_torque});
-  }
-  if (pm->dimensions.empty()) fail("planner: the model has no joint to correct");
-  if (e.nbody() > 0) {
-    pm->root_body = 0;
-    pm->root_up_local = e.body_pose(0).quat.conjugate() * model.up;
-  }
-  for (int b = 0; b < static_cast<int>(model.allowed_contact.size()); ++b)
-    if (model.allowed_contact[b]) pm->support_bodies.push_back(b);
-  if (!pm->support_bodies.empty())
-    pm->com_over_support0 = horizontal(e.com() - support_center(*pm, e), model.up);
+  pm->start = resolve_run_start(model, e);
   return pm;
 }
 
+std::unique_ptr<CorrectionSource> PlannerModel::make_source(
+    std::shared_ptr<const CorrectionModel> correction) const {
+  return std::make_unique<Planner>(std::move(correction), shared_from_this());
+}
+
+const Planner* planner_of(const Simulation& run) {
+  return dynamic_cast<const Planner*>(run.planner());
+}
+
+// the step loop plans through this layer without including it: installed before main. The
+// linker keeps this file in every program that links the plan layer (CMakeLists.txt asks for
+// stance_plan_linked), so no client has to remember to install it.
+extern "C" const int stance_plan_linked = 1;
+namespace {
+const bool kPlannerInstalled = (install_correction_source(&make_planner_model), true);
+}  // namespace
+
 // ---- planning
 
-Planner::Planner(std::shared_ptr<const PlannerModel> model) : model_(std::move(model)) {
-  const PlannerParams& p = model_->params;
+Planner::Planner(std::shared_ptr<const CorrectionModel> correction,
+                 std::shared_ptr<const PlannerModel> model)
+    : correction_(std::move(correction)), model_(std::move(model)) {
+  const PlannerParams& p = correction_->params;
+  objective_ = find_objective(p.objective)->make(p, model_->start);
   pool_ = std::make_unique<Executor>(executor_threads(p.threads, p.samples));
-  seed_ = splitmix64(static_cast<uint64_t>(model_->rollout->scenario.seed) + 0x5eedull);
-  const int dims = static_cast<int>(model_->dimensions.size());
+  seed_ = splitmix64(static_cast<uint64_t>(correction_->rollout->scenario.seed) + 0x5eedull);
+  const int dims = static_cast<int>(correction_->dimensions.size());
   candidates_.resize(p.samples);
   const size_t path_points =
       static_cast<size_t>(p.horizon_s / std::max(p.cost_interval_s, 1e-4)) + 4;
@@ -164,47 +71,56 @@ Planner::Planner(std::shared_ptr<const PlannerModel> model) : model_(std::move(m
     c.path.reserve(path_points);
   }
   best_path_.reserve(path_points);
-  order_.resize(p.samples);
+  // the planner's CEM: streams of its own per candidate (draw), clamped at once, elites of
+  // the last round, their deviation over n with a floor of a tenth of the noise
+  const int n = dims * p.knots;
+  CemParams cem;
+  cem.elites = p.elites;
+  cem.initial_spread = p.noise;
+  cem.min_spread = 0.1 * p.noise;
+  cem.spread_memory = 0;
+  cem.sample_deviation = false;
+  cem.redraws = 0;
+  cem.elites_from_all = false;
+  if (p.limit > 0)
+    cem_ = std::make_unique<Cem>(Eigen::VectorXd::Zero(n), Eigen::VectorXd::Constant(n, -p.limit),
+                                 Eigen::VectorXd::Constant(n, p.limit), cem);
+  points_.setZero(n, p.samples);
 }
 
 Planner::~Planner() = default;
 
-void Planner::draw(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& deviation, long plan,
-                   int round, int index, Eigen::MatrixXd& knots) const {
+void Planner::draw(long plan, int round, int index, Eigen::MatrixXd& knots) const {
   // one stream per (scenario seed, planning step, round, candidate): any thread may draw it
   uint64_t s = splitmix64(seed_ ^ splitmix64(static_cast<uint64_t>(plan) * 0x100000001b3ull +
                                              static_cast<uint64_t>(round) * 65537ull +
                                              static_cast<uint64_t>(index)));
   std::mt19937_64 rng(s);
   std::normal_distribution<double> normal(0.0, 1.0);
-  const double limit = model_->params.limit;
-  for (int j = 0; j < knots.cols(); ++j)
-    for (int d = 0; d < knots.rows(); ++d)
-      knots(d, j) = std::clamp(mean(d, j) + deviation(d, j) * normal(rng), -limit, limit);
+  if (!cem_) {
+    knots.setZero();
+    return;
+  }
+  cem_->sample(rng, normal, Eigen::Map<Eigen::VectorXd>(knots.data(), knots.size()));
 }
 
-Eigen::Vector3d Planner::capture_offset(const Simulation& sim) const {
-  // the capture point (COM + v sqrt(h / g)) against the start: where the COM would have to be
-  // to come to rest, so a push shows before the COM has moved
-  const Engine& e = sim.engine();
-  const Eigen::Vector3d up = sim.model().up;
-  const Eigen::Vector3d com = e.com();
-  const Eigen::Vector3d vel = horizontal(e.com_velocity(), up);
-  const double h = std::max(1e-3, up.dot(com) - sim.model().scenario.fall.ground_height);
-  const double g = std::max(1e-6, e.gravity().norm());
-  const Eigen::Vector3d anchor = model_->support_bodies.empty()
-                                     ? sim.progress().com0
-                                     : support_center(*model_, e) + model_->com_over_support0;
-  return horizontal(com - anchor, up) + std::sqrt(h / g) * vel;
+void Planner::restart_cem(const Eigen::MatrixXd& knots) {
+  if (cem_) cem_->restart(Eigen::Map<const Eigen::VectorXd>(knots.data(), knots.size()));
 }
 
-double Planner::balance_error(const Simulation& sim) const {
-  TrackingError e;
-  return tracking_error(sim, e) ? e.body_m : capture_offset(sim).norm();
+void Planner::refit_cem(int k) {
+  if (!cem_) return;
+  costs_.resize(k);
+  for (int i = 0; i < k; ++i) {
+    const Eigen::MatrixXd& knots = candidates_[i].knots;
+    points_.col(i) = Eigen::Map<const Eigen::VectorXd>(knots.data(), knots.size());
+    costs_[i] = candidates_[i].cost;
+  }
+  cem_->tell(points_.leftCols(k), costs_);
 }
 
 double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
-  const PlannerParams& p = model_->params;
+  const PlannerParams& p = correction_->params;
   const PlannerCostWeights& w = p.cost;
   // the knots' terms are known before the rollout; with the stage costs (>= 0) averaged over at
   // most `most_samples`, they bound the final cost from below: once that bound passes `bound`
@@ -235,8 +151,6 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
   plan.next_plan = std::numeric_limits<double>::infinity();
   c.path.clear();
   c.steps = 0;
-  const SimulationModel& m = sim.model();
-  const Eigen::Vector3d up = m.up;
   double stage = 0, penalty = 0;
   int samples = 0;
   double next_cost = t0 + p.cost_interval_s;
@@ -253,31 +167,11 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
     }
     if (t + 1e-9 < next_cost) continue;
     next_cost += p.cost_interval_s;
-    const Engine& e = sim.engine();
-    TrackingError total;
-    const bool tracked = tracking_error(sim, total);
-    double cost;
-    if (tracked) {
-      cost = w.joint * total.joint_rad * total.joint_rad + w.root * total.root_m * total.root_m +
-             w.body * total.body_m * total.body_m +
-             w.root_tilt * total.root_tilt_rad * total.root_tilt_rad;
-    } else {
-      const Eigen::Vector3d com = e.com();
-      const Eigen::Vector3d vel = horizontal(e.com_velocity(), up);
-      const Eigen::Vector3d offset = capture_offset(sim);
-      double tilt = 0;
-      if (model_->root_body >= 0) {
-        const Eigen::Vector3d root_up = e.body_pose(model_->root_body).quat * model_->root_up_local;
-        tilt = std::acos(std::clamp(root_up.dot(up), -1.0, 1.0));
-      }
-      const double drop = std::max(0.0, up.dot(sim.progress().com0 - com));
-      cost = w.capture * offset.squaredNorm() + w.com_velocity * vel.squaredNorm() +
-             w.upright * tilt * tilt + w.height * drop * drop;
-    }
+    const double cost = objective_->stage_cost(sim);
     stage += cost;
     ++samples;
-    if (model_->root_body >= 0 && c.path.size() < c.path.capacity())
-      c.path.push_back(e.body_pose(model_->root_body).pos);
+    if (model_->start.root_body >= 0 && c.path.size() < c.path.capacity())
+      c.path.push_back(sim.engine().body_pose(model_->start.root_body).pos);
     const double lower = knots_cost + stage / most_samples;
     if (lower > bound) {
       c.stopped = true;
@@ -297,7 +191,7 @@ void Planner::sample_horizons() {
     }
   // every step a rollout may take, and one more for the rounding of its clock
   const Engine& e = sim.engine();
-  const int steps = static_cast<int>(std::ceil(model_->params.horizon_s / e.timestep())) + 2;
+  const int steps = static_cast<int>(std::ceil(correction_->params.horizon_s / e.timestep())) + 2;
   for (size_t i = 0; i < controllers.size(); ++i)
     if (horizons_[i])
       controllers[i]->as<HorizonSampling>()->sample_reference_horizon(*horizons_[i], e,
@@ -305,10 +199,10 @@ void Planner::sample_horizons() {
 }
 
 void Planner::plan(Simulation& sim) {
-  const PlannerParams& p = model_->params;
+  const PlannerParams& p = correction_->params;
   CorrectionPlan& plan = sim.correction_plan();
   const double now = sim.time();
-  const int dims = static_cast<int>(model_->dimensions.size());
+  const int dims = static_cast<int>(correction_->dimensions.size());
   const int n = p.knots;
   const double knot_dt = n > 1 ? p.horizon_s / (n - 1) : p.horizon_s;
   // the current plan, shifted to start now (warm start)
@@ -328,7 +222,7 @@ void Planner::plan(Simulation& sim) {
   const auto wall0 = std::chrono::steady_clock::now();
   if (workers_.empty())
     for (int w = 0; w < pool_->size(); ++w)
-      workers_.push_back(std::make_unique<Simulation>(model_->rollout));
+      workers_.push_back(std::make_unique<Simulation>(correction_->rollout));
   if (!start_) start_ = std::make_unique<SimulationState>();
   sim.save(*start_);
   sample_horizons();
@@ -339,15 +233,13 @@ void Planner::plan(Simulation& sim) {
       p.steady_error_m > 0 && tracking_error(sim, error) && error.body_m < p.steady_error_m;
   const int k = steady ? std::clamp(p.steady_samples, 1, p.samples) : p.samples;
   if (steady) ++plan.steady;
-  order_.resize(k);
   const int rounds = p.method == "cem" ? p.iterations : 1;
-  mean_ = nominal_;
-  deviation_.setConstant(dims, n, p.noise);
+  restart_cem(nominal_);
   best_ = nominal_;
   double best_cost = std::numeric_limits<double>::infinity();
   int best_round = -1, best_index = -1;
   // one round: candidate 0 is the plan so far (rolled out again only in round 0), the others
-  // are drawn around mean_ with deviation_
+  // are drawn from the CEM
   auto run_round = [&](int round) {
     for (int i = 0; i < k; ++i) {
       Eigen::MatrixXd& knots = candidates_[i].knots;
@@ -356,7 +248,7 @@ void Planner::plan(Simulation& sim) {
       else if (i == 1 && round == 0 && k > 2)
         knots.setZero();  // so is no correction at all
       else
-        draw(mean_, deviation_, plan.plans, round, i, knots);
+        draw(plan.plans, round, i, knots);
     }
     // after round 0, candidate 0 is best_, whose cost is known (rollouts are deterministic)
     const int first = round == 0 ? 0 : 1;
@@ -390,26 +282,15 @@ void Planner::plan(Simulation& sim) {
   for (int round = 0; round < rounds; ++round) {
     run_round(round);
     if (round + 1 == rounds) break;
-    // cem: refit the mean and deviation to the elites
-    std::iota(order_.begin(), order_.end(), 0);
-    std::stable_sort(order_.begin(), order_.end(),
-                     [&](int a, int b) { return candidates_[a].cost < candidates_[b].cost; });
-    const int elites = std::min(p.elites, k);
-    mean_.setZero();
-    for (int e = 0; e < elites; ++e) mean_ += candidates_[order_[e]].knots;
-    mean_ /= elites;
-    deviation_.setZero();
-    for (int e = 0; e < elites; ++e)
-      deviation_ += (candidates_[order_[e]].knots - mean_).cwiseAbs2();
-    deviation_ = (deviation_ / elites).cwiseSqrt().cwiseMax(0.1 * p.noise);
+    refit_cem(k);
   }
   // in trouble (the reference slipping away, or a push), more rounds around the best: the
   // budget goes where a miss would cost the run, not to every step of a walk that goes well
-  if (p.rescue_rounds > 0 && p.rescue_error_m > 0 && balance_error(sim) >= p.rescue_error_m) {
+  if (p.rescue_rounds > 0 && p.rescue_error_m > 0 &&
+      objective_->balance_error(sim) >= p.rescue_error_m) {
     ++plan.rescues;
     for (int r = 0; r < p.rescue_rounds; ++r) {
-      mean_ = best_;
-      deviation_.setConstant(dims, n, p.noise);
+      restart_cem(best_);
       run_round(rounds + r);
     }
   }

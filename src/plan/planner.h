@@ -5,8 +5,9 @@
 // shifted in time, is always a candidate, and so is no correction at all.
 //
 // The correction is low-dimensional: offsets that controllers offer through
-// Controller::correction_dims() (a tracker's swing-hip, pelvis and ankle targets), else residual
-// torques on joint dofs. Candidate i of planning step k draws its noise from a stream seeded by
+// Correctable::correction_dims() (a tracker's swing-hip, pelvis and ankle targets), else residual
+// torques on joint dofs (src/sim/correction.h). The rollouts are scored by planner.objective
+// (plan/objective.h) and drawn from the one CEM (math/cem.h). Candidate i of planning step k draws its noise from a stream seeded by
 // (scenario seed, k, i), so the plan is the same for any thread count.
 #pragma once
 
@@ -19,7 +20,9 @@
 
 #include "control/controller.h"
 #include "core/executor.h"
-#include "sim/planner_params.h"
+#include "math/cem.h"
+#include "plan/objective.h"
+#include "sim/correction.h"
 
 namespace stance {
 
@@ -27,63 +30,27 @@ class Simulation;
 struct SimulationModel;
 struct SimulationState;
 
-// one dimension of the correction: an offset a controller applies, or a residual torque
-struct PlanDimension {
-  std::string name;     // "controllers[0].swing_hip_pitch", "residual.j_thigh_left_z"
-  int controller = -1;  // the controller applying it; -1: a residual torque
-  int dof = -1;         // the residual torque's dof
-  double scale = 0;     // what one unit of the plan means, in the dimension's unit
-};
+// what the planner resolves once per planning model: where the runs start (the anchors of
+// balance costs). Shared by every run of the model; makes each run's Planner.
+struct PlannerModel : CorrectionSourceMaker, std::enable_shared_from_this<PlannerModel> {
+  RunStart start;
 
-// the correction a run applies: a piecewise-linear spline in units of each dimension's scale.
-// Part of the run's state (it is saved, restored and written to the state file with it).
-struct CorrectionPlan {
-  Eigen::MatrixXd knots;   // dims x knots; empty: no correction
-  double t0 = 0;           // s, time of the first knot
-  double knot_dt = 0;      // s between knots
-  double next_plan = 0;    // s, when the planner plans again
-  long plans = 0;          // planning steps so far: the noise streams' index
-  double cost_sum = 0;     // the chosen candidates' costs, summed (a metric)
-  long kept_nominal = 0;   // planning steps whose choice was the shifted plan or no correction
-  long rescues = 0;        // planning steps that ran rescue rounds
-  long steady = 0;         // planning steps on track (with steady_samples candidates)
-  long rollout_steps = 0;  // model steps the rollouts took (the planner's compute)
-
-  // the correction at time t in plan units (dim knots.rows()); beyond the last knot it holds
-  void evaluate(double t, Eigen::Ref<Eigen::VectorXd> out) const;
-
-  template <class A>
-  void serialize(A& a) {
-    a(knots), a(t0), a(knot_dt), a(next_plan), a(plans), a(cost_sum), a(kept_nominal), a(rescues);
-    a(steady), a(rollout_steps);
-  }
-};
-
-// what a scenario's planner resolves to once: the dimensions, and the model rollouts run on
-struct PlannerModel {
-  PlannerParams params;
-  std::vector<PlanDimension> dimensions;
-  std::vector<int> controller_first;  // per controller: its first dimension, or -1
-  int root_body = -1;                 // the first mobile body: its path and tilt
-  Eigen::Vector3d root_up_local = Eigen::Vector3d::UnitZ();  // `up` in the root's frame at start
-  // standing keeps the COM where it started over the feet (fall.allowed_contacts), so a step
-  // moves the balance target with the feet; without feet, where it started in the world
-  std::vector<int> support_bodies;
-  Eigen::Vector3d com_over_support0 = Eigen::Vector3d::Zero();  // horizontal, at the start
-  // the model rollouts step (the scenario's, at the planner's timestep, planning off)
-  std::shared_ptr<const SimulationModel> rollout;
+  std::unique_ptr<CorrectionSource> make_source(
+      std::shared_ptr<const CorrectionModel> correction) const override;
 };
 
 // one run's planner: the worker pool, a rollout simulation per worker and the candidates
-class Planner {
+class Planner : public CorrectionSource {
  public:
-  explicit Planner(std::shared_ptr<const PlannerModel> model);
-  ~Planner();
+  Planner(std::shared_ptr<const CorrectionModel> correction,
+          std::shared_ptr<const PlannerModel> model);
+  ~Planner() override;
   // choose the plan from the simulation's current state; sets its CorrectionPlan
-  void plan(Simulation& sim);
+  void plan(Simulation& sim) override;
   // the chosen rollout's root path in the world, for drawing (empty before the first plan)
   const std::vector<Eigen::Vector3d>& best_path() const { return best_path_; }
   const PlannerModel& model() const { return *model_; }
+  const CorrectionModel& correction() const { return *correction_; }
   // what planning cost so far: rollout steps taken, and wall seconds in plan() (benchmarks)
   long rollout_steps() const { return rollout_steps_; }
   double plan_seconds() const { return plan_seconds_; }
@@ -96,42 +63,46 @@ class Planner {
     bool stopped = false;  // stopped early: `cost` is a lower bound above the best's
     std::vector<Eigen::Vector3d> path;
   };
-  void draw(const Eigen::MatrixXd& mean, const Eigen::MatrixXd& deviation, long plan, int round,
-            int index, Eigen::MatrixXd& knots) const;
+  // candidate `index` of a round, drawn from the CEM's mean and spread
+  void draw(long plan, int round, int index, Eigen::MatrixXd& knots) const;
+  // the CEM's mean back at `knots` (dims x knots), its spread at planner.noise
+  void restart_cem(const Eigen::MatrixXd& knots);
+  // cem: refit the mean and spread to the elites of the round's k candidates
+  void refit_cem(int k);
   // the candidate's cost from start_; stopped early (at a lower bound of it) once it exceeds
   // `bound`
   double rollout(Simulation& sim, Candidate& c, double bound) const;
   // the controllers' references over the horizon from the current start, once per planning step
   void sample_horizons();
-  // how far off the run is: a tracked reference's mean body error, or with nothing tracked, the
-  // capture point's horizontal offset from where it started over the feet (m)
-  double balance_error(const Simulation& sim) const;
-  Eigen::Vector3d capture_offset(const Simulation& sim) const;
 
+  std::shared_ptr<const CorrectionModel> correction_;
   std::shared_ptr<const PlannerModel> model_;
-  std::unique_ptr<Executor> pool_;  // made once per planning simulation
+  std::unique_ptr<const PlannerObjective> objective_;  // planner.objective, at these weights
+  std::unique_ptr<Executor> pool_;                     // made once per planning simulation
   std::vector<std::unique_ptr<Simulation>> workers_;
   // per rollout controller: its reference over the horizon, sampled once per planning step for
   // every rollout of the step (null: the controller has none)
   std::vector<std::unique_ptr<ReferenceHorizon>> horizons_;
   std::unique_ptr<SimulationState> start_;
   std::vector<Candidate> candidates_;
-  std::vector<int> order_;
-  Eigen::MatrixXd nominal_, mean_, deviation_, best_;
+  // the candidates' distribution (math/cem.h, flattened dims x knots, column-major); null when
+  // planner.limit is 0 (every knot is 0)
+  std::unique_ptr<Cem> cem_;
+  Eigen::MatrixXd points_;     // flattened candidates, one a column, for the CEM's refit
+  std::vector<double> costs_;  // their costs
+  Eigen::MatrixXd nominal_, best_;
   std::vector<Eigen::Vector3d> best_path_;
   uint64_t seed_ = 0;
   long rollout_steps_ = 0;
   double plan_seconds_ = 0;
 };
 
-// resolve a scenario's planner on a simulation model built without one: the dimensions from the
-// controllers (or residual torques), the rollout model. Throws InputError naming planner.* keys.
-// the checks between parameters (method, elites, interval against horizon); throws InputError
-// prefixed with `where` (the scenario file) when not empty
-void check_planner_params(const PlannerParams& params, const std::string& where);
+// the planner's model of a run's model (its correction resolved), from an engine of its world at
+// the start. Installed as the step loop's CorrectionSourceMakerFactory (sim/correction.h).
+std::shared_ptr<const CorrectionSourceMaker> make_planner_model(const SimulationModel& run,
+                                                                const Engine& start);
 
-std::shared_ptr<const PlannerModel> make_planner_model(
-    const PlannerParams& params, const SimulationModel& model,
-    std::shared_ptr<const SimulationModel> rollout);
+// the run's planner (for its drawing and counters); null when the run does not plan
+const Planner* planner_of(const Simulation& run);
 
 }  // namespace stance

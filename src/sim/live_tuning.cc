@@ -11,7 +11,6 @@
 #include "engine/engine.h"
 #include "params/param_list.h"
 #include "params/yaml_params.h"
-#include "plan/planner.h"
 
 namespace stance {
 

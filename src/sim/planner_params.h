@@ -71,6 +71,8 @@ struct PlannerParams {
   double noise = 1;                 // standard deviation, in units of each dimension's scale
   double limit = 3;                 // knots are clamped to +-limit units
   std::string method = "sampling";  // sampling (predictive sampling) or cem
+  // what a rollout is scored by: a name in src/plan/objective.cc's registry
+  std::string objective = "track_or_balance";
   int iterations = 2;               // cem: refits of the mean and deviation
   int elites = 4;                   // cem: candidates the refit keeps
   double timestep = 0;              // s, the rollouts' step if coarser than the run's; 0: the run's
@@ -103,6 +105,7 @@ struct PlannerParams {
     v("noise", noise, {.min = 0, .max = 100, .help = "sampling deviation, in scale units"});
     v("limit", limit, {.min = 0, .max = 100, .help = "knot clamp, in scale units"});
     v("method", method, {.help = "sampling or cem"});
+    v("objective", objective, {.help = "the rollouts' cost terms (docs/planner.md)"});
     v("iterations", iterations, {.min = 1, .max = 100, .help = "cem iterations"});
     v("elites", elites, {.min = 1, .max = 4096, .help = "cem: candidates kept per refit"});
     v("timestep", timestep,

@@ -130,13 +130,15 @@ void Simulation::send_velocity_commands(const Eigen::VectorXd& commands) {
 void Simulation::set_planner_params(const PlannerParams& params) {
   if (!model_->plans)
     throw InputError("planner: this run does not plan; enable it in the scenario");
-  const PlannerModel& old = *model_->planner;
+  const CorrectionModel& old = *model_->planner;
   if (params.timestep != old.params.timestep)
     throw InputError("planner.timestep: the rollouts' step is fixed when the run is made");
   if (params.residual_dofs != old.params.residual_dofs)
     throw InputError("planner.residual_dofs: the dimensions are fixed when the run is made");
+  if (params.objective != old.params.objective)
+    throw InputError("planner.objective: the objective is fixed when the run is made");
   check_planner_params(params, "");
-  auto planner = std::make_shared<PlannerModel>(old);
+  auto planner = std::make_shared<CorrectionModel>(old);
   planner->params = params;
   for (PlanDimension& d : planner->dimensions)
     if (d.controller < 0) d.scale = params.residual_torque;
@@ -145,7 +147,7 @@ void Simulation::set_planner_params(const PlannerParams& params) {
   model_ = std::move(model);
   planner_.reset();
   if (params.enabled) {
-    planner_ = std::make_unique<Planner>(model_->planner);
+    planner_ = model_->planner_maker->make_source(model_->planner);
     progress_.plan.next_plan = time();  // plan at the next step, with the new parameters
   } else {
     progress_.plan.knots.resize(0, 0);  // no correction from now on
@@ -181,7 +183,7 @@ void Simulation::limit_torques() {
 bool Simulation::compute_controls() {
   Engine& e = *engine_;
   out_.clear();
-  const PlannerModel* pm = model_->planner.get();
+  const CorrectionModel* pm = model_->planner.get();
   if (pm) {
     if (planner_ && e.time() + 1e-12 >= progress_.plan.next_plan) planner_->plan(*this);
     progress_.plan.evaluate(e.time(), correction_);

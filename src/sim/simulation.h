@@ -24,7 +24,7 @@
 
 #include "control/controller.h"
 #include "engine/engine.h"
-#include "plan/planner.h"
+#include "sim/correction.h"
 #include "sim/scenario.h"
 
 namespace stance {
@@ -110,8 +110,10 @@ struct SimulationModel {
   double stop_after_fall_s = 1.0;
   long total_steps = 0;
   long log_every = 1;
-  // the planner's dimensions and rollout model; null: no planner
-  std::shared_ptr<const PlannerModel> planner;
+  // the planner's parameters, dimensions and rollout model; null: no planner
+  std::shared_ptr<const CorrectionModel> planner;
+  // makes each run's planner (src/plan/); null when the model does not plan
+  std::shared_ptr<const CorrectionSourceMaker> planner_maker;
   bool plans = false;    // runs of this model plan (false for the planner's own rollouts)
   bool rollout = false;  // the planner's rollouts run this model (its controllers keep no metrics)
   // the planner's rollouts: a cheaper constraint solver than the run's (defaults: the model's)
@@ -307,7 +309,7 @@ class Simulation {
   void set_planner_params(const PlannerParams& params);
   const RunProgress& progress() const { return progress_; }
   // the planner's handle (with save, restore and step, its rollout interface): the correction
-  // plan the next steps apply, part of the run's state
+  // plan the next steps apply, part of the run's state; a rollout sets it, then steps
   CorrectionPlan& correction_plan() { return progress_.plan; }
   // set between steps by the viewer; reset() clears them
   ExternalForces& external_forces() { return progress_.external; }
@@ -316,8 +318,9 @@ class Simulation {
   // the controllers' log values now, appended (signal_names order)
   void signals(std::vector<double>& values) const;
   double time() const { return engine_->time(); }
-  // the planner of this run; null when the scenario plans nothing (and in rollouts)
-  const Planner* planner() const { return planner_.get(); }
+  // the planner of this run (src/plan/planner.h: planner_of); null when the scenario plans
+  // nothing (and in rollouts)
+  const CorrectionSource* planner() const { return planner_.get(); }
   // the correction applied in the last step, in each dimension's unit (planner's dimensions)
   const Eigen::VectorXd& correction() const { return correction_; }
   // benchmarks: add each controller's compute() wall time (s) into `seconds` (one entry per
@@ -346,8 +349,8 @@ class Simulation {
   std::vector<StepObserver*> observers_;
   RunOptions run_files_;  // out_dir and progress for run()
   std::vector<double>* controller_seconds_ = nullptr;
-  Eigen::VectorXd correction_;        // this step's correction, dim planner dimensions
-  std::unique_ptr<Planner> planner_;  // made when the model plans
+  Eigen::VectorXd correction_;                 // this step's correction, dim planner dimensions
+  std::unique_ptr<CorrectionSource> planner_;  // made when the model plans
 };
 
 // build the engine of a scenario with its initial pose applied (no controllers)

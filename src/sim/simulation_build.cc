@@ -407,9 +407,21 @@ void add_planner(const LoadedScenario& loaded, const RunOptions& options, Simula
   std::unique_ptr<Engine> scratch;
   std::shared_ptr<SimulationModel> rollout = build_model(r, ro, scratch, true);
   rollout->solver = planner_solver_settings(p.solver, *scratch, loaded.source);
-  m.planner = make_planner_model(p, m, rollout);
+  auto correction = std::make_shared<CorrectionModel>();
+  correction->params = p;
+  correction->rollout = rollout;
+  check_planner_params(p, m.source);
+  std::unique_ptr<Engine> start = m.make_engine();
+  start->restore_state(m.initial);
+  start->forward();
+  resolve_correction_dims(m, *start, *correction);
+  const CorrectionSourceMakerFactory make_maker = correction_source_factory();
+  if (!make_maker)
+    throw InputError(m.source + ": planner: this program is built without the planner (src/plan)");
+  m.planner = correction;
+  m.planner_maker = make_maker(m, *start);
   m.plans = true;
-  auto dimensions = std::make_shared<PlannerModel>(*m.planner);
+  auto dimensions = std::make_shared<CorrectionModel>(*correction);
   dimensions->rollout = nullptr;  // a rollout plans nothing
   rollout->planner = std::move(dimensions);
   rollout->plans = false;
@@ -467,7 +479,7 @@ SimulationState& SimulationState::operator=(const SimulationState& other) {
 Simulation::Simulation(std::shared_ptr<const SimulationModel> model)
     : model_(std::move(model)), engine_(model_->make_engine()) {
   controllers_ = model_->controllers;
-  if (model_->plans) planner_ = std::make_unique<Planner>(model_->planner);
+  if (model_->plans) planner_ = model_->planner_maker->make_source(model_->planner);
   start_run();
 }
 
@@ -479,7 +491,7 @@ Simulation::Simulation(const LoadedScenario& loaded, const RunOptions& options) 
   run_files_ = options;
   engine_->restore_state(model_->initial);
   engine_->forward();
-  if (model_->plans) planner_ = std::make_unique<Planner>(model_->planner);
+  if (model_->plans) planner_ = model_->planner_maker->make_source(model_->planner);
   start_run();
   // the expectation's metrics by the names this run will report, before it writes anything
   if (model_->scenario.expect.given && options.check_expect_names)

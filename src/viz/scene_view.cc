@@ -10,6 +10,7 @@
 #include <stdexcept>
 
 #include "core/error.h"
+#include "plan/planner.h"
 
 namespace stance {
 
@@ -386,7 +387,7 @@ void SceneView::update(Simulation& run, const std::vector<ForceArrow>& extra_for
         drawn->markers(run.controller_state(i), engine, markers_);
     for (const auto& m : markers_) add_marker(m);
     // the planner's chosen rollout: where the root goes over the horizon
-    if (const Planner* planner = run.planner()) {
+    if (const Planner* planner = planner_of(run)) {
       const auto& path = planner->best_path();
       for (size_t k = 1; k < path.size(); ++k) {
         Marker line;

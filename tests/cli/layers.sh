@@ -1,13 +1,14 @@
 #!/usr/bin/env bash
 # the folders of src/ include each other only downward through the layers that CMakeLists.txt
 # builds, bottom up: core math | params | model motion | engine | control analysis | sim |
-# batch | app | viz. Within a layer the folder graph has no cycle either. (The build enforces the
-# layers through the include trees; this names the offending file and line.) Run from the root.
+# plan | batch | app | viz. Within a layer the folder graph has no cycle either. (The build
+# enforces the layers through the include trees; this names the offending file and line.) Run
+# from the root.
 set -u
 python3 - <<'PY'
 import pathlib, re, sys
 layers = [["core", "math"], ["params"], ["model", "motion"], ["engine"], ["control", "analysis"],
-          ["sim", "plan"], ["batch"], ["app"], ["viz"]]
+          ["sim"], ["plan"], ["batch"], ["app"], ["viz"]]
 rank = {f: i for i, layer in enumerate(layers) for f in layer}
 edges, bad = {}, []
 for path in sorted(pathlib.Path("src").rglob("*")):

@@ -10,6 +10,7 @@
 #include <memory>
 
 #include "core/error.h"
+#include "plan/objective.h"
 #include "run_support.h"
 #include "sim/scenario.h"
 #include "sim/simulation.h"
@@ -363,6 +364,64 @@ TEST(Planner, StandingBalanceTargetFollowsTheFeet) {
   const double here = first_plan_cost(0), moved = first_plan_cost(0.5);
   EXPECT_GT(here, 0);
   EXPECT_NEAR(moved, here, 0.05);
+}
+
+// every run of a planning model gets the plan layer's planner (installed before main), a clone
+// too; a run that does not plan has none, and neither have the planner's rollouts
+TEST(Planner, EveryRunOfAPlanningModelHasThePlanner) {
+  Simulation planned(load_scenario(test::scenario_path("biped_stand.yaml"),
+                                   {"planner.enabled=true", "planner.threads=1"}),
+                     test::quiet());
+  const Planner* planner = planner_of(planned);
+  ASSERT_NE(planner, nullptr);
+  EXPECT_NE(planner_of(*planned.clone()), nullptr);
+  EXPECT_NE(planner_of(*planned.clone()), planner);
+  Simulation rollout(planned.model().planner->rollout);
+  EXPECT_EQ(rollout.planner(), nullptr);
+  Simulation plain(load_scenario(test::scenario_path("biped_stand.yaml")), test::quiet());
+  EXPECT_EQ(plain.planner(), nullptr);
+}
+
+// the objective is a name in a registry: an unknown one is bad input naming the key and the
+// file, with the near name offered; it is fixed once the run is made
+TEST(PlannerObjective, UnknownNameIsBadInputAndTheNameIsFixedMidRun) {
+  const std::string path = test::scenario_path("biped_stand.yaml");
+  try {
+    Simulation sim(
+        load_scenario(path, {"planner.enabled=true", "planner.objective=track_or_balanc"}),
+        test::quiet());
+    ADD_FAILURE() << "an unknown objective was accepted";
+  } catch (const InputError& e) {
+    const std::string msg = e.what();
+    EXPECT_NE(msg.find("biped_stand.yaml"), std::string::npos) << msg;
+    EXPECT_NE(msg.find("planner.objective: unknown objective 'track_or_balanc'"), std::string::npos)
+        << msg;
+    EXPECT_NE(msg.find("'track_or_balance'"), std::string::npos) << msg;
+  }
+  Simulation sim(load_scenario(path, {"planner.enabled=true", "planner.threads=1"}), test::quiet());
+  PlannerParams other = sim.model().planner->params;
+  other.objective = "another";
+  EXPECT_THROW(sim.set_planner_params(other), InputError);
+  EXPECT_NE(planner_of(sim), nullptr);  // the run keeps its planner
+}
+
+// the default objective, while nothing is tracked: standing still where the run started costs
+// (next to) nothing, and moving the COM costs (capture point and COM velocity)
+TEST(PlannerObjective, BalanceCostsNothingAtTheStartAndAMovingComCosts) {
+  const ObjectiveEntry* entry = find_objective(PlannerParams{}.objective);
+  ASSERT_NE(entry, nullptr);
+  EXPECT_EQ(entry->name, "track_or_balance");
+  Simulation sim(load_scenario(test::scenario_path("biped_stand.yaml")), test::quiet());
+  const PlannerParams params;
+  auto objective = entry->make(params, resolve_run_start(sim.model(), sim.engine()));
+  EXPECT_NEAR(objective->stage_cost(sim), 0, 1e-9);
+  EXPECT_NEAR(objective->balance_error(sim), 0, 1e-9);
+  Eigen::VectorXd v = Eigen::VectorXd::Zero(sim.engine().nv());
+  v[0] = 0.5;  // the free root, along the floor
+  sim.engine().set_velocities(v);
+  sim.engine().forward();
+  EXPECT_GT(objective->stage_cost(sim), params.cost.com_velocity * 0.1 * 0.1);
+  EXPECT_GT(objective->balance_error(sim), 0.01);
 }
 
 // how long biped_stand_planner stays up, up to `duration`, after a forward push on the spine at
