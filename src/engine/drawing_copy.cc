@@ -22,8 +22,8 @@ DrawingCopy::DrawingCopy(std::unique_ptr<Engine> mujoco_copy, const Engine& sour
 namespace {
 
 // a frame fixed to body `id` at local (pos, quat): its world position and orientation matrix
-void place(const mjData* d, int id, const mjtNum* pos, const mjtNum* quat, mjtNum* xpos,
-           mjtNum* xmat) {
+void place_on_body(const mjData* d, int id, const mjtNum* pos, const mjtNum* quat, mjtNum* xpos,
+                   mjtNum* xmat) {
   mju_rotVecMat(xpos, pos, d->xmat + 9 * id);
   mju_addTo3(xpos, d->xpos + 3 * id);
   mjtNum q[4];
@@ -45,16 +45,16 @@ RenderModel DrawingCopy::pose(const Engine& source) {
     mju_copy4(d->xquat + 4 * id, q);
     mju_quat2Mat(d->xmat + 9 * id, q);
     // the body's COM frame follows from its frame
-    place(d, id, m->body_ipos + 3 * id, m->body_iquat + 4 * id, d->xipos + 3 * id,
-          d->ximat + 9 * id);
+    place_on_body(d, id, m->body_ipos + 3 * id, m->body_iquat + 4 * id, d->xipos + 3 * id,
+                  d->ximat + 9 * id);
   }
   for (int g = 0; g < m->ngeom; ++g)
-    place(d, m->geom_bodyid[g], m->geom_pos + 3 * g, m->geom_quat + 4 * g, d->geom_xpos + 3 * g,
-          d->geom_xmat + 9 * g);
+    place_on_body(d, m->geom_bodyid[g], m->geom_pos + 3 * g, m->geom_quat + 4 * g,
+                  d->geom_xpos + 3 * g, d->geom_xmat + 9 * g);
   // sites are drawn too: left at the origin they would gather there
   for (int i = 0; i < m->nsite; ++i)
-    place(d, m->site_bodyid[i], m->site_pos + 3 * i, m->site_quat + 4 * i, d->site_xpos + 3 * i,
-          d->site_xmat + 9 * i);
+    place_on_body(d, m->site_bodyid[i], m->site_pos + 3 * i, m->site_quat + 4 * i,
+                  d->site_xpos + 3 * i, d->site_xmat + 9 * i);
   d->time = source.time();
   return render_;
 }
