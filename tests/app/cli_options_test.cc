@@ -71,7 +71,7 @@ TEST(CliOptions, NamesComeFromTheKeyOrTheMeta) {
 }
 
 TEST(CliOptions, BadCommandLinesAreRefused) {
-  EXPECT_THROW(parse({}), CLI::RequiredError);                              // no scenario
+  EXPECT_THROW(parse({}), CLI::RequiredError);                               // no scenario
   EXPECT_THROW(parse({"s.yaml", "--set", "a=1", "b=2"}), CLI::ExtrasError);  // one per --set
   EXPECT_THROW(parse({"s.yaml", "--max_steps", "5"}), CLI::ExtrasError);     // '_' is '-'
   EXPECT_THROW(parse({"s.yaml", "--max-steps", "five"}), CLI::ConversionError);
