@@ -93,9 +93,9 @@ struct Viewer::Impl {
   std::string status;
   std::vector<unsigned char> frame_rgb;
   int frame_w = 0, frame_h = 0;
-  bool quick_look = false;   // no shadows, no multisampling (ViewerOptions::quick_look)
+  bool quick_look = false;           // no shadows, no multisampling (ViewerOptions::quick_look)
   double frame_period_s = 1.0 / 60;  // the display's refresh period, at least 1/60 s (1/30 quick)
-  bool capture_png = false;  // the i key on a running window: save the next frame
+  bool capture_png = false;          // the i key on a running window: save the next frame
   // mouse
   bool button_left = false, button_right = false;
   double last_x = 0, last_y = 0;
@@ -368,6 +368,7 @@ struct Viewer::Impl {
     Clock::time_point wall0;
     double sim0 = 0;
     while (!quit) {
+      bool behind = false;  // behind real time: a short rest, just for the window to draw
       {
         std::lock_guard<std::mutex> lock(mutex);
         Engine& e = run->engine();
@@ -390,6 +391,7 @@ struct Viewer::Impl {
           while (e.time() < target && !paused &&
                  Clock::now() - batch0 < std::chrono::milliseconds(30))
             step_locked();
+          behind = e.time() < target;
           if (wall > 0.25) {
             achieved_speed = (e.time() - sim0) / wall;
             // fell behind: re-anchor so that the factor shown is what is achieved
@@ -398,7 +400,8 @@ struct Viewer::Impl {
           }
         }
       }
-      std::this_thread::sleep_for(std::chrono::milliseconds(2));
+      std::this_thread::sleep_for(behind ? std::chrono::microseconds(200)
+                                         : std::chrono::microseconds(2000));
     }
   }
 
