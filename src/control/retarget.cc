@@ -125,6 +125,27 @@ void RetargetedMotion::find_character(Build& b) {
                               probe.body_name(rb.body), probe.body_name(b.free_body))));
 }
 
+// the mapped segments' positions in the reference's first frame where the clip's rest pose
+// does not stand (its mapped bodies span less than 2/3 of the first frame's height, as
+// bvh_measure.h judges the legs); empty where it stands
+std::vector<Eigen::Vector3d> RetargetedMotion::standing_clip_pose(Build& b) const {
+  auto height_span = [&](const std::vector<Eigen::Vector3d>& p) {
+    double lo = 1e300, hi = -1e300;
+    for (const RetargetBody& rb : bodies_) {
+      lo = std::min(lo, p[rb.segment].z());
+      hi = std::max(hi, p[rb.segment].z());
+    }
+    return hi - lo;
+  };
+  ReferencePose first = b.reference.make_pose();
+  b.reference.frame_pose(0, first);
+  std::vector<Eigen::Vector3d> posed;
+  std::vector<Eigen::Quaterniond> turned;
+  b.reference.forward_kinematics(first, posed, turned);
+  if (height_span(b.clip_rest) >= (2.0 / 3.0) * height_span(posed)) return {};
+  return posed;
+}
+
 void RetargetedMotion::fit_rest_skeletons(Build& b) {
   const JointMap& map = b.map;
   const std::vector<RetargetModelBody>& model = b.model;
@@ -142,13 +163,21 @@ void RetargetedMotion::fit_rest_skeletons(Build& b) {
   b.reference.forward_kinematics(b.pose, b.clip_pos, b.clip_rot);
   b.clip_rest = b.clip_pos;
   const std::vector<Eigen::Vector3d>& clip_rest = b.clip_rest;
+  // a rest pose that does not stand (Bandai Namco's bones lie along X) tells no height and no
+  // facing: the yaw and scale then come from the first frame's pose
+  const std::vector<Eigen::Vector3d> clip_posed = standing_clip_pose(b);
+  const std::vector<Eigen::Vector3d>& fitted = clip_posed.empty() ? clip_rest : clip_posed;
   double cross = 0, dot = 0, clip_lo = 1e300, clip_hi = -1e300, model_lo = 1e300, model_hi = -1e300;
   for (const RetargetBody& rb : bodies_) {
-    Eigen::Vector3d rs = clip_rest[rb.segment] - clip_rest[0];
+    Eigen::Vector3d rs = fitted[rb.segment] - fitted[0];
     Eigen::Vector3d rm =
         up_turn.conjugate() * (model[rb.body].rest_pos - model[b.root_body].rest_pos);
-    cross += rs.x() * rm.y() - rs.y() * rm.x();
-    dot += rs.x() * rm.x() + rs.y() * rm.y();
+    // posed, only the bodies on the root (the hips across it): the limbs below swing
+    const bool on_root = b.sk.segments[rb.segment].parent == 0;
+    if (clip_posed.empty() || on_root) {
+      cross += rs.x() * rm.y() - rs.y() * rm.x();
+      dot += rs.x() * rm.x() + rs.y() * rm.y();
+    }
     clip_lo = std::min(clip_lo, rs.z());
     clip_hi = std::max(clip_hi, rs.z());
     model_lo = std::min(model_lo, rm.z());
@@ -480,6 +509,8 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   b.qp.resize(nq_);
   b.translation_inverse =
       probe_kinematics(probe, b.model, b.order, b.free_body, *b.free_joint, b.q0);
+  fold_hinge_chains(b.model, b.order, b.free_body);
+  for (RetargetBody& rb : bodies_) rb.parent = b.model[rb.body].parent;
   fit_rest_skeletons(b);
   fix_bones(b);
   keep_rest(b, duration_s);

@@ -45,6 +45,9 @@ struct RetargetBody {
   int body = -1;     // engine body
   int segment = -1;  // clip segment
   std::string name;  // "segment -> body"
+  // the engine body its joint rotation is relative to: its parent, or above a hinge chain
+  // folded into its fit (fold_hinge_chains: a robot's hip of three one-hinge links)
+  int parent = -1;
 };
 
 class RetargetedMotion {
@@ -83,7 +86,7 @@ class RetargetedMotion {
   // position arithmetic; `scratch` has dim nv. Allocates nothing.
   void sample(const Engine& engine, double t, Eigen::Ref<Eigen::VectorXd> q,
               Eigen::Ref<Eigen::VectorXd> v, Eigen::Ref<Eigen::VectorXd> scratch) const;
-  // the reference local rotation (relative to the engine parent body) and world position of
+  // the reference local rotation (relative to bodies()[i].parent) and world position of
   // each mapped body at time t; vectors sized bodies().size(). Allocates nothing.
   void sample_bodies(double t, std::vector<Eigen::Quaterniond>& local,
                      std::vector<Eigen::Vector3d>& position) const;
@@ -97,7 +100,7 @@ class RetargetedMotion {
   // mapped body i's reference world acceleration at time t: a central difference over +-30 ms,
   // which smooths the kinks of the frame-by-frame interpolation. Allocates nothing.
   Eigen::Vector3d sample_body_acceleration(double t, int i) const;
-  // mapped body i's rest rotation relative to its engine parent body (the joints at zero):
+  // mapped body i's rest rotation relative to bodies()[i].parent (the joints at zero):
   // its world rotation is parent * rest_local * (joint rotation)
   const Eigen::Quaterniond& rest_local(int i) const { return rest_local_[i]; }
   // writes into q the joint coordinates of mapped body i that come closest to the joint
@@ -140,7 +143,9 @@ class RetargetedMotion {
   void map_bodies(Build& b);          // the map's entries onto bodies_
   void find_character(Build& b);      // the free joint and the bodies under it, parents first
   void fit_rest_skeletons(Build& b);  // clip world -> model world: up, yaw_, scale_
-  void fix_bones(Build& b);           // rest-pose corrections and bone directions
+  // the clip's first frame where its rest pose does not stand (for fit_rest_skeletons)
+  std::vector<Eigen::Vector3d> standing_clip_pose(Build& b) const;
+  void fix_bones(Build& b);                     // rest-pose corrections and bone directions
   void keep_rest(Build& b, double duration_s);  // the rest members; the table's size
   void find_planted_feet(Build& b, const std::vector<int>& level_feet);
   void fit_frame(Build& b, int f);             // table frame f
