@@ -1,5 +1,6 @@
 #include "control/mocap_retarget_tracker.h"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <numbers>
@@ -108,6 +109,19 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
             is_foot_[b] = 1;
             break;
           }
+  // the ankles: the dofs between each foot and the body above its folded chain
+  for (int side = 0; side < 2 && has_legs_; ++side) {
+    int dofs = 0;
+    for (int j = 0; j < engine.njoint(); ++j)
+      for (int b = bodies[foot_[side]].body; b >= 0 && b != bodies[foot_[side]].parent;
+           b = engine.body_parent(b))
+        if (engine.joint(j).body == b) {
+          dofs += engine.joint(j).nv;
+          if (engine.joint(j).force_limit < kStrongAnkleNmPerKg * engine.total_mass())
+            ankle_corrections_ = 0;
+        }
+    ankle_corrections_ = std::min(ankle_corrections_, dofs);
+  }
   if (mode_ == MocapRootMode::kFree && params.balance) {
     // the walking direction in the root body's frame: the mean horizontal root velocity
     std::vector<Eigen::Quaterniond> world(bodies.size()), local(bodies.size());
@@ -178,6 +192,16 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
   };
   for (const auto& [name, value] : params.kp_joints) set_gain(kp_, name, value, "kp_joints");
   for (const auto& [name, value] : params.kd_joints) set_gain(kd_, name, value, "kd_joints");
+  // free mode on a robot's motors: a weak dof's PD reaches its limit at the error a strong one
+  // does (a clamped stable PD loses the damping its implicit step counts on, and chatters)
+  if (mode_ == MocapRootMode::kFree && params.limit_gain_torque > 0)
+    for (int d = 0; d < nv; ++d) {
+      const double limit = engine.joint(engine.dof_joint(d)).force_limit;
+      const double scale =
+          std::isfinite(limit) ? std::min(1.0, limit / params.limit_gain_torque) : 1;
+      kp_[d] *= scale;
+      kd_[d] *= scale;
+    }
   for (int i = root_dof_; i < root_dof_ + 6; ++i) {
     const bool translation = engine.dof_name(i).find("_pos_") != std::string::npos;
     root_translation_[i - root_dof_] = translation;
@@ -193,8 +217,8 @@ void MocapRetargetTracker::correction_dims(std::vector<CorrectionDim>& dims) con
   dims.push_back({"swing_hip_roll", 0.15, "rad"});
   dims.push_back({"pelvis_pitch", 0.1, "rad"});
   dims.push_back({"pelvis_roll", 0.1, "rad"});
-  dims.push_back({"stance_ankle_pitch", 0.1, "rad"});
-  dims.push_back({"stance_ankle_roll", 0.1, "rad"});
+  if (ankle_corrections_ > 0) dims.push_back({"stance_ankle_pitch", 0.1, "rad"});
+  if (ankle_corrections_ > 1) dims.push_back({"stance_ankle_roll", 0.1, "rad"});
 }
 
 std::unique_ptr<ReferenceHorizon> MocapRetargetTracker::make_reference_horizon() const {
@@ -278,7 +302,7 @@ bool MocapRetargetTracker::tracking_error(const ControllerState& state, const En
       error.root_tilt_rad = std::atan2(a.cross(r).norm(), a.dot(r));
       continue;
     }
-    const int p = engine.body_parent(b);
+    const int p = bodies[i].parent;
     const Eigen::Quaterniond local =
         p >= 0 ? Eigen::Quaterniond(engine.body_pose(p).quat.conjugate() * pose.quat) : pose.quat;
     joints += geodesic_angle(local, k >= 0 ? s.horizon->body_local[at + i]
@@ -439,7 +463,7 @@ void MocapRetargetTracker::accumulate_metrics(State& s, const Engine& engine) co
   for (size_t i = 0; i < bodies.size(); ++i) {
     const int b = bodies[i].body;
     positions += (engine.body_pose(b).pos - s.ref_position[i]).norm();
-    const int p = engine.body_parent(b);
+    const int p = bodies[i].parent;
     Eigen::Quaterniond local = engine.body_pose(b).quat;
     if (p >= 0) local = engine.body_pose(p).quat.conjugate() * local;
     double e = geodesic_angle(local, s.ref_local[i]) * kRadToDeg;
@@ -541,8 +565,9 @@ void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlO
 // pelvis target and tilts the stance foot.
 void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
                                    const double* correction) const {
-  static constexpr double kNoCorrection[kCorrections] = {};
-  const double* c = correction ? correction : kNoCorrection;
+  // the planner's offsets, zero for the dimensions the model's ankles do not have
+  double c[kCorrections] = {};
+  if (correction) std::copy_n(correction, kStanceAnklePitch + ankle_corrections_, c);
   const auto& bodies = motion_->bodies();
   const MocapRetargetParams& p = params_;
   const double h = kRootVelocityStep;  // the reference root velocity by a forward difference
@@ -605,7 +630,7 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
       Eigen::Quaterniond(Eigen::AngleAxisd(th_cor + c[kSwingHipRoll], fwd));
   // a world rotation for mapped body i, as its joint rotation under the parent as it is
   auto set_world = [&](int i, const Eigen::Quaterniond& world) {
-    const int parent = engine.body_parent(bodies[i].body);
+    const int parent = bodies[i].parent;
     Eigen::Quaterniond base = motion_->rest_local(i);
     if (parent >= 0) base = engine.body_pose(parent).quat * base;
     motion_->set_body_local(i, (base.conjugate() * world).normalized(), s.q_ref);
@@ -621,8 +646,7 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
   // at its reference over the thigh as it is, blended with the reference's own
   for (int side = 0; side < 2; ++side) {
     const int hip = hip_[side];
-    if ((side != s.stance && swinging) || engine.body_parent(bodies[hip].body) != root_body)
-      continue;
+    if ((side != s.stance && swinging) || bodies[hip].parent != root_body) continue;
     const Eigen::Quaterniond tilt = Eigen::Quaterniond(Eigen::AngleAxisd(c[kPelvisPitch], -lat)) *
                                     Eigen::Quaterniond(Eigen::AngleAxisd(c[kPelvisRoll], fwd));
     const Eigen::Quaterniond pelvis = tilt * yaw_fix * s.bal_world[root_mapped_];
@@ -638,7 +662,7 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
     const Eigen::Quaterniond tilt =
         Eigen::Quaterniond(Eigen::AngleAxisd(c[kStanceAnklePitch], -lat)) *
         Eigen::Quaterniond(Eigen::AngleAxisd(c[kStanceAnkleRoll], fwd));
-    const int parent = engine.body_parent(bodies[foot].body);
+    const int parent = bodies[foot].parent;
     Eigen::Quaterniond base = motion_->rest_local(foot);
     if (parent >= 0) base = engine.body_pose(parent).quat * base;
     motion_->set_body_local(foot, (base.conjugate() * tilt * base * s.bal_local[foot]).normalized(),

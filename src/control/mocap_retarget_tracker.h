@@ -49,6 +49,9 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
   NamedValues kp_joints;          // per-dof kp (a dof name, or a joint name for all its dofs)
   NamedValues kd_joints;
   double max_torque = 0;  // N m clamp on joint torques; 0: none
+  // free mode: a dof whose torque limit is below this has its gains scaled by limit / this, so
+  // that its PD reaches the limit at the error other dofs do (0: off)
+  double limit_gain_torque = 400;  // N m
 
   template <class V>
   void visit(V& v) {
@@ -62,6 +65,8 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
     v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-dof or per-joint kd"});
     MocapHelperParams::visit(v);
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
+    v("limit_gain_torque", limit_gain_torque,
+      {.unit = "N m", .min = 0, .help = "free mode: gains x limit / this below it; 0: off"});
     MocapBalanceParams::visit(v);
   }
 };
@@ -244,6 +249,11 @@ class MocapRetargetTracker final
   std::vector<int> foot_bodies_[2];
   Eigen::Vector3d forward_in_root_ = Eigen::Vector3d::UnitX();
   bool has_legs_ = false;
+  // the stance ankle's corrections (correction_dims): 2 (pitch, roll), 1 (a one-axis ankle:
+  // pitch) or 0 where an ankle dof's limit is under kStrongAnkleNmPerKg x the model's mass:
+  // balance then comes from the hips and the step
+  int ankle_corrections_ = 2;
+  static constexpr double kStrongAnkleNmPerKg = 1;
   // the fall rule: per engine body, the mapped body it moves with (-1: none), its COM and origin
   // in that body's frame, whether it belongs to a foot; the mass of the anchored bodies and the
   // reference's sole level along up

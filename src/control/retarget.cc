@@ -509,6 +509,8 @@ RetargetedMotion::RetargetedMotion(const ReferenceMotion& reference, const Joint
   b.qp.resize(nq_);
   b.translation_inverse =
       probe_kinematics(probe, b.model, b.order, b.free_body, *b.free_joint, b.q0);
+  fold_hinge_chains(b.model, b.order, b.free_body);
+  for (RetargetBody& rb : bodies_) rb.parent = b.model[rb.body].parent;
   fit_rest_skeletons(b);
   fix_bones(b);
   keep_rest(b, duration_s);

@@ -182,4 +182,33 @@ Eigen::Matrix3d probe_kinematics(Engine& probe, std::vector<RetargetModelBody>& 
   return translation_map.inverse();
 }
 
+void fold_hinge_chains(std::vector<RetargetModelBody>& model, const std::vector<int>& order,
+                       int free_body) {
+  std::vector<int> children(model.size(), 0);
+  for (int b : order)
+    if (model[b].parent >= 0) ++children[model[b].parent];
+  auto hinges_of = [&](int b) {
+    int n = 0;
+    for (const JointSlot& j : model[b].joints) n += j.type == JointType::kHinge ? 1 : 100;
+    return n;  // a ball, slide or free joint: never folded
+  };
+  for (int b : order) {
+    if (model[b].mapped < 0 || b == free_body) continue;
+    int hinges = hinges_of(b);
+    RetargetModelBody& mb = model[b];
+    for (int p = mb.parent; p >= 0 && p != free_body && model[p].mapped < 0 && children[p] == 1 &&
+                            hinges < 3 && hinges + hinges_of(p) <= kMaxHinges;
+         p = mb.parent) {
+      std::vector<JointSlot> folded = model[p].joints;
+      for (JointSlot& j : folded)
+        j.axis = (mb.rest_world.conjugate() * model[p].rest_world * j.axis).normalized();
+      hinges += hinges_of(p);
+      mb.joints.insert(mb.joints.begin(), folded.begin(), folded.end());
+      mb.rest_local = (model[p].rest_local * mb.rest_local).normalized();
+      mb.parent = model[p].parent;
+      model[p].joints.clear();
+    }
+  }
+}
+
 }  // namespace stance

@@ -66,4 +66,13 @@ Eigen::Matrix3d probe_kinematics(Engine& probe, std::vector<RetargetModelBody>& 
                                  const std::vector<int>& order, int free_body,
                                  const JointSlot& free_joint, Eigen::VectorXd& q0);
 
+// A mapped body whose parent chain up to the next mapped body holds unmapped bodies of hinges
+// only (a robot's hip, shoulder or ankle: one link per hinge) takes those hinges into its own
+// fit, while it has fewer than three: its parent becomes the chain's top's parent, its
+// rest_local the chain's, and each hinge's axis is turned into its frame (the product
+// A1 H1 A2 H2 ... Am Hm is (A1 ... Am) times the hinges about the turned axes). The folded
+// bodies keep no joints, so the fit leaves their coordinates to the mapped body's.
+void fold_hinge_chains(std::vector<RetargetModelBody>& model, const std::vector<int>& order,
+                       int free_body);
+
 }  // namespace stance
