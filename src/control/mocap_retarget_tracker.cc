@@ -109,17 +109,14 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
             is_foot_[b] = 1;
             break;
           }
-  // the ankles: the dofs between each foot and the body above its folded chain
+  // the ankles: the dofs between each foot and the body above its folded chain (a weak ankle
+  // keeps its corrections: without them Atlas, 90 N m ankle rolls, lost mass_walk; robots.md)
   for (int side = 0; side < 2 && has_legs_; ++side) {
     int dofs = 0;
     for (int j = 0; j < engine.njoint(); ++j)
       for (int b = bodies[foot_[side]].body; b >= 0 && b != bodies[foot_[side]].parent;
            b = engine.body_parent(b))
-        if (engine.joint(j).body == b) {
-          dofs += engine.joint(j).nv;
-          if (engine.joint(j).force_limit < kStrongAnkleNmPerKg * engine.total_mass())
-            ankle_corrections_ = 0;
-        }
+        if (engine.joint(j).body == b) dofs += engine.joint(j).nv;
     ankle_corrections_ = std::min(ankle_corrections_, dofs);
   }
   if (mode_ == MocapRootMode::kFree && params.balance) {

@@ -249,11 +249,9 @@ class MocapRetargetTracker final
   std::vector<int> foot_bodies_[2];
   Eigen::Vector3d forward_in_root_ = Eigen::Vector3d::UnitX();
   bool has_legs_ = false;
-  // the stance ankle's corrections (correction_dims): 2 (pitch, roll), 1 (a one-axis ankle:
-  // pitch) or 0 where an ankle dof's limit is under kStrongAnkleNmPerKg x the model's mass:
-  // balance then comes from the hips and the step
+  // the stance ankle's corrections (correction_dims): 2 (pitch, roll) or 1 (a one-axis ankle:
+  // pitch); the hips' (swing pitch and roll, pelvis pitch and roll) are always there
   int ankle_corrections_ = 2;
-  static constexpr double kStrongAnkleNmPerKg = 1;
   // the fall rule: per engine body, the mapped body it moves with (-1: none), its COM and origin
   // in that body's frame, whether it belongs to a foot; the mass of the anchored bodies and the
   // reference's sole level along up
