@@ -52,7 +52,8 @@ def walk(tmp_path):
 
 
 def test_run_stops_on_sigint(tmp_path):
-    p = start("stance.run(sys.argv[1], duration=1e5, out=sys.argv[2])\nprint('finished')",
+    # the scenario's own length made 1e5 s long (sim.run(duration) stops at the scenario's end)
+    p = start("stance.load(sys.argv[1], duration=1e5, out=sys.argv[2]).run()\nprint('finished')",
               SCENARIOS / "biped_stand.yaml", tmp_path / "run")
     time.sleep(1.5)
     interrupt(p)
