@@ -31,17 +31,8 @@ using Eigen::Matrix3d;
 using Eigen::Vector3d;
 using tinyxml2::XMLElement;
 
-using mjcf::kCollisionBits;
-using mjcf::kInf;
-using mjcf::kMaxMujocoBodyDepth;
-using mjcf::num;
-using mjcf::quat_text;
-using mjcf::set_pose;
-using mjcf::vec;
-using robot_detail::fit_box;
-using robot_detail::FittedBox;
-using robot_detail::lower_extension;
-using robot_detail::package_folders;
+using namespace mjcf;  // the MJCF writing helpers
+using namespace robot_detail;
 
 // ---------------------------------------------------------------------------------------------
 // reading helpers: every error names file:line of the element

@@ -23,16 +23,8 @@ using Eigen::Matrix3d;
 using Eigen::Vector3d;
 using tinyxml2::XMLElement;
 
-using mjcf::kCollisionBits;
-using mjcf::kInf;
-using mjcf::kMaxMujocoBodyDepth;
-using mjcf::num;
-using mjcf::quat_text;
-using mjcf::set_pose;
-using mjcf::vec;
-using robot_detail::fit_box;
-using robot_detail::FittedBox;
-using robot_detail::lower_extension;
+using namespace mjcf;  // the MJCF writing helpers
+using namespace robot_detail;
 
 }  // namespace
 

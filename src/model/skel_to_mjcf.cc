@@ -33,22 +33,9 @@ using Eigen::Vector3d;
 using Eigen::Vector4d;
 using tinyxml2::XMLElement;
 
-using mjcf::kCollisionBits;
-using mjcf::kInf;
-using mjcf::kMaxMujocoBodyDepth;
-using mjcf::num;
-using mjcf::quat_text;
-using mjcf::set_pose;
-using mjcf::vec;
+using namespace mjcf;  // the MJCF writing helpers
 
-using skel_detail::Body;
-using skel_detail::Dof;
-using skel_detail::Joint;
-using skel_detail::read_skel_file;
-using skel_detail::Shape;
-using skel_detail::ShapeKind;
-using skel_detail::Skeleton;
-using skel_detail::SkelFile;
+using namespace skel_detail;
 
 // ---------------------------------------------------------------------------------------------
 // kinematics shared with DART
