@@ -56,9 +56,6 @@ struct ControlOutput {
   // changes them.
   Eigen::VectorXd dof_velocity;
   bool dof_velocity_used = false;
-  // the planner's correction for the controller being computed (its correction_dims() entries,
-  // in their units), set by the simulation before each compute(); null: no correction
-  const double* correction = nullptr;
 
   void resize(int nv, int nu) {
     tau = Eigen::VectorXd::Zero(nv);
@@ -196,13 +193,16 @@ class FallJudge {
   ~FallJudge() = default;
 };
 
-// the planner's hook: the dimensions of the correction this controller applies to its targets
-// when ControlOutput::correction is set; without it the planner corrects with residual torques
+// the planner's hook: the dimensions of the correction this controller applies to its targets;
+// without it the planner corrects with residual torques
 class Correctable {
  public:
   static constexpr ControllerInterface kInterface = ControllerInterface::kCorrectable;
   // appended; may append none (then the planner uses residual torques)
   virtual void correction_dims(std::vector<CorrectionDim>& dims) const = 0;
+  // compute() with the planner's correction: one value per correction_dims() entry, in its unit
+  virtual void compute_corrected(ControllerState& state, const Engine& engine,
+                                 const double* correction, ControlOutput& out) const = 0;
 
  protected:
   ~Correctable() = default;
@@ -355,8 +355,8 @@ using ControllerFactory = std::function<std::shared_ptr<const Controller>(
 // reads a controller block (a scenario's `controllers[i]` mapping, with "type") into the type's
 // parameter struct and lists its numeric entries, defaults filled in; throws InputError with
 // ctx.source's file and line and the key (unknown key, wrong type, out of range). No engine.
-using ControllerParamsCheck = std::function<std::vector<ParamEntry>(const YAML::Node& params,
-                                                                    const ControllerContext& ctx)>;
+using ControllerParamsCheck =
+    std::function<std::vector<ParamEntry>(const YAML::Node& params, const ControllerContext& ctx)>;
 
 struct ControllerType {
   std::string name;

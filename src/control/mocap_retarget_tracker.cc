@@ -516,7 +516,8 @@ void MocapRetargetTracker::accumulate_metrics(State& s, const Engine& engine) co
   }
 }
 
-void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
+void MocapRetargetTracker::compute_with(State& s, const Engine& engine, const double* correction,
+                                        ControlOutput& out) const {
   const double dt = engine.timestep();
   engine.get_positions(s.q);
   engine.get_velocities(s.v);
@@ -539,7 +540,7 @@ void MocapRetargetTracker::compute_step(State& s, const Engine& engine, ControlO
   if (mode_ == MocapRootMode::kKinematic) {
     add_deadbeat_torques(engine, s.q, s.v, s.q_ref, s.work, s.tau);
   } else {
-    if (mode_ == MocapRootMode::kFree && params_.balance) balance(s, engine, t_ref, out.correction);
+    if (mode_ == MocapRootMode::kFree && params_.balance) balance(s, engine, t_ref, correction);
     add_stable_pd_torques(engine, s.q, s.v, s.q_ref, s.v_ref, kp_, kd_, params_.max_torque,
                           root_dof_, root_dof_ + 6, s.work, s.tau);
     if (mode_ == MocapRootMode::kFree) s.tau.segment<6>(root_dof_).setZero();

@@ -330,7 +330,8 @@ void Simbicon::reset_state(State& s, const Engine& engine) const {
   s.state_count.fill(0);
 }
 
-void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
+void Simbicon::compute_with(State& s, const Engine& engine, const double* correction,
+                            ControlOutput& out) const {
   const Model& m = model_;
   const double t = engine.time();
   const std::array<bool, 2> on_ground = feet_on_ground(m, engine);
@@ -367,7 +368,7 @@ void Simbicon::compute_step(State& s, const Engine& engine, ControlOutput& out) 
   s.last_time = t;
   // the planner's correction (correction_dims): offsets of the swing thigh, torso and stance
   // ankle targets, and in 3D of the swing thigh's and the torso's roll
-  const double* c = out.correction;
+  const double* c = correction;
   const double dc_swing = c ? c[0] : 0.0, dc_torso = c ? c[1] : 0.0, dc_ankle = c ? c[2] : 0.0;
   s.swing_hip_target = tg.swing_hip + tg.cd * s.d + tg.cv * s.v + dc_swing;
 

@@ -312,7 +312,16 @@ class Simbicon final
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   // one control step: advance the FSM, then add the torques to out.tau. No allocation.
-  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override;
+  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override {
+    compute_with(state, engine, nullptr, out);
+  }
+  void compute_corrected(ControllerState& state, const Engine& engine, const double* correction,
+                         ControlOutput& out) const override {
+    compute_with(cast(state), engine, correction, out);
+  }
+  // compute_step with the planner's correction (null: none)
+  void compute_with(State& state, const Engine& engine, const double* correction,
+                    ControlOutput& out) const;
 
  private:
   Model model_;

@@ -133,13 +133,14 @@ void JointPd<kStable>::reset_state(State& s, const Engine& engine) const {
 }
 
 template <bool kStable>
-void JointPd<kStable>::compute_step(State& s, const Engine& engine, ControlOutput& out) const {
+void JointPd<kStable>::compute_with(State& s, const Engine& engine, const double* correction,
+                                    ControlOutput& out) const {
   // the planner's offsets go on a copy of the target, swapped in while computing
-  const bool planned = out.correction && !model_.planner_qpos.empty();
+  const bool planned = correction && !model_.planner_qpos.empty();
   if (planned) {
     s.q_planned = s.q_target;
     for (size_t i = 0; i < model_.planner_qpos.size(); ++i)
-      s.q_planned[model_.planner_qpos[i]] += out.correction[i];
+      s.q_planned[model_.planner_qpos[i]] += correction[i];
     s.q_target.swap(s.q_planned);
   }
   if constexpr (kStable)

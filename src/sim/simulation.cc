@@ -190,22 +190,20 @@ bool Simulation::compute_controls() {
     for (size_t d = 0; d < pm->dimensions.size(); ++d) correction_[d] *= pm->dimensions[d].scale;
   }
   for (size_t i = 0; i < controllers_.size(); ++i) {
+    // a controller that offers correction dimensions gets its share of the correction
     const int first = pm ? pm->controller_first[i] : -1;
-    out_.correction = first >= 0 ? correction_.data() + first : nullptr;
-    if (controller_seconds_) {
-      auto t0 = std::chrono::steady_clock::now();
+    const double* correction = first >= 0 ? correction_.data() + first : nullptr;
+    const auto t0 = controller_seconds_ ? std::chrono::steady_clock::now()
+                                        : std::chrono::steady_clock::time_point{};
+    if (correction)
+      controllers_[i]->as<Correctable>()->compute_corrected(*states_[i], e, correction, out_);
+    else
       controllers_[i]->compute(*states_[i], e, out_);
+    if (controller_seconds_)
       (*controller_seconds_)[i] +=
           std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-    } else {
-      controllers_[i]->compute(*states_[i], e, out_);
-    }
-    if (!check_output(i, e.time())) {
-      out_.correction = nullptr;
-      return false;
-    }
+    if (!check_output(i, e.time())) return false;
   }
-  out_.correction = nullptr;
   out_.tau *= model_->scenario.torque_scale;
   if (pm)
     for (size_t d = 0; d < pm->dimensions.size(); ++d)

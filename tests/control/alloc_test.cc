@@ -189,14 +189,17 @@ TEST(ControllerAllocations, NoneAfterTheFirstCompute) {
       if (const auto* c = controller->as<Correctable>()) c->correction_dims(dims);
       const Tracking* tracking = controller->as<Tracking>();
       const std::vector<double> correction(dims.size(), 0.05);
-      out.correction = dims.empty() ? nullptr : correction.data();
       TrackingError error;
       state = controller->make_state(*engine);
       auto step = [&](bool counted) {
         engine->forward();
         out.clear();
         Counts c = count_allocations([&] {
-          controller->compute(*state, *engine, out);
+          if (dims.empty())
+            controller->compute(*state, *engine, out);
+          else
+            controller->as<Correctable>()->compute_corrected(*state, *engine, correction.data(),
+                                                             out);
           if (tracking) tracking->tracking_error(*state, *engine, error);
         });
         if (counted) {

@@ -619,8 +619,10 @@ TEST(MocapTracker, CorrectionMovesTheBalanceTargets) {
     Tracked u = make_tracked(params_for(s.bvh, "free"), s.xml, 0);
     ControlOutput out;
     out.resize(u.engine->nv(), 0);
-    out.correction = correction;
-    u.tracker->compute(*u.state, *u.engine, out);
+    if (correction)
+      u.tracker->as<Correctable>()->compute_corrected(*u.state, *u.engine, correction, out);
+    else
+      u.tracker->compute(*u.state, *u.engine, out);
     return Eigen::VectorXd(out.tau);
   };
   const double zero[6] = {}, hip[6] = {0.1, 0, 0, 0, 0, 0}, ankle[6] = {0, 0, 0, 0, 0.1, 0};
@@ -665,8 +667,7 @@ TEST(MocapTracker, RolloutsReadTheirReferenceFromTheHorizonToTheBit) {
       ControlOutput& out = t == &run ? out_run : out_rollout;
       t->engine->forward();
       out.clear();
-      out.correction = correction;
-      t->tracker->compute(*t->state, *t->engine, out);
+      t->tracker->as<Correctable>()->compute_corrected(*t->state, *t->engine, correction, out);
       t->engine->set_generalized_forces(out.tau);
       t->engine->step();
       t->engine->forward();
