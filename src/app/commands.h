@@ -48,8 +48,8 @@ struct RunCommand {
   double screenshot_at = 0;  // s
   // the video's options, with bvh track --record's defaults (viz/viz_commands.h: VideoOptions)
   double fps = 30;
-  std::string size;    // WxH; empty: 640x360 for a video, 1280x720 for a screenshot
-  std::string camera;  // follow or free (fixed); empty: the scenario's (camera.mode)
+  std::string size;                // WxH; empty: 640x360 for a video, 1280x720 for a screenshot
+  std::string camera;              // follow or free (fixed); empty: the scenario's (camera.mode)
   std::string debug_draw = "off";  // on: COM ball, contacts, markers, planner path, ghost
   // mocap_tracker / mocap_retarget (controllers[0]): write the simulated motion as BVH here
   // (the CLI turns it into the override controllers.0.export_bvh=<absolute path>)

@@ -70,8 +70,7 @@ std::optional<double> default_value(const LoadedScenario& loaded, const std::str
   if (parts.size() >= 3 && parts[0] == "controllers") {
     char* end = nullptr;
     long idx = std::strtol(parts[1].c_str(), &end, 10);
-    if (*end || idx < 0 || idx >= static_cast<long>(loaded.controllers.size()))
-      return std::nullopt;
+    if (*end || idx < 0 || idx >= static_cast<long>(loaded.controllers.size())) return std::nullopt;
     std::string rest = key.substr(parts[0].size() + parts[1].size() + 2);
     for (const ParamEntry& e : controller_params(loaded, idx))
       if (e.path == rest) return e.value;

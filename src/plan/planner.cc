@@ -195,7 +195,7 @@ void Planner::sample_horizons() {
   for (size_t i = 0; i < controllers.size(); ++i)
     if (horizons_[i])
       controllers[i]->as<HorizonSampling>()->sample_reference_horizon(*horizons_[i], e,
-                                                                     start_->engine.time, steps);
+                                                                      start_->engine.time, steps);
 }
 
 void Planner::plan(Simulation& sim) {

@@ -7,8 +7,9 @@
 // The correction is low-dimensional: offsets that controllers offer through
 // Correctable::correction_dims() (a tracker's swing-hip, pelvis and ankle targets), else residual
 // torques on joint dofs (src/sim/correction.h). The rollouts are scored by planner.objective
-// (plan/objective.h) and drawn from the one CEM (math/cem.h). Candidate i of planning step k draws its noise from a stream seeded by
-// (scenario seed, k, i), so the plan is the same for any thread count.
+// (plan/objective.h) and drawn from the one CEM (math/cem.h). Candidate i of planning step k draws
+// its noise from a stream seeded by (scenario seed, k, i), so the plan is the same for any thread
+// count.
 #pragma once
 
 #include <Eigen/Core>

@@ -73,12 +73,12 @@ struct PlannerParams {
   std::string method = "sampling";  // sampling (predictive sampling) or cem
   // what a rollout is scored by: a name in src/plan/objective.cc's registry
   std::string objective = "track_or_balance";
-  int iterations = 2;               // cem: refits of the mean and deviation
-  int elites = 4;                   // cem: candidates the refit keeps
-  double timestep = 0;              // s, the rollouts' step if coarser than the run's; 0: the run's
-  PlannerSolverParams solver;       // the rollouts' constraint solver
-  double cost_interval_s = 0.01;    // s between cost samples in a rollout
-  int threads = 0;                  // rollout threads; 0: every core
+  int iterations = 2;             // cem: refits of the mean and deviation
+  int elites = 4;                 // cem: candidates the refit keeps
+  double timestep = 0;            // s, the rollouts' step if coarser than the run's; 0: the run's
+  PlannerSolverParams solver;     // the rollouts' constraint solver
+  double cost_interval_s = 0.01;  // s between cost samples in a rollout
+  int threads = 0;                // rollout threads; 0: every core
   // in trouble, plan harder: while the run is at least `rescue_error_m` off (a tracked
   // reference's mean body error, else the capture point's offset; 0: never), `rescue_rounds`
   // more rounds of `samples` around the best

@@ -359,8 +359,8 @@ std::shared_ptr<SimulationModel> build_model(const LoadedScenario& loaded,
   // clamped wherever the model gives one unless asked otherwise
   m->force_limit.resize(e.nv());
   for (int d = 0; d < e.nv(); ++d) m->force_limit[d] = e.joint(e.dof_joint(d)).force_limit;
-  m->clamp_torques = sc.torque_limits == "on" || (sc.torque_limits == "auto" &&
-                                                  m->force_limit.array().isFinite().any());
+  m->clamp_torques = sc.torque_limits == "on" ||
+                     (sc.torque_limits == "auto" && m->force_limit.array().isFinite().any());
   e.save_state(m->initial);
   for (const auto& c : m->controllers)
     if (const Reporting* r = c->as<Reporting>()) r->signal_names(m->signal_names);

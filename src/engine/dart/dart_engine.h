@@ -407,7 +407,7 @@ class DartEngine final : public Engine {
   mutable Eigen::VectorXd shift_forces_, shift_damping_, shift_springs_;
   std::string load_warnings_;
   std::function<std::unique_ptr<Engine>()> make_drawing_world_;  // BackendWorld's
-  std::unique_ptr<DrawingCopy> drawing_;                          // made on first drawing
+  std::unique_ptr<DrawingCopy> drawing_;                         // made on first drawing
   double step_start_time_ = 0;  // s, of the last step (for the divergence message)
 
   // contacts: the last step's, or those forward() found for positions set since
