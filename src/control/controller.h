@@ -335,6 +335,25 @@ class TypedController : public Controller, public Offers... {
   }
 };
 
+// a TypedController that takes the planner's correction (Correctable): it implements
+// compute_with(), which compute() calls with no correction and compute_corrected() with one
+template <class S, class... Offers>
+class CorrectedController : public TypedController<S, Correctable, Offers...> {
+ public:
+  void compute_corrected(ControllerState& state, const Engine& engine, const double* correction,
+                         ControlOutput& out) const final {
+    compute_with(this->cast(state), engine, correction, out);
+  }
+
+ protected:
+  void compute_step(S& state, const Engine& engine, ControlOutput& out) const final {
+    compute_with(state, engine, nullptr, out);
+  }
+  // one control step with the planner's correction (null: none)
+  virtual void compute_with(S& state, const Engine& engine, const double* correction,
+                            ControlOutput& out) const = 0;
+};
+
 // the registry: one line per controller type (see control/registry.cc)
 struct ControllerContext {
   YamlSource source;  // scenario file, for messages

@@ -159,8 +159,8 @@ struct MocapRetargetState {
 enum class MocapFallCause { kNone, kComLow, kBodyTouches };
 
 class MocapRetargetTracker final
-    : public TypedController<MocapRetargetState, Reporting, Retunable, Tracking, FallJudge,
-                             Correctable, HorizonSampling, InitialState> {
+    : public CorrectedController<MocapRetargetState, Reporting, Retunable, Tracking, FallJudge,
+                                 HorizonSampling, InitialState> {
  public:
   // the table is built once here on ctx.scratch_engine (overwritten while it is probed), long
   // enough for ctx.duration_s (looping clips); relative bvh and joint_map paths start at the
@@ -217,16 +217,8 @@ class MocapRetargetTracker final
 
  protected:
   void reset_state(State& s, const Engine& engine) const override;
-  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override {
-    compute_with(state, engine, nullptr, out);
-  }
-  void compute_corrected(ControllerState& state, const Engine& engine, const double* correction,
-                         ControlOutput& out) const override {
-    compute_with(cast(state), engine, correction, out);
-  }
-  // compute_step with the planner's correction (null: none)
   void compute_with(State& state, const Engine& engine, const double* correction,
-                    ControlOutput& out) const;
+                    ControlOutput& out) const override;
 
  private:
   void accumulate_metrics(State& s, const Engine& engine) const;

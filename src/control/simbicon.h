@@ -263,8 +263,7 @@ struct SimbiconState {
   }
 };
 
-class Simbicon final
-    : public TypedController<SimbiconState, Reporting, Retunable, Correctable, Drawable> {
+class Simbicon final : public CorrectedController<SimbiconState, Reporting, Retunable, Drawable> {
  public:
   enum Side { kRight = 0, kLeft = 1 };
 
@@ -312,16 +311,8 @@ class Simbicon final
  protected:
   void reset_state(State& state, const Engine& engine) const override;
   // one control step: advance the FSM, then add the torques to out.tau. No allocation.
-  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override {
-    compute_with(state, engine, nullptr, out);
-  }
-  void compute_corrected(ControllerState& state, const Engine& engine, const double* correction,
-                         ControlOutput& out) const override {
-    compute_with(cast(state), engine, correction, out);
-  }
-  // compute_step with the planner's correction (null: none)
   void compute_with(State& state, const Engine& engine, const double* correction,
-                    ControlOutput& out) const;
+                    ControlOutput& out) const override;
 
  private:
   Model model_;

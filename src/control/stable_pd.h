@@ -88,7 +88,7 @@ void compute_plain_pd(const JointPdModel& model, StablePdState& s, const Engine&
 
 // SPD (kStable) or plain PD on the same Model: the registry's stable_pd and pd
 template <bool kStable>
-class JointPd final : public TypedController<StablePdState, Reporting, Retunable, Correctable> {
+class JointPd final : public CorrectedController<StablePdState, Reporting, Retunable> {
  public:
   JointPd(const JointPdParams& params, const ControllerContext& ctx, const Engine& engine);
   std::string_view type() const override { return kStable ? "stable_pd" : "pd"; }
@@ -108,16 +108,8 @@ class JointPd final : public TypedController<StablePdState, Reporting, Retunable
 
  protected:
   void reset_state(State& state, const Engine& engine) const override;
-  void compute_step(State& state, const Engine& engine, ControlOutput& out) const override {
-    compute_with(state, engine, nullptr, out);
-  }
-  void compute_corrected(ControllerState& state, const Engine& engine, const double* correction,
-                         ControlOutput& out) const override {
-    compute_with(cast(state), engine, correction, out);
-  }
-  // compute_step with the planner's correction (null: none)
   void compute_with(State& state, const Engine& engine, const double* correction,
-                    ControlOutput& out) const;
+                    ControlOutput& out) const override;
 
  private:
   JointPdModel model_;
