@@ -67,19 +67,24 @@ void check_lockable(const ModelFile& mf, ModelFormat format) {
                      "`stance convert` writes a SKEL file as MJCF)");
 }
 
-// lock_joints on an MJCF model (model/mjcf_lock.h): the main file's text without the joints, read
-// by MuJoCo in place of the file; checked on DART too, so that both engines refuse alike
+// lock_joints on an MJCF model (model/mjcf_lock.h): the texts of the main file and of the files
+// it includes, without the joints, read by MuJoCo in place of the files; checked on DART too, so
+// that both engines refuse alike
 void lock_mjcf_joints(const ModelFile& mf, BackendModel& model) {
   if (mf.robot.lock_joints.empty()) return;
-  auto patched = std::find_if(model.patched_files.begin(), model.patched_files.end(),
-                              [&](const auto& f) { return f.first == model.file; });
-  std::string text;
-  if (patched != model.patched_files.end()) {
-    text = patched->second;
-  } else {
-    std::ifstream in(model.file, std::ios::binary);
-    text.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
+  auto patched_text = [&](const std::string& path) -> std::string* {
+    for (auto& [p, text] : model.patched_files)
+      if (p == path) return &text;
+    return nullptr;
+  };
+  auto text_of = [&](const std::string& path) {
+    if (const std::string* text = patched_text(path)) return *text;
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  };
+  std::vector<MjcfFileText> files;
+  for (const std::string& path : mjcf_include_paths(model.file, text_of))
+    files.push_back({path, text_of(path)});
   const MjcfLayout layout = mjcf_layout(model);  // compiles it unlocked: its errors, located
   const std::set<std::string> names(mf.robot.lock_joints.begin(), mf.robot.lock_joints.end());
   KeyframeEntries dropped;
@@ -90,11 +95,14 @@ void lock_mjcf_joints(const ModelFile& mf, BackendModel& model) {
   }
   for (size_t a = 0; a < layout.actuator_joints.size(); ++a)
     if (names.count(layout.actuator_joints[a])) dropped.ctrl.insert(static_cast<int>(a));
-  std::string locked = mjcf_with_joints_locked(mf.path, text, mf.robot.lock_joints, dropped);
-  if (patched != model.patched_files.end())
-    patched->second = std::move(locked);
-  else
-    model.patched_files.emplace_back(model.file, std::move(locked));
+  std::vector<std::string> locked =
+      mjcf_with_joints_locked(mf.path, files, mf.robot.lock_joints, dropped);
+  for (size_t i = 0; i < files.size(); ++i) {
+    if (std::string* text = patched_text(files[i].path))
+      *text = std::move(locked[i]);
+    else
+      model.patched_files.emplace_back(files[i].path, std::move(locked[i]));
+  }
 }
 
 // a load note, printed once per process and message

@@ -6,6 +6,8 @@
 
 #include <algorithm>
 #include <cstring>
+#include <filesystem>
+#include <memory>
 #include <set>
 #include <sstream>
 
@@ -22,12 +24,14 @@ bool named(const XMLElement* e, const char* attribute, const std::set<std::strin
   return v != nullptr && names.count(v) > 0;
 }
 
-// every <joint> under <worldbody>, in document order
+// every <joint> under `parent`'s bodies, in document order: from a file's root, those of its
+// <worldbody> and, in an included file, of the elements its <include> stands for
 void collect_joints(XMLElement* parent, std::vector<XMLElement*>& out) {
   for (XMLElement* e = parent->FirstChildElement(); e; e = e->NextSiblingElement()) {
     if (std::strcmp(e->Name(), "joint") == 0 || std::strcmp(e->Name(), "freejoint") == 0)
       out.push_back(e);
-    if (std::strcmp(e->Name(), "body") == 0) collect_joints(e, out);
+    if (std::strcmp(e->Name(), "body") == 0 || std::strcmp(e->Name(), "worldbody") == 0)
+      collect_joints(e, out);
   }
 }
 
@@ -96,17 +100,46 @@ void remove_references(XMLElement* root, const std::set<std::string>& names) {
 
 }  // namespace
 
-std::string mjcf_with_joints_locked(const std::string& shown_name, const std::string& text,
-                                    const std::vector<std::string>& names,
-                                    const KeyframeEntries& dropped) {
-  tinyxml2::XMLDocument doc;
-  if (doc.Parse(text.c_str(), text.size()) != tinyxml2::XML_SUCCESS || !doc.RootElement())
-    throw InputError(shown_name + ": lock_joints: the file is not well-formed XML");
-  XMLElement* root = doc.RootElement();
+std::vector<std::string> mjcf_include_paths(
+    const std::string& main_path, const std::function<std::string(const std::string&)>& text_of) {
+  const std::filesystem::path dir = std::filesystem::path(main_path).parent_path();
+  std::vector<std::string> paths = {main_path};
+  for (size_t i = 0; i < paths.size() && paths.size() <= 100; ++i) {  // 100: an include cycle
+    const std::string text = text_of(paths[i]);
+    tinyxml2::XMLDocument doc;
+    if (doc.Parse(text.c_str(), text.size()) != tinyxml2::XML_SUCCESS) continue;
+    std::vector<const XMLElement*> open = {doc.RootElement()};
+    while (!open.empty()) {
+      const XMLElement* parent = open.back();
+      open.pop_back();
+      if (parent == nullptr) continue;
+      for (const XMLElement* e = parent->FirstChildElement(); e; e = e->NextSiblingElement()) {
+        const char* file = e->Attribute("file");
+        if (std::strcmp(e->Name(), "include") == 0 && file != nullptr)
+          paths.push_back((dir / file).string());
+        if (std::strcmp(e->Name(), "body") == 0 || std::strcmp(e->Name(), "worldbody") == 0)
+          open.push_back(e);
+      }
+    }
+  }
+  return paths;
+}
+
+std::vector<std::string> mjcf_with_joints_locked(const std::string& shown_name,
+                                                 const std::vector<MjcfFileText>& files,
+                                                 const std::vector<std::string>& names,
+                                                 const KeyframeEntries& dropped) {
+  std::vector<std::unique_ptr<tinyxml2::XMLDocument>> docs;
   std::vector<XMLElement*> joints;
-  for (XMLElement* w = root->FirstChildElement("worldbody"); w;
-       w = w->NextSiblingElement("worldbody"))
-    collect_joints(w, joints);
+  std::vector<std::string> joint_file;  // the file each joint is in, as messages name it
+  for (const MjcfFileText& f : files) {
+    auto& doc = docs.emplace_back(std::make_unique<tinyxml2::XMLDocument>());
+    const std::string shown = docs.size() == 1 ? shown_name : f.path;
+    if (doc->Parse(f.text.c_str(), f.text.size()) != tinyxml2::XML_SUCCESS || !doc->RootElement())
+      throw InputError(shown + ": lock_joints: the file is not well-formed XML");
+    collect_joints(doc->RootElement(), joints);
+    joint_file.resize(joints.size(), shown);
+  }
   const std::set<std::string> locked(names.begin(), names.end());
   for (const std::string& name : names) {
     auto it = std::find_if(joints.begin(), joints.end(), [&](const XMLElement* j) {
@@ -117,23 +150,28 @@ std::string mjcf_with_joints_locked(const std::string& shown_name, const std::st
       std::vector<std::string> have;
       for (const XMLElement* j : joints)
         if (const char* n = j->Attribute("name")) have.push_back(n);
-      throw InputError(fmt::format("{}: lock_joints: no joint '{}' in the file (it has: {})",
-                                   shown_name, name, fmt::join(have, ", ")));
+      throw InputError(fmt::format("{}: lock_joints: no joint '{}' in the file{} (it has: {})",
+                                   shown_name, name, files.size() > 1 ? " or its includes" : "",
+                                   fmt::join(have, ", ")));
     }
     const char* type = (*it)->Attribute("type");
     if (std::strcmp((*it)->Name(), "freejoint") == 0 || (type && std::strcmp(type, "free") == 0))
       throw InputError(
           fmt::format("{}:{}: lock_joints: '{}' is a free joint (the root), which "
                       "cannot be locked",
-                      shown_name, (*it)->GetLineNum(), name));
+                      joint_file[it - joints.begin()], (*it)->GetLineNum(), name));
   }
-  patch_keyframes(root, dropped);
   for (XMLElement* j : joints)
     if (named(j, "name", locked)) j->Parent()->DeleteChild(j);
-  remove_references(root, locked);
-  tinyxml2::XMLPrinter printer;
-  doc.Print(&printer);
-  return printer.CStr();
+  std::vector<std::string> texts;
+  for (auto& doc : docs) {
+    patch_keyframes(doc->RootElement(), dropped);
+    remove_references(doc->RootElement(), locked);
+    tinyxml2::XMLPrinter printer;
+    doc->Print(&printer);
+    texts.emplace_back(printer.CStr());
+  }
+  return texts;
 }
 
 }  // namespace stance

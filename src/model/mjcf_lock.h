@@ -5,6 +5,7 @@
 // and their entries in keyframes. DART welds them after parsing (engine/dart).
 #pragma once
 
+#include <functional>
 #include <set>
 #include <string>
 #include <vector>
@@ -17,11 +18,24 @@ struct KeyframeEntries {
   std::set<int> qpos, qvel, ctrl;
 };
 
-// `text` (the model file `shown_name`) with `names` locked and `dropped` removed from its
-// keyframes. Throws InputError "<shown_name>: lock_joints: ..." for a name that is no hinge,
-// slide or ball joint of the file (a free joint cannot be locked), naming the joints it has.
-std::string mjcf_with_joints_locked(const std::string& shown_name, const std::string& text,
-                                    const std::vector<std::string>& names,
-                                    const KeyframeEntries& dropped);
+// a model file's text, read in place of the file at `path`
+struct MjcfFileText {
+  std::string path;
+  std::string text;
+};
+
+// the MJCF file at `main_path` (first) and every file it <include>s, at any depth, resolved as
+// MuJoCo 2.2.2 does (against the main file's folder); `text_of` reads a file
+std::vector<std::string> mjcf_include_paths(
+    const std::string& main_path, const std::function<std::string(const std::string&)>& text_of);
+
+// `files` (a model file `shown_name` and the files it includes) with `names` locked wherever
+// they are and `dropped` removed from the keyframes: the new texts, in `files`' order. Throws
+// InputError "<shown_name>: lock_joints: ..." for a name that is no hinge, slide or ball joint
+// of the files (a free joint cannot be locked), naming the joints they have.
+std::vector<std::string> mjcf_with_joints_locked(const std::string& shown_name,
+                                                 const std::vector<MjcfFileText>& files,
+                                                 const std::vector<std::string>& names,
+                                                 const KeyframeEntries& dropped);
 
 }  // namespace stance

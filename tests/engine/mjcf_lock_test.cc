@@ -157,6 +157,50 @@ TEST(MjcfLock, KeyframesKeepTheEntriesOfTheJointsLeft) {
   EXPECT_NEAR(ctrl[1], 0.3, 1e-12);  // m_r_knee
 }
 
+// the legs split over three files: the scene includes the robot's body tree (inside
+// <worldbody>) and, at the top, its actuators, sensors and keyframe; locked joints of the
+// included files go as they do from one file
+TEST(MjcfLock, JointsOfIncludedFilesAreLockedAsInOneFile) {
+  const std::string legs = kLegs;
+  const size_t body = legs.find("    <body name=\"trunk\"");
+  const size_t bodies_end = legs.find("  </worldbody>");
+  const size_t rest = legs.find("  <actuator>");
+  const size_t end = legs.find("</mujoco>");
+  test::write_temp_file("mjcf_lock_inc_tree.xml",
+                        "<mujoco>\n" + legs.substr(body, bodies_end - body) + "</mujoco>\n");
+  test::write_temp_file("mjcf_lock_inc_rest.xml",
+                        "<mujoco>\n" + legs.substr(rest, end - rest) + "</mujoco>\n");
+  const std::string scene = test::write_temp_file(
+      "mjcf_lock_inc_scene.xml",
+      "<mujoco model=\"legs\">\n  <worldbody>\n    <include file=\"mjcf_lock_inc_tree.xml\"/>\n"
+      "  </worldbody>\n  <include file=\"mjcf_lock_inc_rest.xml\"/>\n</mujoco>\n");
+  const std::string one = test::write_temp_file("mjcf_lock_legs.xml", kLegs);
+  const std::vector<std::string> lock = {"l_knee", "l_ankle_roll"};
+  const auto split = load("mujoco", scene, lock);
+  const auto whole = load("mujoco", one, lock);
+  ASSERT_EQ(split->nv(), whole->nv());
+  EXPECT_EQ(split->nv(), load("mujoco", scene, {})->nv() - 2);
+  EXPECT_EQ(split->dof_index("l_knee"), -1);
+  EXPECT_EQ(split->actuator_index("m_l_knee"), -1) << "the motor in the other file goes too";
+  ASSERT_EQ(split->nu(), whole->nu());
+  split->apply_keyframe("crouch");
+  whole->apply_keyframe("crouch");
+  for (int d = 0; d < whole->nv(); ++d) {
+    EXPECT_EQ(split->dof_name(d), whole->dof_name(d));
+    EXPECT_EQ(split->dof_position(d), whole->dof_position(d)) << whole->dof_name(d);
+  }
+  expect_same_bodies(*split, *whole, 1e-12);
+  try {
+    load("mujoco", scene, {"l_kne"});
+    ADD_FAILURE() << "no error";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no joint 'l_kne' in the file or its includes (it has: "
+                                         "root, l_hip, l_knee"),
+              std::string::npos)
+        << e.what();
+  }
+}
+
 TEST(MjcfLock, UnknownNamesAndFreeJointsAreRefusedOnBothEngines) {
   const std::string xml = test::write_temp_file("mjcf_lock_legs.xml", kLegs);
   std::vector<std::string> engines = {"mujoco"};
