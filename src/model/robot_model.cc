@@ -37,24 +37,13 @@ using namespace robot_detail;
 // ---------------------------------------------------------------------------------------------
 // reading helpers: every error names file:line of the element
 
+// the elements whose numbers are lengths (URDF origin and shapes, SDF pose and shapes)
+const std::set<std::string> kRobotLengths = {"origin", "box",  "sphere", "cylinder", "mesh",
+                                             "pose",   "size", "radius", "length",   "scale"};
+
 class RobotReader : public XmlReader {
  public:
-  using XmlReader::XmlReader;
-
-  std::string text(const XMLElement* el) const {
-    const char* t = el->GetText();
-    std::string s = t != nullptr ? t : "";
-    const size_t b = s.find_first_not_of(" \t\r\n");
-    if (b == std::string::npos) return "";
-    return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
-  }
-
-  // an element whose numbers are lengths (URDF origin and shapes, SDF pose and shapes)
-  static bool is_length(const XMLElement* el) {
-    static const std::set<std::string> kLengths = {"origin", "box",  "sphere", "cylinder", "mesh",
-                                                   "pose",   "size", "radius", "length",   "scale"};
-    return kLengths.count(el->Name()) > 0;
-  }
+  explicit RobotReader(std::string file) : XmlReader(std::move(file), kRobotLengths) {}
 
   // whitespace-separated finite numbers; `count` < 0 accepts any count
   std::vector<double> numbers(const XMLElement* el, const std::string& t, const std::string& what,
@@ -74,7 +63,7 @@ class RobotReader : public XmlReader {
   }
   // an element's text as numbers
   std::vector<double> text_numbers(const XMLElement* el, int count) const {
-    return numbers(el, text(el), fmt::format("<{}>", el->Name()), count);
+    return numbers(el, trimmed_text(el), fmt::format("<{}>", el->Name()), count);
   }
   double child_number(const XMLElement* parent, const char* name, double fallback) const {
     const XMLElement* el = parent->FirstChildElement(name);
@@ -82,7 +71,7 @@ class RobotReader : public XmlReader {
   }
 
   bool boolean(const XMLElement* el) const {
-    const std::string t = text(el);
+    const std::string t = trimmed_text(el);
     if (t == "true" || t == "1") return true;
     if (t == "false" || t == "0") return false;
     fail(el, fmt::format("<{}>: expected true/false/1/0, found '{}'", el->Name(), t));
@@ -364,7 +353,7 @@ RobotGeometry read_sdf_geometry(const RobotReader& r, const XMLElement* el,
   } else if (kind == "mesh") {
     g.kind = RobotGeometry::Kind::kMesh;
     const XMLElement* uri = r.need(shape, "uri");
-    g.mesh = resolve_mesh(r, uri, model_path, r.text(uri), options);
+    g.mesh = resolve_mesh(r, uri, model_path, r.trimmed_text(uri), options);
     if (const XMLElement* s = shape->FirstChildElement("scale")) {
       const std::vector<double> v = r.text_numbers(s, 3);
       g.scale = Vector3d(v[0], v[1], v[2]);
@@ -427,8 +416,8 @@ RobotJoint read_sdf_joint(const RobotReader& r, const XMLElement* el) {
                                   {"revolute", RobotJointType::kRevolute},
                                   {"prismatic", RobotJointType::kPrismatic},
                                   {"ball", RobotJointType::kBall}});
-  j.parent = r.text(r.need(el, "parent"));
-  j.child = r.text(r.need(el, "child"));
+  j.parent = r.trimmed_text(r.need(el, "parent"));
+  j.child = r.trimmed_text(r.need(el, "child"));
   j.child_to_joint = sdf_pose(r, el);
   if (j.type == RobotJointType::kRevolute || j.type == RobotJointType::kPrismatic) {
     const XMLElement* axis = r.need(el, "axis");
@@ -737,7 +726,7 @@ std::string robot_text_for_dart(const std::string& shown_name, const std::string
         XMLElement* mesh = geometry != nullptr ? geometry->FirstChildElement("mesh") : nullptr;
         if (mesh == nullptr) continue;
         XMLElement* uri = mesh->FirstChildElement("uri");
-        const std::string file = resolve_mesh(r, uri, path, r.text(uri), options);
+        const std::string file = resolve_mesh(r, uri, path, r.trimmed_text(uri), options);
         uri->SetText(file.c_str());
         if (!collision || !boxes) continue;
         Vector3d scale = Vector3d::Ones();

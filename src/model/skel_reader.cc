@@ -39,22 +39,14 @@ using namespace skel_detail;
 // ---------------------------------------------------------------------------------------------
 // reading helpers: every error names file:line of the element
 
+// the elements whose numbers are lengths (or a joint's initial state, which places bodies)
+const std::set<std::string> kSkelLengths = {"transformation", "size",       "radius",
+                                            "height",         "base_width", "base_depth",
+                                            "offset",         "init_pos",   "init_vel"};
+
 class SkelReader : public XmlReader {
  public:
-  using XmlReader::XmlReader;
-
-  std::string text(const XMLElement* el) const {
-    const char* t = el->GetText();
-    return t != nullptr ? std::string(t) : std::string();
-  }
-
-  // an element whose numbers are lengths (or a joint's initial state, which places bodies)
-  static bool is_length(const XMLElement* el) {
-    static const std::set<std::string> kLengths = {"transformation", "size",       "radius",
-                                                   "height",         "base_width", "base_depth",
-                                                   "offset",         "init_pos",   "init_vel"};
-    return kLengths.count(el->Name()) > 0;
-  }
+  explicit SkelReader(std::string file) : XmlReader(std::move(file), kSkelLengths) {}
 
   // all whitespace-separated numbers of the element's text; `count` < 0 accepts any count
   std::vector<double> numbers(const XMLElement* el, int count) const {

@@ -29,6 +29,18 @@ std::string XmlReader::attribute(const XMLElement* el, const char* name) const {
   return a;
 }
 
+std::string XmlReader::text(const XMLElement* el) {
+  const char* t = el->GetText();
+  return t != nullptr ? std::string(t) : std::string();
+}
+
+std::string XmlReader::trimmed_text(const XMLElement* el) {
+  const std::string s = text(el);
+  const size_t b = s.find_first_not_of(" \t\r\n");
+  if (b == std::string::npos) return "";
+  return s.substr(b, s.find_last_not_of(" \t\r\n") - b + 1);
+}
+
 std::vector<double> XmlReader::parse_numbers(const XMLElement* el, const std::string& text,
                                              const std::string& what, int count, bool lengths,
                                              const char* not_a_number) const {

@@ -4,6 +4,7 @@
 
 #include <tinyxml2.h>
 
+#include <set>
 #include <string>
 #include <vector>
 
@@ -11,7 +12,9 @@ namespace stance {
 
 class XmlReader {
  public:
-  explicit XmlReader(std::string file) : file_(std::move(file)) {}
+  // `length_elements`: the names of the elements whose numbers are lengths (the format's own list)
+  XmlReader(std::string file, std::set<std::string> length_elements)
+      : file_(std::move(file)), length_elements_(std::move(length_elements)) {}
 
   // throws InputError "<file>:<line of el>: message"
   [[noreturn]] void fail(const tinyxml2::XMLElement* el, const std::string& message) const;
@@ -27,10 +30,20 @@ class XmlReader {
                                     const std::string& what, int count, bool lengths,
                                     const char* not_a_number) const;
 
+  // the element's text as written, "" when it has none
+  static std::string text(const tinyxml2::XMLElement* el);
+  // the element's text without leading and trailing white space
+  static std::string trimmed_text(const tinyxml2::XMLElement* el);
+  // whether the element's numbers are lengths (its name is one of the length elements)
+  bool is_length(const tinyxml2::XMLElement* el) const {
+    return length_elements_.count(el->Name()) > 0;
+  }
+
   const std::string& file() const { return file_; }
 
  private:
   std::string file_;
+  std::set<std::string> length_elements_;
 };
 
 }  // namespace stance
