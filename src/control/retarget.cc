@@ -36,6 +36,9 @@ struct RetargetedMotion::Build {
   ReferencePose pose;
   std::vector<Eigen::Vector3d> clip_pos, clip_rest;
   std::vector<Eigen::Quaterniond> clip_rot;
+  // the first frame, posed, where the clip's rest pose does not stand (else empty)
+  std::vector<Eigen::Vector3d> first_pos;
+  std::vector<Eigen::Quaterniond> first_rot;
   Eigen::Quaterniond to_model = Eigen::Quaterniond::Identity();  // clip world -> model world
   Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
   std::vector<Eigen::Quaterniond> bone_fix;  // per mapped body
@@ -125,10 +128,10 @@ void RetargetedMotion::find_character(Build& b) {
                               probe.body_name(rb.body), probe.body_name(b.free_body))));
 }
 
-// the mapped segments' positions in the reference's first frame where the clip's rest pose
-// does not stand (its mapped bodies span less than 2/3 of the first frame's height, as
-// bvh_measure.h judges the legs); empty where it stands
-std::vector<Eigen::Vector3d> RetargetedMotion::standing_clip_pose(Build& b) const {
+// the clip's first frame, posed (b.first_pos, b.first_rot), where its rest pose does not stand:
+// its mapped bodies span less than 2/3 of the first frame's height, as bvh_measure.h judges the
+// legs. Left empty where it stands.
+void RetargetedMotion::find_lying_rest(Build& b) const {
   auto height_span = [&](const std::vector<Eigen::Vector3d>& p) {
     double lo = 1e300, hi = -1e300;
     for (const RetargetBody& rb : bodies_) {
@@ -142,8 +145,9 @@ std::vector<Eigen::Vector3d> RetargetedMotion::standing_clip_pose(Build& b) cons
   std::vector<Eigen::Vector3d> posed;
   std::vector<Eigen::Quaterniond> turned;
   b.reference.forward_kinematics(first, posed, turned);
-  if (height_span(b.clip_rest) >= (2.0 / 3.0) * height_span(posed)) return {};
-  return posed;
+  if (height_span(b.clip_rest) >= (2.0 / 3.0) * height_span(posed)) return;
+  b.first_pos = std::move(posed);
+  b.first_rot = std::move(turned);
 }
 
 void RetargetedMotion::fit_rest_skeletons(Build& b) {
@@ -165,7 +169,8 @@ void RetargetedMotion::fit_rest_skeletons(Build& b) {
   const std::vector<Eigen::Vector3d>& clip_rest = b.clip_rest;
   // a rest pose that does not stand (Bandai Namco's bones lie along X) tells no height and no
   // facing: the yaw and scale then come from the first frame's pose
-  const std::vector<Eigen::Vector3d> clip_posed = standing_clip_pose(b);
+  find_lying_rest(b);
+  const std::vector<Eigen::Vector3d>& clip_posed = b.first_pos;
   const std::vector<Eigen::Vector3d>& fitted = clip_posed.empty() ? clip_rest : clip_posed;
   double cross = 0, dot = 0, clip_lo = 1e300, clip_hi = -1e300, model_lo = 1e300, model_hi = -1e300;
   for (const RetargetBody& rb : bodies_) {
@@ -216,7 +221,8 @@ void RetargetedMotion::fix_bones(Build& b) {
     Eigen::Vector3d d = model[bodies_[mapped_children[i][0]].body].rest_pos - model[body].rest_pos;
     if (d.norm() > 1e-6) b.bone[body] = model[body].rest_world.conjugate() * d.normalized();
   }
-  if (!b.map.align_bones) return;
+  if (!b.map.align_bones) return;  // the clip's own character: its rest pose is the clip's
+  if (!b.first_rot.empty()) return fix_bones_from_first_frame(b, mapped_children);
   for (int i = 0; i < nmapped; ++i) {
     const RetargetBody& rb = bodies_[i];
     if (rb.segment == 0) continue;
@@ -231,6 +237,72 @@ void RetargetedMotion::fix_bones(Build& b) {
     bone_model = b.to_model.conjugate() * bone_model;
     if (bone_clip.norm() > 1e-6 && bone_model.norm() > 1e-6)
       b.bone_fix[i] = Eigen::Quaterniond::FromTwoVectors(bone_model, bone_clip);
+  }
+}
+
+namespace {
+
+// the rotation that turns the unit directions `from` onto `to` best (least squares; Kabsch's),
+// or the one turning the single direction when they all lie along one line
+Eigen::Quaterniond best_fit_turn(const std::vector<Eigen::Vector3d>& from,
+                                 const std::vector<Eigen::Vector3d>& to) {
+  Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+  for (size_t k = 0; k < from.size(); ++k) h += to[k] * from[k].transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  const Eigen::Vector3d s = svd.singularValues();
+  if (s(0) < 1e-9) return Eigen::Quaterniond::Identity();
+  if (s(1) < 1e-6 * s(0))
+    return Eigen::Quaterniond::FromTwoVectors(svd.matrixV().col(0), svd.matrixU().col(0));
+  Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
+  d(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant() < 0 ? -1 : 1;
+  return Eigen::Quaterniond(svd.matrixU() * d * svd.matrixV().transpose()).normalized();
+}
+
+}  // namespace
+
+// A rest pose that does not stand (Bandai Namco's bones lie along X, each rolled its own way)
+// is no pose to turn the model's bones onto. The turns then come from the first frame, G_i, each
+// the clip-world rotation of a model body from its rest there: the root's is the best fit of its
+// mapped children's directions (the hips and the spine) onto the clip's, so the pelvis stands
+// and faces the heading; each body below follows its mapped parent, swung onto the clip's bone
+// (its twist the parent's, as a standing rest pose has it). A_i = W_i(0)^T G_i.
+void RetargetedMotion::fix_bones_from_first_frame(Build& b,
+                                                  const std::vector<std::vector<int>>& children) {
+  const int nmapped = static_cast<int>(bodies_.size());
+  auto model_dir = [&](int from, int to) {  // clip world, at the model's rest
+    const Eigen::Vector3d d =
+        b.model[bodies_[to].body].rest_pos - b.model[bodies_[from].body].rest_pos;
+    return (b.to_model.conjugate() * d).normalized();
+  };
+  auto clip_dir = [&](int from, int to) {
+    return (b.first_pos[bodies_[to].segment] - b.first_pos[bodies_[from].segment]).normalized();
+  };
+  // mapped bodies, parents first (by their segments' depth in the clip)
+  std::vector<int> parent(nmapped, -1), depth(nmapped, 0), order(nmapped);
+  for (int i = 0; i < nmapped; ++i)
+    for (int c : children[i]) parent[c] = i;
+  for (int i = 0; i < nmapped; ++i)
+    for (int p = parent[i]; p >= 0; p = parent[p]) ++depth[i];
+  for (int i = 0; i < nmapped; ++i) order[i] = i;
+  std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return depth[x] < depth[y]; });
+  std::vector<Eigen::Quaterniond> turn(nmapped, Eigen::Quaterniond::Identity());
+  for (int i : order) {
+    const bool has_bone = children[i].size() == 1;
+    if (parent[i] < 0) {
+      std::vector<Eigen::Vector3d> from, to;
+      for (int c : children[i]) {
+        from.push_back(model_dir(i, c));
+        to.push_back(clip_dir(i, c));
+      }
+      turn[i] = from.empty() ? b.first_rot[bodies_[i].segment] : best_fit_turn(from, to);
+    } else {
+      turn[i] = turn[parent[i]];
+      if (has_bone) {
+        const Eigen::Vector3d bone = turn[i] * model_dir(i, children[i][0]);
+        turn[i] = Eigen::Quaterniond::FromTwoVectors(bone, clip_dir(i, children[i][0])) * turn[i];
+      }
+    }
+    b.bone_fix[i] = (b.first_rot[bodies_[i].segment].conjugate() * turn[i]).normalized();
   }
 }
 

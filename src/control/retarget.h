@@ -144,8 +144,10 @@ class RetargetedMotion {
   void find_character(Build& b);      // the free joint and the bodies under it, parents first
   void fit_rest_skeletons(Build& b);  // clip world -> model world: up, yaw_, scale_
   // the clip's first frame where its rest pose does not stand (for fit_rest_skeletons)
-  std::vector<Eigen::Vector3d> standing_clip_pose(Build& b) const;
-  void fix_bones(Build& b);                     // rest-pose corrections and bone directions
+  void find_lying_rest(Build& b) const;
+  void fix_bones(Build& b);  // rest-pose corrections and bone directions
+  // where the rest pose does not stand: the corrections from the first frame's pose instead
+  void fix_bones_from_first_frame(Build& b, const std::vector<std::vector<int>>& children);
   void keep_rest(Build& b, double duration_s);  // the rest members; the table's size
   void find_planted_feet(Build& b, const std::vector<int>& level_feet);
   void fit_frame(Build& b, int f);             // table frame f

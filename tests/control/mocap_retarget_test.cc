@@ -318,6 +318,43 @@ joints: {Hips: h_pelvis, Spine: h_abdomen, Head: h_head, LeftUpLeg: h_thigh_left
       << got.yaw_rad() << " vs " << want.yaw_rad();
 }
 
+// the largest angle (deg) between two tables' world rotations of mapped body i over their frames
+double largest_turn_apart_deg(const RetargetedMotion& a, const RetargetedMotion& b, int i) {
+  std::vector<Eigen::Quaterniond> wa(a.bodies().size()), wb(b.bodies().size());
+  double largest = 0;
+  for (int f = 0; f < a.frame_count(); ++f) {
+    a.sample_world(f * a.frame_time_s(), wa);
+    b.sample_world(f * a.frame_time_s(), wb);
+    largest = std::max(largest, geodesic_angle(wa[i], wb[i]) * 180 / std::numbers::pi);
+  }
+  return largest;
+}
+
+// the synthetic walk with its rest pose lying along X (every bone along X, rolled a quarter
+// turn about it, as Bandai Namco's), its frames posing the same walk, mapped onto humanoid.xml:
+// the pelvis turns as the standing clip's does, in every frame, to a few degrees. Before, the
+// root had no rest-pose correction and the pelvis kept the rest pose's own turn (90 deg and more)
+TEST(Retarget, RootOfARestPoseThatDoesNotStandTurnsAsTheStandingClipsRoot) {
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
+  const JointMap map =
+      read_joint_map(test::source_dir() + "/models/maps/synthetic_walk_to_humanoid.yaml");
+  const BvhClip plain = make_synthetic_walk_clip();
+  const BvhClip lying =
+      parse_bvh(format_bvh(test::with_bones_along_x(plain, std::numbers::pi / 2)), "lying.bvh");
+  auto engine = engine_of("mujoco", test::kHumanoidXml);
+  const ReferenceMotion plain_ref(plain, make_motion_skeleton(plain, {}), {});
+  const ReferenceMotion lying_ref(lying, make_motion_skeleton(lying, {}), {});
+  const RetargetedMotion want(plain_ref, map, *engine, 0);
+  const RetargetedMotion got(lying_ref, map, *engine, 0);
+  ASSERT_EQ(got.bodies()[0].segment, 0);                 // the map lists the root first
+  EXPECT_LT(largest_turn_apart_deg(got, want, 0), 3.0);  // 1.5 deg: the pelvis' best fit
+  // the legs below follow it, each swung onto the clip's bone: they turn as the standing clip's
+  for (const char* leg : {"LeftUpLeg", "LeftLeg", "RightUpLeg", "RightLeg"})
+    for (size_t i = 0; i < got.bodies().size(); ++i)
+      if (got.bodies()[i].segment == lying_ref.skeleton().find_segment(leg))
+        EXPECT_LT(largest_turn_apart_deg(got, want, static_cast<int>(i)), 1.0) << leg;
+}
+
 nlohmann::json run_humanoid(const std::string& mode, double seconds,
                             const std::string& limits = "auto") {
   LoadedScenario loaded =
