@@ -12,6 +12,19 @@
 namespace stance::python {
 namespace {
 
+// d[name] = a numpy array of `rows` values of type T, value(i) for row i
+template <class T, class Value>
+void add_column(py::dict& d, const char* name, py::ssize_t rows, Value value) {
+  py::array_t<T> column(rows);
+  for (py::ssize_t i = 0; i < rows; ++i) column.mutable_at(i) = value(i);
+  d[name] = column;
+}
+
+// NaN where a time is absent
+double time_or_nan(const std::optional<double>& t) {
+  return t ? *t : std::nan("");
+}
+
 void bind_sweep(py::module_& m) {
   m.def(
       "sweep",
@@ -32,25 +45,19 @@ void bind_sweep(py::module_& m) {
           points = run_sweep(o);
         }
         const py::ssize_t n = points.size();
-        py::array_t<double> value(n), sim_time(n), fall_time(n);
-        py::array_t<bool> fell(n), diverged(n);
         py::list metrics, errors;
-        for (py::ssize_t i = 0; i < n; ++i) {
-          const SweepPoint& p = points[i];
-          value.mutable_at(i) = p.value;
-          sim_time.mutable_at(i) = p.result.sim_time;
-          fell.mutable_at(i) = p.result.fell;
-          diverged.mutable_at(i) = p.result.diverged;
-          fall_time.mutable_at(i) = p.result.fall_time ? *p.result.fall_time : std::nan("");
+        for (const SweepPoint& p : points) {
           metrics.append(json_to_py(without_wall_clock(p.result.metrics)));
           errors.append(p.error);
         }
+        const auto& p = points;
         py::dict d;
-        d["value"] = value;
-        d["fell"] = fell;
-        d["fall_time"] = fall_time;
-        d["diverged"] = diverged;
-        d["sim_time"] = sim_time;
+        add_column<double>(d, "value", n, [&](py::ssize_t i) { return p[i].value; });
+        add_column<bool>(d, "fell", n, [&](py::ssize_t i) { return p[i].result.fell; });
+        add_column<double>(d, "fall_time", n,
+                           [&](py::ssize_t i) { return time_or_nan(p[i].result.fall_time); });
+        add_column<bool>(d, "diverged", n, [&](py::ssize_t i) { return p[i].result.diverged; });
+        add_column<double>(d, "sim_time", n, [&](py::ssize_t i) { return p[i].result.sim_time; });
         d["metrics"] = metrics;
         d["error"] = errors;
         return d;
@@ -91,25 +98,20 @@ void bind_tune(py::module_& m) {
           t = run_tune(o);
         }
         const py::ssize_t n = t.candidates.size(), k = o.params.size();
-        py::array_t<double> values({n, k}), score(n), time_up(n), metric_mean(n);
-        py::array_t<int> generation(n), failed(n);
+        const std::vector<TuneCandidate>& c = t.candidates;
+        py::array_t<double> values({n, k});
         for (py::ssize_t i = 0; i < n; ++i) {
-          const TuneCandidate& c = t.candidates[i];
-          for (py::ssize_t j = 0; j < k; ++j) values.mutable_at(i, j) = c.values[j];
-          score.mutable_at(i) = c.robust_score;
-          time_up.mutable_at(i) = c.worst_time_up;
-          metric_mean.mutable_at(i) = c.mean_metric;
-          generation.mutable_at(i) = c.generation;
-          failed.mutable_at(i) = c.failed_runs;
+          for (py::ssize_t j = 0; j < k; ++j) values.mutable_at(i, j) = c[i].values[j];
         }
         py::dict d;
         d["params"] = params;
         d["values"] = values;
-        d["robust_score"] = score;
-        d["worst_time_up"] = time_up;
-        d["mean_metric"] = metric_mean;
-        d["generation"] = generation;
-        d["failed_runs"] = failed;
+        add_column<double>(d, "robust_score", n, [&](py::ssize_t i) { return c[i].robust_score; });
+        add_column<double>(d, "worst_time_up", n,
+                           [&](py::ssize_t i) { return c[i].worst_time_up; });
+        add_column<double>(d, "mean_metric", n, [&](py::ssize_t i) { return c[i].mean_metric; });
+        add_column<int>(d, "generation", n, [&](py::ssize_t i) { return c[i].generation; });
+        add_column<int>(d, "failed_runs", n, [&](py::ssize_t i) { return c[i].failed_runs; });
         d["best"] = t.best;
         d["best_sets"] = n ? tune_assignments(o, t.candidates[t.best]) : std::vector<std::string>{};
         d["notes"] = t.notes;
@@ -167,33 +169,24 @@ void bind_robustness(py::module_& m) {
           for (py::ssize_t p = 0; p < np_; ++p) {
             const RobustnessCell& c = r.cell(d, p);
             threshold.mutable_at(d, p) = c.threshold;
-            fell_at.mutable_at(d, p) = c.fell ? *c.fell : std::nan("");
+            fell_at.mutable_at(d, p) = time_or_nan(c.fell);
             outcome.mutable_at(d, p) = c.outcome_at_threshold;
             for (const auto& t : c.trials) trials.push_back(&t);
           }
         }
         for (py::ssize_t p = 0; p < np_; ++p) starts.mutable_at(p) = r.push_starts[p];
         const py::ssize_t nt = trials.size();
-        py::array_t<int> t_dir(nt), t_phase(nt), t_outcome(nt), t_steps(nt);
-        py::array_t<double> t_force(nt), t_fall(nt), t_detour(nt);
-        for (py::ssize_t i = 0; i < nt; ++i) {
-          const RobustnessTrial& t = *trials[i];
-          t_dir.mutable_at(i) = t.direction;
-          t_phase.mutable_at(i) = t.phase;
-          t_force.mutable_at(i) = t.force;
-          t_outcome.mutable_at(i) = t.outcome;
-          t_fall.mutable_at(i) = t.fall_time ? *t.fall_time : std::nan("");
-          t_steps.mutable_at(i) = t.recovery_steps;
-          t_detour.mutable_at(i) = t.detour_m;
-        }
+        const auto& t = trials;
         py::dict trial;
-        trial["direction"] = t_dir;
-        trial["phase"] = t_phase;
-        trial["force"] = t_force;
-        trial["outcome"] = t_outcome;
-        trial["fall_time"] = t_fall;
-        trial["recovery_steps"] = t_steps;
-        trial["detour_m"] = t_detour;
+        add_column<int>(trial, "direction", nt, [&](py::ssize_t i) { return t[i]->direction; });
+        add_column<int>(trial, "phase", nt, [&](py::ssize_t i) { return t[i]->phase; });
+        add_column<double>(trial, "force", nt, [&](py::ssize_t i) { return t[i]->force; });
+        add_column<int>(trial, "outcome", nt, [&](py::ssize_t i) { return t[i]->outcome; });
+        add_column<double>(trial, "fall_time", nt,
+                           [&](py::ssize_t i) { return time_or_nan(t[i]->fall_time); });
+        add_column<int>(trial, "recovery_steps", nt,
+                        [&](py::ssize_t i) { return t[i]->recovery_steps; });
+        add_column<double>(trial, "detour_m", nt, [&](py::ssize_t i) { return t[i]->detour_m; });
         py::dict d;
         d["threshold"] = threshold;
         d["fell_at"] = fell_at;

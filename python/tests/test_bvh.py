@@ -11,41 +11,35 @@ import pytest
 import stance
 from conftest import read_log_csv, read_summary, run_cli, without_wall_clock
 
+
+def leg_block(side, knee_channels):
+    """a BVH leg, hip and knee, with the knee's rotation channels; 90 file units long"""
+    x = 10 if side == "Left" else -10
+    return f"""\tJOINT {side}UpLeg
+\t{{
+\t\tOFFSET {x} -5 0
+\t\tCHANNELS 3 Zrotation Xrotation Yrotation
+\t\tJOINT {side}Leg
+\t\t{{
+\t\t\tOFFSET 0 -45 0
+\t\t\tCHANNELS 3 {knee_channels}
+\t\t\tEnd Site
+\t\t\t{{
+\t\t\t\tOFFSET 0 -45 0
+\t\t\t}}
+\t\t}}
+\t}}
+"""
+
+
 # a standing skeleton 145 file units tall (cm: the legs drop 95 below the hips), three frames
-SMALL_BVH = """HIERARCHY
+SMALL_BVH = ("""HIERARCHY
 ROOT Hips
 {
 \tOFFSET 0 0 0
 \tCHANNELS 6 Xposition Yposition Zposition Zrotation Xrotation Yrotation
-\tJOINT LeftUpLeg
-\t{
-\t\tOFFSET 10 -5 0
-\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\tJOINT LeftLeg
-\t\t{
-\t\t\tOFFSET 0 -45 0
-\t\t\tCHANNELS 3 Xrotation Yrotation Zrotation
-\t\t\tEnd Site
-\t\t\t{
-\t\t\t\tOFFSET 0 -45 0
-\t\t\t}
-\t\t}
-\t}
-\tJOINT RightUpLeg
-\t{
-\t\tOFFSET -10 -5 0
-\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\tJOINT RightLeg
-\t\t{
-\t\t\tOFFSET 0 -45 0
-\t\t\tCHANNELS 3 Zrotation Xrotation Yrotation
-\t\t\tEnd Site
-\t\t\t{
-\t\t\t\tOFFSET 0 -45 0
-\t\t\t}
-\t\t}
-\t}
-\tJOINT Spine
+""" + leg_block("Left", "Xrotation Yrotation Zrotation")
+             + leg_block("Right", "Zrotation Xrotation Yrotation") + """\tJOINT Spine
 \t{
 \t\tOFFSET 0 10 0
 \t\tCHANNELS 3 Zrotation Xrotation Yrotation
@@ -58,7 +52,7 @@ ROOT Hips
 MOTION
 Frames: 3
 Frame Time: 0.04
-"""
+""")
 ROWS = [
     [1.5, 95, -2.25, 0, 0, 0, 0, 10, 0, -5, 0, 0, 0, -10, 0, 0, 5, 0, 0.5, 0, 0],
     [3.5, 95.25, -2, 0, 0, 90, 0, 5, 0, 0, 0, 0, 0, -5, 0, 0, 2.5, 0, 0, 1, 0],
