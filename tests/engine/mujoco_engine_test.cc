@@ -5,6 +5,7 @@
 
 #include "core/error.h"
 #include "engine/engine.h"
+#include "engine/mujoco/mujoco_engine.h"
 #include "engine/world_spec.h"
 #include "test_support.h"
 
@@ -167,6 +168,42 @@ TEST(MujocoEngine, ComJacobianIsTheMassWeightedSumOfBodyJacobiansToTheBit) {
     e->com_jacobian(jac);
     EXPECT_EQ(jac, sum);
   }
+}
+
+// a model without springs, dampers or a fluid skips mj_passive (its forces are zeros either
+// way): the steps are those of the same model computing them, to the bit
+TEST(MujocoEngine, SkippingZeroPassiveForcesKeepsTheStepsToTheBit) {
+  auto skipping = load_chain();
+  auto computing = load_chain();
+  auto& a = dynamic_cast<MujocoEngine&>(*skipping);
+  auto& b = dynamic_cast<MujocoEngine&>(*computing);
+  ASSERT_TRUE(a.model()->opt.disableflags & mjDSBL_PASSIVE);
+  b.mutable_model()->opt.disableflags &= ~mjDSBL_PASSIVE;
+  std::mt19937 rng_a(9), rng_b(9);
+  randomize(a, rng_a);
+  randomize(b, rng_b);
+  for (int k = 0; k < 200; ++k) {
+    a.step();
+    b.step();
+  }
+  Eigen::VectorXd qa(a.nq()), qb(b.nq()), va(a.nv()), vb(b.nv());
+  a.get_positions(qa);
+  b.get_positions(qb);
+  a.get_velocities(va);
+  b.get_velocities(vb);
+  EXPECT_EQ(qa, qb);
+  EXPECT_EQ(va, vb);
+}
+
+TEST(MujocoEngine, ADamperKeepsThePassiveForces) {
+  std::string xml = test::kFloatingChainMjcf;
+  const std::string hinge = "<joint name=\"hinge2\"";
+  ASSERT_NE(xml.find(hinge), std::string::npos);
+  xml.replace(xml.find(hinge), hinge.size(), hinge + " damping=\"2\"");
+  WorldSpec spec;
+  spec.models.push_back({test::write_temp_file("damped_chain.xml", xml)});
+  auto e = make_mujoco_engine(spec);
+  EXPECT_FALSE(dynamic_cast<MujocoEngine&>(*e).model()->opt.disableflags & mjDSBL_PASSIVE);
 }
 
 TEST(MujocoEngine, SaveRestoreIsBitExact) {

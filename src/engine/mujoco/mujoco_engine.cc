@@ -27,6 +27,20 @@ struct WarningHookInstaller {
 };
 WarningHookInstaller g_install_hook;
 
+// whether mj_passive can give anything but zeros: joint springs or dampers, tendon springs or
+// dampers, a fluid, or a user callback. Without them its per-dof quaternion differences
+// (ball joints' springs at zero stiffness) are wasted work on every step.
+bool has_passive_forces(const mjModel* m) {
+  if (mjcb_passive || m->opt.density != 0 || m->opt.viscosity != 0) return true;
+  for (int j = 0; j < m->njnt; ++j)
+    if (m->jnt_stiffness[j] != 0) return true;
+  for (int i = 0; i < m->nv; ++i)
+    if (m->dof_damping[i] != 0) return true;
+  for (int t = 0; t < m->ntendon; ++t)
+    if (m->tendon_stiffness[t] != 0 || m->tendon_damping[t] != 0) return true;
+  return false;
+}
+
 std::string name_of(const mjModel* m, int type, int id, const std::string& fallback) {
   const char* n = mj_id2name(m, type, id);
   return (n && *n) ? std::string(n) : fallback;
@@ -238,6 +252,8 @@ MujocoEngine::MujocoEngine(mjModel* model, std::string source)
   jac_scratch2_.resize(3, m_->nv);
   vec_scratch_.resize(std::max(1, m_->nv));
   shifted_mass_ldl_ = TreeLdl(m_->dof_parentid, m_->dof_Madr, m_->nv, m_->nM);
+  // the passive forces are zero either way; disabled, MuJoCo only zeroes them (same steps)
+  if (!has_passive_forces(m_)) m_->opt.disableflags |= mjDSBL_PASSIVE;
   mj_forward(m_, d_);
   warnings_seen_ = d_->warning[mjWARN_BADQACC].number + d_->warning[mjWARN_BADQPOS].number +
                    d_->warning[mjWARN_BADQVEL].number;
