@@ -124,7 +124,7 @@ void add_bvh_commands(CLI::App& app, Cli& c) {
 // sweep, sweep-gain, push-threshold, robustness, tune
 void add_batch_commands(CLI::App& app, Cli& c) {
   // `sweep`: any key path; `sweep-gain`: the slope walker's hip kp, 2..12, plotted
-  c.sweep_gain.param = "controllers.0.hip_kp";
+  c.sweep_gain.options.param = "controllers.0.hip_kp";
   c.sweep_gain.from = 2;
   c.sweep_gain.to = 12;
   c.sweep_gain.plot = true;

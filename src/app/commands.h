@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "batch/batch_options.h"
 #include "params/option_meta.h"
 
 namespace stance {
@@ -307,16 +308,12 @@ int list_command(const std::string& what);
 // `stance sweep SCENARIO --param key.path (--from A --to B --steps N | --values a,b,c)`:
 // one run per value on `threads` threads; sweep.csv and points.csv in out_dir, and with
 // `plot` a PNG of a list metric (default: the first, e.g. steady_step_lengths_m) against it.
+// The options that reach the sweep itself are its SweepOptions' fields.
 struct SweepCommand {
-  std::string scenario;
-  std::string param;
+  SweepOptions options;  // scenario, param, threads, engine, duration, sets
   std::optional<double> from, to;
   int steps = 41;
   std::string values;  // "1,2,3": instead of from/to/steps
-  int threads = 0;     // 0: all cores
-  std::string engine;
-  std::optional<double> duration;
-  std::vector<std::string> sets;
   std::string out_dir = "out/sweep";
   std::string resume;  // the folder of an interrupted sweep: its finished runs are kept
   bool plot = false;
@@ -326,17 +323,20 @@ struct SweepCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("scenario", scenario,
+    v("scenario", options.scenario,
       OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
-    v("param", param, OptionMeta{.help = "key path to sweep, as in --set"});
+    v("param", options.param, OptionMeta{.help = "key path to sweep, as in --set"});
     v("from", from, OptionMeta{.help = "first value"});
     v("to", to, OptionMeta{.help = "last value"});
     v("steps", steps, OptionMeta{.help = "number of values from..to", .min = 1});
     v("values", values, OptionMeta{.help = "comma-separated values instead of from/to/steps"});
-    v("threads", threads, OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
-    v("engine", engine, OptionMeta{.help = "mujoco or dart (default: the scenario's)"});
-    v("duration", duration, OptionMeta{.help = "simulated seconds per run", .unit = "s", .min = 0});
-    v("sets", sets, OptionMeta{.help = "override for every run: key.path=value", .names = "--set"});
+    v("threads", options.threads,
+      OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
+    v("engine", options.engine, OptionMeta{.help = "mujoco or dart (default: the scenario's)"});
+    v("duration", options.duration,
+      OptionMeta{.help = "simulated seconds per run", .unit = "s", .min = 0});
+    v("sets", options.sets,
+      OptionMeta{.help = "override for every run: key.path=value", .names = "--set"});
     v("out_dir", out_dir,
       OptionMeta{.help = "output folder (sweep.csv, points.csv, PNG)", .names = "--out"});
     v("plot", plot,
@@ -352,19 +352,12 @@ int sweep_command(const SweepCommand& cmd);
 
 // `stance push-threshold SCENARIO --body B [--axis x|y|z] ...`: the largest push survived along
 // +axis and -axis, by bisection (scenario/push_threshold.h)
+// The options that reach the bisection itself are its PushThresholdOptions' fields.
 struct PushThresholdCommand {
   std::string scenario;
-  std::string body;
+  PushThresholdOptions options;  // body, engine, duration, force, push, point, threads
   std::string axis = "x";
-  std::string engine;
-  std::optional<double> duration;  // s, of each run
   std::vector<std::string> sets;
-  double max_force = 400;      // N
-  double push_duration = 0.1;  // s
-  double at = 2.0;             // s
-  double tolerance = 2.0;      // N
-  int threads = 2;
-  std::string point = "com";  // com, origin or x,y,z in the body frame
   bool quiet = false;
 
   // the command-line options, in --help's order (app/cli_options.h)
@@ -372,20 +365,21 @@ struct PushThresholdCommand {
   void visit(V& v) {
     v("scenario", scenario,
       OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
-    v("body", body, OptionMeta{.help = "body to push", .required = true});
+    v("body", options.body, OptionMeta{.help = "body to push", .required = true});
     v("axis", axis, OptionMeta{.help = "x, y or z (world)"});
-    v("engine", engine, OptionMeta{.help = "mujoco or dart"});
-    v("duration", duration, OptionMeta{.help = "seconds per run", .unit = "s", .min = 0});
+    v("engine", options.engine, OptionMeta{.help = "mujoco or dart"});
+    v("duration", options.duration, OptionMeta{.help = "seconds per run", .unit = "s", .min = 0});
     v("sets", sets, OptionMeta{.help = "override: key.path=value", .names = "--set"});
-    v("max_force", max_force,
+    v("max_force", options.max_force,
       OptionMeta{.help = "largest force tried, N", .names = "--max", .unit = "N"});
-    v("push_duration", push_duration,
+    v("push_duration", options.push_duration,
       OptionMeta{.help = "push, s", .names = "--push-duration,--duration-push", .unit = "s"});
-    v("point", point,
+    v("point", options.point,
       OptionMeta{.help = "where the push acts: com, origin or x,y,z (body frame, m)"});
-    v("at", at, OptionMeta{.help = "push start, s", .unit = "s", .min = 0});
-    v("tolerance", tolerance, OptionMeta{.help = "bracket width, N", .unit = "N"});
-    v("threads", threads, OptionMeta{.help = "2: both directions at once, 1: one after the other"});
+    v("at", options.at, OptionMeta{.help = "push start, s", .unit = "s", .min = 0});
+    v("tolerance", options.tolerance, OptionMeta{.help = "bracket width, N", .unit = "N"});
+    v("threads", options.threads,
+      OptionMeta{.help = "2: both directions at once, 1: one after the other"});
     v("quiet", quiet, OptionMeta{.help = "no line per trial"});
   }
 };
@@ -394,23 +388,11 @@ int push_threshold_command(const PushThresholdCommand& cmd);
 // `stance robustness SCENARIO --body B [--directions 8] [--phases 4] ...`: the largest push
 // survived per direction and gait phase, with outcome codes (scenario/robustness.h);
 // robustness.csv, thresholds.csv, summary.json and robustness.png in out_dir
+// The options that reach the map itself are its RobustnessOptions' fields.
 struct RobustnessCommand {
   std::string scenario;
-  std::string body;
-  int directions = 8;
-  int phases = 4;
-  double push_duration = 0.2;    // s
-  double max_force = 800;        // N
-  double tolerance = 2;          // N
-  double at = 2.0;               // s
-  double phase_spacing = 0.25;   // s
-  double recovery_window = 3.0;  // s
-  int max_steps = 3;
-  std::string point = "com";
-  std::string engine;
-  std::optional<double> duration;
+  RobustnessOptions options;  // body, directions, phases, pushes, recovery, engine, threads
   std::vector<std::string> sets;
-  int threads = 0;
   std::string out_dir = "out/robustness";
   std::string resume;  // the folder of an interrupted run: its finished cells are kept
   bool plot = true;
@@ -421,29 +403,31 @@ struct RobustnessCommand {
   void visit(V& v) {
     v("scenario", scenario,
       OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
-    v("body", body, OptionMeta{.help = "body to push", .required = true});
-    v("directions", directions, OptionMeta{.help = "directions in the horizontal plane", .min = 1});
-    v("phases", phases,
+    v("body", options.body, OptionMeta{.help = "body to push", .required = true});
+    v("directions", options.directions,
+      OptionMeta{.help = "directions in the horizontal plane", .min = 1});
+    v("phases", options.phases,
       OptionMeta{.help = "gait phases (walkers) or push start times (standing)", .min = 1});
-    v("push_duration", push_duration,
+    v("push_duration", options.push_duration,
       OptionMeta{.help = "push, s", .names = "--push-duration,--duration-push", .unit = "s"});
-    v("max_force", max_force,
+    v("max_force", options.max_force,
       OptionMeta{.help = "largest force tried, N", .names = "--max", .unit = "N"});
-    v("tolerance", tolerance, OptionMeta{.help = "bracket width, N", .unit = "N"});
-    v("at", at,
+    v("tolerance", options.tolerance, OptionMeta{.help = "bracket width, N", .unit = "N"});
+    v("at", options.at,
       OptionMeta{.help = "s: first push start (standing) or warm-up (walkers)", .unit = "s"});
-    v("phase_spacing", phase_spacing,
+    v("phase_spacing", options.phase_spacing_s,
       OptionMeta{.help = "s between a standing scenario's push starts", .unit = "s"});
-    v("recovery_window", recovery_window,
+    v("recovery_window", options.recovery_window_s,
       OptionMeta{.help = "s after the push in which steps are counted", .unit = "s"});
-    v("max_steps", max_steps,
+    v("max_steps", options.max_recovery_steps,
       OptionMeta{.help = "recovery steps allowed before outcome 3", .min = 0});
-    v("point", point,
+    v("point", options.point,
       OptionMeta{.help = "where the push acts: com, origin or x,y,z (body frame, m)"});
-    v("engine", engine, OptionMeta{.help = "mujoco or dart"});
-    v("duration", duration, OptionMeta{.help = "seconds per run", .unit = "s", .min = 0});
+    v("engine", options.engine, OptionMeta{.help = "mujoco or dart"});
+    v("duration", options.duration, OptionMeta{.help = "seconds per run", .unit = "s", .min = 0});
     v("sets", sets, OptionMeta{.help = "override: key.path=value", .names = "--set"});
-    v("threads", threads, OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
+    v("threads", options.threads,
+      OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
     v("out_dir", out_dir,
       OptionMeta{.help = "output folder (robustness.csv, thresholds.csv, summary.json, PNG)",
                  .names = "--out"});
@@ -457,20 +441,13 @@ int robustness_command(const RobustnessCommand& cmd);
 
 // `stance tune SCENARIO --param key=lo:hi[:log] ... [--neighbour "k*=0.85,k2=v" ...]`: a
 // robust parameter search (scenario/tune.h); tune.csv, best.yaml and best_scenario.yaml in out_dir
+// The options that reach the search itself are its TuneOptions' fields; the parameters and
+// neighbours are parsed from their text, the seed checked.
 struct TuneCommand {
-  std::string scenario;
+  TuneOptions options;  // scenario, sets, budget, population, threads, engine, metric, method
   std::vector<std::string> params;      // "key=lo:hi[:log]"
   std::vector<std::string> neighbours;  // "k*=0.85,k2=0.001"
-  int budget = 40;
-  int population = 8;
   long long seed = 1;  // >= 0 (signed, so that a negative one is refused, not wrapped)
-  int threads = 0;     // 0: all cores
-  std::string engine;
-  std::optional<double> duration;
-  std::string metric;
-  double fall_penalty = 100;
-  std::vector<std::string> sets;
-  std::string method = "cem";  // cem or cmaes
   std::string out_dir;
   // the folder of an interrupted tune (its tune.partial.json): the search goes on from its last
   // finished generation, into that folder
@@ -480,25 +457,28 @@ struct TuneCommand {
   // the command-line options, in --help's order (app/cli_options.h)
   template <class V>
   void visit(V& v) {
-    v("scenario", scenario,
+    v("scenario", options.scenario,
       OptionMeta{.help = "scenario YAML", .names = "scenario", .required = true});
     v("params", params,
       OptionMeta{.help = "searched parameter: key.path=lo:hi[:log]", .names = "--param"});
     v("neighbours", neighbours,
       OptionMeta{.help = "a perturbed run scored too: \"k*=0.85,k2=0.001\" (repeatable)",
                  .names = "--neighbour,--neighbor"});
-    v("budget", budget, OptionMeta{.help = "candidates in all", .min = 1});
-    v("population", population, OptionMeta{.help = "candidates per generation", .min = 2});
+    v("budget", options.budget, OptionMeta{.help = "candidates in all", .min = 1});
+    v("population", options.population, OptionMeta{.help = "candidates per generation", .min = 2});
     v("seed", seed, OptionMeta{.help = "random seed of the search", .min = 0});
-    v("threads", threads, OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
-    v("engine", engine, OptionMeta{.help = "mujoco or dart (default: the scenario's)"});
-    v("duration", duration, OptionMeta{.help = "simulated seconds per run", .unit = "s", .min = 0});
-    v("metric", metric,
+    v("threads", options.threads,
+      OptionMeta{.help = "worker threads (default: all cores)", .min = 0});
+    v("engine", options.engine, OptionMeta{.help = "mujoco or dart (default: the scenario's)"});
+    v("duration", options.duration,
+      OptionMeta{.help = "simulated seconds per run", .unit = "s", .min = 0});
+    v("metric", options.metric,
       OptionMeta{.help = "summary metric added to the score, e.g. mocap.mean_joint_error_deg"});
-    v("fall_penalty", fall_penalty,
+    v("fall_penalty", options.fall_penalty,
       OptionMeta{.help = "score per second of the duration not stayed up"});
-    v("sets", sets, OptionMeta{.help = "override for every run: key.path=value", .names = "--set"});
-    v("method", method, OptionMeta{.help = "search: cem (default) or cmaes"});
+    v("sets", options.sets,
+      OptionMeta{.help = "override for every run: key.path=value", .names = "--set"});
+    v("method", options.method, OptionMeta{.help = "search: cem (default) or cmaes"});
     v("out_dir", out_dir,
       OptionMeta{.help = "output folder (tune.csv, best.yaml)", .names = "--out"});
     v("resume", resume,

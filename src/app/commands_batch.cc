@@ -52,13 +52,13 @@ using namespace command_support;
 
 namespace {
 // what a resumed sweep must share with the interrupted one
-nlohmann::json sweep_fingerprint(const SweepCommand& c, const std::vector<double>& values) {
-  return {{"scenario", std::filesystem::absolute(c.scenario).lexically_normal().string()},
-          {"param", c.param},
-          {"values", values},
-          {"engine", c.engine},
-          {"duration", c.duration ? nlohmann::json(*c.duration) : nlohmann::json(nullptr)},
-          {"sets", c.sets}};
+nlohmann::json sweep_fingerprint(const SweepOptions& o) {
+  return {{"scenario", std::filesystem::absolute(o.scenario).lexically_normal().string()},
+          {"param", o.param},
+          {"values", o.values},
+          {"engine", o.engine},
+          {"duration", o.duration ? nlohmann::json(*o.duration) : nlohmann::json(nullptr)},
+          {"sets", o.sets}};
 }
 constexpr const char* kSweepPartial = "sweep.partial.json";
 
@@ -92,17 +92,11 @@ int sweep_command(const SweepCommand& command) {
   return guarded([&] {
     SweepCommand cmd = command;
     if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
-    SweepOptions o;
-    o.scenario = cmd.scenario;
-    o.param = cmd.param;
-    o.sets = cmd.sets;
-    o.threads = cmd.threads;
-    o.engine = cmd.engine;
-    o.duration = cmd.duration;
+    SweepOptions& o = cmd.options;
     o.interrupt = &g_interrupt;
-    check_option_number("--duration", cmd.duration, duration_range());
-    check_option_number("--threads", cmd.threads, threads_range());
-    check_utf8_file_name(cmd.scenario);
+    check_option_number("--duration", o.duration, duration_range());
+    check_option_number("--threads", o.threads, threads_range());
+    check_utf8_file_name(o.scenario);
     if (!cmd.values.empty()) {
       o.values = parse_value_list(cmd.values);
     } else {
@@ -110,8 +104,7 @@ int sweep_command(const SweepCommand& command) {
       o.values = linspace(*cmd.from, *cmd.to, cmd.steps);
     }
     const std::filesystem::path partial = std::filesystem::path(cmd.out_dir) / kSweepPartial;
-    nlohmann::json saved = {{"options", sweep_fingerprint(cmd, o.values)},
-                            {"done", nlohmann::json::object()}};
+    nlohmann::json saved = {{"options", sweep_fingerprint(o)}, {"done", nlohmann::json::object()}};
     std::map<int, SweepPoint> finished;
     if (!cmd.resume.empty()) {
       saved = read_partial(cmd.resume, kSweepPartial, saved["options"]);
@@ -137,7 +130,7 @@ int sweep_command(const SweepCommand& command) {
                              : p.result.diverged ? "diverged"
                              : p.result.fell     ? "fell"
                                                  : "ok";
-          std::cout << fmt::format("  [{}/{}] {}={} {}\n", done, total, cmd.param,
+          std::cout << fmt::format("  [{}/{}] {}={} {}\n", done, total, o.param,
                                    format_sweep_value(p.value), what)
                     << std::flush;
         },
@@ -154,13 +147,13 @@ int sweep_command(const SweepCommand& command) {
           points.size() - unfinished, points.size(), partial.string(), cmd.out_dir);
       return kExitInterrupted;
     }
-    write_sweep_outputs(cmd.out_dir, cmd.param, points);
+    write_sweep_outputs(cmd.out_dir, o.param, points);
     std::error_code ec;
     std::filesystem::remove(partial, ec);
     std::cout << fmt::format(
         "swept {} over {} values in {:.2f} s wall; wrote {}/sweep.csv and "
         "points.csv\n",
-        cmd.param, points.size(), wall, cmd.out_dir);
+        o.param, points.size(), wall, cmd.out_dir);
     if (cmd.plot) {
       std::string metric = cmd.plot_metric;
       std::vector<std::string> lists = sweep_list_metrics(points);
@@ -176,14 +169,14 @@ int sweep_command(const SweepCommand& command) {
       }
       std::string title = fmt::format(
           "{}: {} vs {}",
-          points.front().result.scenario.empty() ? cmd.scenario : points.front().result.scenario,
-          metric, cmd.param);
-      std::string png = plot_sweep(cmd.out_dir, cmd.param, metric, title, metric + ".png");
+          points.front().result.scenario.empty() ? o.scenario : points.front().result.scenario,
+          metric, o.param);
+      std::string png = plot_sweep(cmd.out_dir, o.param, metric, title, metric + ".png");
       std::cout << "wrote " << png << "\n";
     }
     for (const auto& p : points)
       if (!p.error.empty()) {
-        std::cerr << fmt::format("error: {}={}: {}\n", cmd.param, format_sweep_value(p.value),
+        std::cerr << fmt::format("error: {}={}: {}\n", o.param, format_sweep_value(p.value),
                                  p.error);
         return kExitBadInput;
       }
@@ -193,7 +186,7 @@ int sweep_command(const SweepCommand& command) {
 
 int push_threshold_command(const PushThresholdCommand& cmd) {
   return guarded([&] {
-    PushThresholdOptions o;
+    PushThresholdOptions o = cmd.options;
     if (cmd.axis == "x")
       o.axis = 0;
     else if (cmd.axis == "y")
@@ -202,18 +195,10 @@ int push_threshold_command(const PushThresholdCommand& cmd) {
       o.axis = 2;
     else
       throw InputError(fmt::format("--axis '{}': use x, y or z", cmd.axis));
-    check_option_number("--duration", cmd.duration, duration_range());
-    check_option_number("--at", cmd.at, kTimeRange);
-    check_option_number("--threads", cmd.threads, threads_range());
-    o.body = cmd.body;
-    o.engine = cmd.engine;
-    o.duration = cmd.duration;
-    o.max_force = cmd.max_force;
-    o.push_duration = cmd.push_duration;
-    o.at = cmd.at;
-    o.tolerance = cmd.tolerance;
-    o.threads = cmd.threads;
-    parse_push_point(cmd.point, o.point, o.offset);
+    check_option_number("--duration", o.duration, duration_range());
+    check_option_number("--at", o.at, kTimeRange);
+    check_option_number("--threads", o.threads, threads_range());
+    parse_push_point(cmd.options.point, o.point, o.offset);
     LoadedScenario loaded = load_scenario(cmd.scenario, cmd.sets);
     auto wall0 = std::chrono::steady_clock::now();
     PushThresholdResult r = find_push_threshold(loaded, o, [&](double f, bool survived) {
@@ -223,7 +208,7 @@ int push_threshold_command(const PushThresholdCommand& cmd) {
                   << std::flush;
     });
     double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
-    std::string engine = cmd.engine.empty() ? loaded.scenario.engine : cmd.engine;
+    std::string engine = o.engine.empty() ? loaded.scenario.engine : o.engine;
     std::cout << fmt::format("{} on {}: {} s push on {} at t = {} s, bisection on 0..{} N\n",
                              loaded.scenario.name, engine, o.push_duration, o.body, o.at,
                              o.max_force);
@@ -247,21 +232,22 @@ namespace {
 // what a resumed robustness run must share with the interrupted one (not threads, nor where
 // and how it reports)
 nlohmann::json robustness_fingerprint(const RobustnessCommand& c) {
+  const RobustnessOptions& o = c.options;
   return {{"scenario", std::filesystem::absolute(c.scenario).lexically_normal().string()},
           {"sets", c.sets},
-          {"body", c.body},
-          {"directions", c.directions},
-          {"phases", c.phases},
-          {"push_duration", c.push_duration},
-          {"max", c.max_force},
-          {"tolerance", c.tolerance},
-          {"at", c.at},
-          {"phase_spacing", c.phase_spacing},
-          {"recovery_window", c.recovery_window},
-          {"max_steps", c.max_steps},
-          {"point", c.point},
-          {"engine", c.engine},
-          {"duration", c.duration ? nlohmann::json(*c.duration) : nlohmann::json(nullptr)}};
+          {"body", o.body},
+          {"directions", o.directions},
+          {"phases", o.phases},
+          {"push_duration", o.push_duration},
+          {"max", o.max_force},
+          {"tolerance", o.tolerance},
+          {"at", o.at},
+          {"phase_spacing", o.phase_spacing_s},
+          {"recovery_window", o.recovery_window_s},
+          {"max_steps", o.max_recovery_steps},
+          {"point", o.point},
+          {"engine", o.engine},
+          {"duration", o.duration ? nlohmann::json(*o.duration) : nlohmann::json(nullptr)}};
 }
 constexpr const char* kRobustnessPartial = "robustness.partial.json";
 }  // namespace
@@ -270,24 +256,11 @@ int robustness_command(const RobustnessCommand& command) {
   return guarded([&] {
     RobustnessCommand cmd = command;
     if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
-    check_option_number("--duration", cmd.duration, duration_range());
-    check_option_number("--threads", cmd.threads, threads_range());
+    check_option_number("--duration", cmd.options.duration, duration_range());
+    check_option_number("--threads", cmd.options.threads, threads_range());
     check_utf8_file_name(cmd.scenario);
-    RobustnessOptions o;
-    o.body = cmd.body;
-    o.directions = cmd.directions;
-    o.phases = cmd.phases;
-    o.push_duration = cmd.push_duration;
-    o.max_force = cmd.max_force;
-    o.tolerance = cmd.tolerance;
-    o.at = cmd.at;
-    o.phase_spacing_s = cmd.phase_spacing;
-    o.recovery_window_s = cmd.recovery_window;
-    o.max_recovery_steps = cmd.max_steps;
-    parse_push_point(cmd.point, o.point, o.offset);
-    o.engine = cmd.engine;
-    o.duration = cmd.duration;
-    o.threads = cmd.threads;
+    RobustnessOptions o = cmd.options;
+    parse_push_point(cmd.options.point, o.point, o.offset);
     o.interrupt = &g_interrupt;
     if (cmd.out_dir.empty()) throw InputError("--out: give an output folder");
     const std::filesystem::path partial = std::filesystem::path(cmd.out_dir) / kRobustnessPartial;
@@ -365,24 +338,14 @@ int tune_command(const TuneCommand& command) {
   return guarded([&] {
     TuneCommand cmd = command;
     if (!cmd.resume.empty()) cmd.out_dir = cmd.resume;
-    check_option_number("--duration", cmd.duration, duration_range());
-    check_option_number("--threads", cmd.threads, threads_range());
+    TuneOptions& o = cmd.options;
+    check_option_number("--duration", o.duration, duration_range());
+    check_option_number("--threads", o.threads, threads_range());
     check_option_number("--seed", static_cast<double>(cmd.seed), {.min = 0});
-    check_utf8_file_name(cmd.scenario);
-    TuneOptions o;
-    o.scenario = cmd.scenario;
-    o.sets = cmd.sets;
+    check_utf8_file_name(o.scenario);
     for (const auto& p : cmd.params) o.params.push_back(parse_tune_param(p));
     for (const auto& n : cmd.neighbours) o.neighbours.push_back(parse_neighbour(n));
-    o.budget = cmd.budget;
-    o.population = cmd.population;
     o.seed = static_cast<unsigned long long>(cmd.seed);
-    o.threads = cmd.threads;
-    o.engine = cmd.engine;
-    o.duration = cmd.duration;
-    o.metric = cmd.metric;
-    o.fall_penalty = cmd.fall_penalty;
-    o.method = cmd.method;
     o.interrupt = &g_interrupt;
     if (cmd.out_dir.empty()) throw InputError("--out: give an output folder");
     // a resumed tune: the checkpoint of the interrupted one, made with the same options

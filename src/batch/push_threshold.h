@@ -9,24 +9,11 @@
 #include <optional>
 #include <string>
 
+#include "batch/batch_options.h"
 #include "sim/scenario.h"
 #include "sim/simulation.h"
 
 namespace stance {
-
-struct PushThresholdOptions {
-  std::string body;                // body pushed
-  int axis = 0;                    // 0, 1, 2: world x, y, z
-  std::string engine;              // overrides the scenario's when set
-  std::optional<double> duration;  // s, of each run; overrides the scenario's
-  double max_force = 400;          // N, upper end of the search
-  double push_duration = 0.1;      // s
-  double at = 2.0;                 // s, push start
-  double tolerance = 2.0;          // N, final bracket width
-  int threads = 2;                 // 1: the two directions one after the other
-  std::string point = "com";       // where the push acts (Perturbation::point, offset)
-  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
-};
 
 // the outcome of one direction's bisection
 struct PushBracket {

@@ -32,32 +32,10 @@
 #include <string>
 #include <vector>
 
+#include "batch/batch_options.h"
 #include "sim/scenario.h"
 
 namespace stance {
-
-struct RobustnessOptions {
-  std::string body;                // body pushed
-  int directions = 8;              // evenly spaced in the horizontal plane
-  int phases = 4;                  // gait phases (walkers) or start times (standing)
-  double push_duration = 0.2;      // s
-  double max_force = 800;          // N, upper end of each search
-  double tolerance = 2;            // N, final bracket width
-  double at = 2.0;                 // s: standing, the first push start; walkers, the warm-up
-  double phase_spacing_s = 0.25;   // s between a standing scenario's push starts
-  double recovery_window_s = 3.0;  // s after the push in which touchdowns are counted
-  int max_recovery_steps = 3;      // more: outcome 3
-  double min_air_s = 0.03;         // s off the ground before a contact counts as a touchdown
-  std::string point = "com";       // com or origin (Perturbation::point)
-  Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // m, body frame (Perturbation::offset)
-  std::string engine;                                // overrides the scenario's when set
-  std::optional<double> duration;  // s per run; default the scenario's, at least long enough
-                                   // for the last push and its recovery window
-  int threads = 0;                 // 0: every core
-  // set (by a signal handler): no new direction or phase starts and the running ones are
-  // abandoned; the result then holds the finished ones (RobustnessResult::interrupted)
-  const std::atomic<bool>* interrupt = nullptr;
-};
 
 enum class PushOutcome { kSuccess = 0, kFellBefore = 1, kFellAfter = 2, kManySteps = 3 };
 

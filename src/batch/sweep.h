@@ -18,25 +18,10 @@
 #include <string>
 #include <vector>
 
+#include "batch/batch_options.h"
 #include "sim/simulation.h"
 
 namespace stance {
-
-struct SweepOptions {
-  std::string scenario;           // YAML file
-  std::vector<std::string> sets;  // overrides applied to every run ("a.b=value")
-  std::string param;              // key path swept, as in --set ("controllers.0.hip_kp")
-  std::vector<double> values;
-  int threads = 0;                 // 0: every core (std::thread::hardware_concurrency)
-  std::string engine;              // overrides the scenario's when set
-  std::optional<double> duration;  // s, overrides the scenario's
-  // false: every point builds its controllers' models afresh (bench/lqr_bench.cc measures what
-  // the shared cache saves; nothing else needs to turn it off)
-  bool share_models = true;
-  // set (by a signal handler): no new run starts and the running ones stop; their points come
-  // back not done (SweepPoint::done)
-  const std::atomic<bool>* interrupt = nullptr;
-};
 
 struct SweepPoint {
   double value = 0;

@@ -39,30 +39,10 @@
 #include <string>
 #include <vector>
 
+#include "batch/batch_options.h"
 #include "sim/simulation.h"
 
 namespace stance {
-
-// one searched parameter: "key=lo:hi" or "key=lo:hi:log"
-struct TuneParam {
-  std::string key;
-  double lo = 0, hi = 1;
-  bool log = false;
-};
-
-// one override of a neighbour: "key*=factor" (times the value the run would otherwise use) or
-// "key=value" (as --set)
-struct NeighbourOverride {
-  std::string key;
-  bool multiply = false;
-  double factor = 1;
-  std::string value;  // when !multiply: YAML text
-};
-
-struct Neighbour {
-  std::string text;  // as given, for messages and the CSV
-  std::vector<NeighbourOverride> overrides;
-};
 
 // parse "--param key=lo:hi[:log]"; throws InputError naming --param and the text
 TuneParam parse_tune_param(const std::string& text);
@@ -80,25 +60,6 @@ void apply_neighbour(YAML::Node& root, const Neighbour& n);
 // ("mocap.mean_joint_error_deg+2*mocap.mean_root_error_m") and one-sided penalties,
 // below(path,c) = max(0, c - value) and above(path,c) = max(0, value - c)
 std::optional<double> metric_at(const nlohmann::json& metrics, const std::string& path);
-
-struct TuneOptions {
-  std::string scenario;           // YAML file
-  std::vector<std::string> sets;  // overrides applied to every run ("a.b=value")
-  std::vector<TuneParam> params;
-  std::vector<Neighbour> neighbours;  // the nominal point is always run too
-  int budget = 40;                    // candidates in all
-  int population = 8;                 // candidates per generation
-  unsigned long long seed = 1;
-  int threads = 0;                 // 0: every core
-  std::string engine;              // overrides the scenario's when set
-  std::optional<double> duration;  // s, overrides the scenario's
-  std::string metric;              // dotted path into RunResult::metrics; empty: none
-  double fall_penalty = 100;       // score per second of the duration not stayed up
-  std::string method = "cem";      // "cem" or "cmaes"
-  // set (by a signal handler): no new generation starts, the running one is abandoned (its
-  // cut-short runs are not scored) and run_tune returns with TuneResult::interrupted
-  const std::atomic<bool>* interrupt = nullptr;
-};
 
 // the score of one run
 struct TuneRun {
