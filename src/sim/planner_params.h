@@ -77,6 +77,8 @@ struct PlannerParams {
   int elites = 4;                 // cem: candidates the refit keeps
   double timestep = 0;            // s, the rollouts' step if coarser than the run's; 0: the run's
   PlannerSolverParams solver;     // the rollouts' constraint solver
+  // the rollouts' controllers run every this many steps and hold their output in between
+  int control_every = 1;
   double cost_interval_s = 0.01;  // s between cost samples in a rollout
   int threads = 0;                // rollout threads; 0: every core
   // in trouble, plan harder: while the run is at least `rescue_error_m` off (a tracked
@@ -111,6 +113,8 @@ struct PlannerParams {
     v("timestep", timestep,
       {.unit = "s", .min = 0, .max = 1, .help = "rollout step, if coarser; 0: the run's"});
     v("solver", solver);
+    v("control_every", control_every,
+      {.min = 1, .max = 16, .help = "rollouts: controllers every n-th step, held between"});
     v("cost_interval_s", cost_interval_s, {.unit = "s", .min = 0, .max = 1});
     v("threads", threads, {.min = 0, .max = 1024, .help = "rollout threads; 0: every core"});
     v("rescue_error_m", rescue_error_m,

@@ -133,6 +133,8 @@ void Simulation::set_planner_params(const PlannerParams& params) {
   const CorrectionModel& old = *model_->planner;
   if (params.timestep != old.params.timestep)
     throw InputError("planner.timestep: the rollouts' step is fixed when the run is made");
+  if (params.control_every != old.params.control_every)
+    throw InputError("planner.control_every: fixed when the run is made");
   if (params.residual_dofs != old.params.residual_dofs)
     throw InputError("planner.residual_dofs: the dimensions are fixed when the run is made");
   if (params.objective != old.params.objective)
@@ -182,8 +184,14 @@ void Simulation::limit_torques() {
 // the residual torques
 bool Simulation::compute_controls() {
   Engine& e = *engine_;
-  out_.clear();
   const CorrectionModel* pm = model_->planner.get();
+  // a rollout of a multi-rate planner holds its last output (restore makes it compute)
+  if (held_steps_left_ > 0) {
+    --held_steps_left_;
+    return true;
+  }
+  if (model_->rollout && pm) held_steps_left_ = pm->params.control_every - 1;
+  out_.clear();
   if (pm) {
     if (planner_ && e.time() + 1e-12 >= progress_.plan.next_plan) planner_->plan(*this);
     progress_.plan.evaluate(e.time(), correction_);

@@ -45,6 +45,7 @@ void Simulation::restore(const SimulationState& state) {
     throw std::logic_error("restore: a state of another simulation");
   engine_->restore_state(state.engine);
   engine_->forward();
+  held_steps_left_ = 0;  // the restored state's controls are computed, not held
   for (size_t i = 0; i < states_.size(); ++i) {
     if (typeid(*states_[i]) == typeid(*state.controllers[i]))
       states_[i]->assign(*state.controllers[i]);
