@@ -77,8 +77,6 @@ struct PlannerParams {
   int elites = 4;                 // cem: candidates the refit keeps
   double timestep = 0;            // s, the rollouts' step if coarser than the run's; 0: the run's
   PlannerSolverParams solver;     // the rollouts' constraint solver
-  // the rollouts' controllers run every this many steps and hold their output in between
-  int control_every = 1;
   double cost_interval_s = 0.01;  // s between cost samples in a rollout
   int threads = 0;                // rollout threads; 0: every core
   // in trouble, plan harder: while the run is at least `rescue_error_m` off (a tracked
@@ -94,6 +92,8 @@ struct PlannerParams {
   // of a hinge, slide or ball joint), `residual_torque` N m per unit
   std::vector<std::string> residual_dofs;
   double residual_torque = 10;
+  // the rollouts' controllers run every this many steps and hold their output in between
+  int control_every = 1;
   PlannerCostWeights cost;
 
   template <class V>

@@ -350,8 +350,9 @@ class Simulation {
   RunOptions run_files_;  // out_dir and progress for run()
   std::vector<double>* controller_seconds_ = nullptr;
   Eigen::VectorXd correction_;                 // this step's correction, dim planner dimensions
-  int held_steps_left_ = 0;  // a rollout's steps that still hold out_ (planner.control_every)
   std::unique_ptr<CorrectionSource> planner_;  // made when the model plans
+  // a rollout's steps that still hold out_ (planner.control_every)
+  int held_steps_left_ = 0;
 };
 
 // build the engine of a scenario with its initial pose applied (no controllers)
