@@ -312,15 +312,17 @@ class ScratchFolder {
 
 // everything the run loads (the scenario with --set, the character, the joint map, the engine
 // and the controllers), loaded from a scratch copy before --out is touched: bad input leaves
-// --out as it was. Messages name the files where they will be, in --out.
-void check_bvh_track_files(const BvhTrackFiles& files, const BvhTrackCommand& cmd) {
+// --out as it was. Messages name the files where they will be, in --out. Returns whether the
+// model gives any dof a torque limit.
+bool check_bvh_track_files(const BvhTrackFiles& files, const BvhTrackCommand& cmd) {
   ScratchFolder scratch;
   const std::string scenario = write_bvh_track_files(files, scratch.path());
   try {
     RunOptions opt;
     opt.engine = cmd.engine;
     opt.quiet = true;
-    make_simulation_model(load_scenario(scenario, cmd.sets), opt);
+    const auto model = make_simulation_model(load_scenario(scenario, cmd.sets), opt);
+    return model->force_limit.array().isFinite().any();
   } catch (const InputError& e) {
     std::string message = e.what();
     const std::string from = scratch.path().string();
@@ -342,7 +344,11 @@ std::string write_bvh_track_scenario(const BvhTrackCommand& cmd) {
   if (!files.ground.empty())
     std::cout << cmd.model << " brings no ground: track.yaml adds ground.urdf (a Z-up floor, its "
               << "top at z = 0)\n";
-  check_bvh_track_files(files, cmd);
+  // a model without limits (a SKEL file, an MJCF without actuator ranges) is tracked unclamped:
+  // its torques are not a robot's, and summary.json has no torque_limit to report
+  if (!check_bvh_track_files(files, cmd) && !cmd.model.empty())
+    std::cout << cmd.model << " gives no torque limits: nothing is clamped (torque_limits: auto "
+              << "clamps only where the model gives a limit)\n";
   std::filesystem::create_directories(cmd.out_dir);
   return write_bvh_track_files(files, std::filesystem::absolute(cmd.out_dir));
 }

@@ -189,13 +189,14 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
   };
   for (const auto& [name, value] : params.kp_joints) set_gain(kp_, name, value, "kp_joints");
   for (const auto& [name, value] : params.kd_joints) set_gain(kd_, name, value, "kd_joints");
-  // free mode on a robot's motors: a weak dof's PD reaches its limit at the error a strong one
-  // does (a clamped stable PD loses the damping its implicit step counts on, and chatters)
-  if (mode_ == MocapRootMode::kFree && params.limit_gain_torque > 0)
+  // free mode on a robot's motors: a weak dof's PD reaches its limit no sooner than at
+  // limit_gain_error (a clamped stable PD loses the damping its implicit step counts on, and
+  // chatters); a stiffer kp on it would only saturate sooner, a softer one is kept
+  if (mode_ == MocapRootMode::kFree && params.limit_gain_error > 0)
     for (int d = 0; d < nv; ++d) {
       const double limit = engine.joint(engine.dof_joint(d)).force_limit;
-      const double scale =
-          std::isfinite(limit) ? std::min(1.0, limit / params.limit_gain_torque) : 1;
+      if (!std::isfinite(limit) || kp_[d] <= 0) continue;
+      const double scale = std::min(1.0, limit / params.limit_gain_error / kp_[d]);
       kp_[d] *= scale;
       kd_[d] *= scale;
     }

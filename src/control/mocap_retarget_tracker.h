@@ -49,9 +49,9 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
   NamedValues kp_joints;          // per-dof kp (a dof name, or a joint name for all its dofs)
   NamedValues kd_joints;
   double max_torque = 0;  // N m clamp on joint torques; 0: none
-  // free mode: a dof whose torque limit is below this has its gains scaled by limit / this, so
-  // that its PD reaches the limit at the error other dofs do (0: off)
-  double limit_gain_torque = 400;  // N m
+  // free mode: a dof's kp is at most its torque limit / this (kd by the same factor), so that its
+  // PD reaches the limit no sooner than at this error whatever kp is (0: off)
+  double limit_gain_error = 0.1;  // rad
 
   template <class V>
   void visit(V& v) {
@@ -65,8 +65,8 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
     v("kd_joints", kd_joints, {.unit = "N m s/rad", .help = "per-dof or per-joint kd"});
     MocapHelperParams::visit(v);
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
-    v("limit_gain_torque", limit_gain_torque,
-      {.unit = "N m", .min = 0, .help = "free mode: gains x limit / this below it; 0: off"});
+    v("limit_gain_error", limit_gain_error,
+      {.unit = "rad", .min = 0, .max = 10, .help = "free mode: kp at most limit / this; 0: off"});
     MocapBalanceParams::visit(v);
   }
 };
@@ -200,6 +200,9 @@ class MocapRetargetTracker final
 
   const MocapRetargetParams& params() const { return params_; }
   const RetargetedMotion& motion() const { return *motion_; }
+  // the gains per dof, as the stable PD uses them (after kp_joints and limit_gain_error)
+  const Eigen::VectorXd& kp() const { return kp_; }
+  const Eigen::VectorXd& kd() const { return kd_; }
   // the simulated motion of a run so far, mapped back onto the clip's skeleton (file units, as
   // read)
   BvhClip recorded_clip(const State& state) const;

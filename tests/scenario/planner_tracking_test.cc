@@ -103,7 +103,7 @@ TEST(PlannerTracking, SyntheticRunAtTheDefaultsAndStifferGains) {
 // carry a walk (clamped, it falls within 0.7 s; docs/robots.md): the planner is checked on it
 // as on a character without limits (nor gains scaled to them), whose success is then void
 const std::string kWithoutLimits = "torque_limits=off";
-const std::string kUnscaledGains = "controllers.0.limit_gain_torque=0";
+const std::string kUnscaledGains = "controllers.0.limit_gain_error=0";
 
 // through the joint map onto MuJoCo's humanoid.xml
 TEST(PlannerTracking, SyntheticWalkOnTheHumanoidAtTheDefaultsAndStifferGains) {
