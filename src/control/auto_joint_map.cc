@@ -171,13 +171,19 @@ std::string body_list(const RestTree& t) {
 }
 
 bool girdle_named(const std::string& name) {
-  // clavicle, scapula, collar; "LeftShoulder" (a collar), not "left_shoulder_pitch_link"
+  // clavicle, scapula, collar; "LeftShoulder" and "Shoulder_L" (Bandai Namco's: a collar), not
+  // "left_shoulder_pitch_link"
   std::string low;
   for (char c : name) low += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   for (const char* part : {"clav", "scap", "collar"})
     if (low.find(part) != std::string::npos) return true;
   const std::string tail = "shoulder";
-  return low.size() >= tail.size() && low.compare(low.size() - tail.size(), tail.size(), tail) == 0;
+  for (const char* side : {"", "_l", "_r", ".l", ".r", " l", " r"}) {
+    const std::string end = tail + side;
+    if (low.size() >= end.size() && low.compare(low.size() - end.size(), end.size(), end) == 0)
+      return true;
+  }
+  return false;
 }
 
 // the model's legs: the lowest leaf, and the lowest leaf whose chain parts from it high up

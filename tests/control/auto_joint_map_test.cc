@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <map>
@@ -45,6 +46,20 @@ TEST(AutoJointMap, HumanoidMatchesTheHandWrittenMap) {
   // the humanoid's legs are longer than the synthetic walker's
   EXPECT_GT(*found.map.scale, 0.5);
   EXPECT_LT(*found.map.scale, 2.0);
+}
+
+// Bandai Namco's arms run Shoulder_L (a collar), UpperArm_L, LowerArm_L: the upper arm is
+// UpperArm_L (before: the side suffix hid the collar, and every arm role was one joint up)
+TEST(AutoJointMap, BandaiNamcosCollarIsNoUpperArm) {
+  const std::string bvh = test::shared_bvh("bandai/dataset-1_walk_active_001.bvh");
+  if (!std::filesystem::exists(bvh)) GTEST_SKIP() << bvh << " is absent";
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
+  auto pairs = pairs_of(find_joint_map_of_files(bvh, test::kHumanoidXml, "mujoco").map);
+  EXPECT_EQ(pairs["UpperArm_L"], "left_upper_arm");
+  EXPECT_EQ(pairs["LowerArm_L"], "left_lower_arm");
+  EXPECT_EQ(pairs["UpperArm_R"], "right_upper_arm");
+  EXPECT_EQ(pairs["LowerArm_R"], "right_lower_arm");
+  EXPECT_EQ(pairs.count("Shoulder_L"), 0u);
 }
 
 // sides from the rest pose where names give none: humanoid.xml with left_/right_ renamed a_/b_
