@@ -1,6 +1,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <cstring>
 #include <random>
 
 #include "core/error.h"
@@ -204,6 +205,63 @@ TEST(MujocoEngine, ADamperKeepsThePassiveForces) {
   spec.models.push_back({test::write_temp_file("damped_chain.xml", xml)});
   auto e = make_mujoco_engine(spec);
   EXPECT_FALSE(dynamic_cast<MujocoEngine&>(*e).model()->opt.disableflags & mjDSBL_PASSIVE);
+}
+
+// a character whose geoms touch only the floor collides its few geom pairs as predefined ones,
+// without MuJoCo's broadphase: from random states, the contacts and the steps are those of the
+// same file with the dynamic pass, to the bit
+TEST(MujocoEngine, PredefinedFloorPairsCollideAsTheBroadphaseToTheBit) {
+  const std::string file = test::source_dir() + "/models/synthetic_walk.xml";
+  WorldSpec spec;
+  spec.models.push_back({file});
+  auto engine = make_mujoco_engine(spec);
+  auto& e = dynamic_cast<MujocoEngine&>(*engine);
+  const mjModel* m = e.model();
+  EXPECT_EQ(m->opt.collision, mjCOL_PAIR);
+  EXPECT_EQ(m->npair, 18);  // the character's geoms with the floor
+  char err[1000] = "";
+  mjModel* dynamic = mj_loadXML(file.c_str(), nullptr, err, sizeof(err));
+  ASSERT_NE(dynamic, nullptr) << err;
+  EXPECT_EQ(dynamic->npair, 0);
+  dynamic->opt.disableflags = m->opt.disableflags;
+  mjData* a = mj_makeData(m);
+  mjData* b = mj_makeData(dynamic);
+  std::mt19937 rng(4);
+  std::normal_distribution<double> n(0, 1);
+  std::uniform_real_distribution<double> height(0.2, 1.2);
+  int touching = 0;
+  for (int trial = 0; trial < 300; ++trial) {
+    mj_resetData(m, a);
+    mj_resetData(dynamic, b);
+    a->qpos[2] = height(rng);
+    for (int i = 3; i < m->nq; ++i) a->qpos[i] += 0.4 * n(rng);
+    for (int j = 0; j < m->njnt; ++j)
+      if (m->jnt_type[j] != mjJNT_HINGE && m->jnt_type[j] != mjJNT_SLIDE)
+        mju_normalize4(a->qpos + m->jnt_qposadr[j] + (m->jnt_type[j] == mjJNT_FREE ? 3 : 0));
+    for (int i = 0; i < m->nv; ++i) a->qvel[i] = n(rng);
+    std::copy(a->qpos, a->qpos + m->nq, b->qpos);
+    std::copy(a->qvel, a->qvel + m->nv, b->qvel);
+    for (int k = 0; k < 3; ++k) {
+      mj_step(m, a);
+      mj_step(dynamic, b);
+    }
+    touching += a->ncon > 1;
+    ASSERT_EQ(a->ncon, b->ncon) << "trial " << trial;
+    EXPECT_EQ(std::memcmp(a->contact, b->contact, sizeof(mjContact) * a->ncon), 0);
+    EXPECT_TRUE(std::equal(a->qpos, a->qpos + m->nq, b->qpos)) << "trial " << trial;
+    EXPECT_TRUE(std::equal(a->qvel, a->qvel + m->nv, b->qvel)) << "trial " << trial;
+  }
+  EXPECT_GT(touching, 50);  // several contacts at once, on several bodies
+  mj_deleteData(a);
+  mj_deleteData(b);
+  mj_deleteModel(dynamic);
+}
+
+TEST(MujocoEngine, SelfCollidingOrUnnamedGeomsKeepTheBroadphase) {
+  auto chain = load_chain();  // unnamed geoms
+  const mjModel* m = dynamic_cast<MujocoEngine&>(*chain).model();
+  EXPECT_EQ(m->opt.collision, mjCOL_ALL);
+  EXPECT_EQ(m->npair, 0);
 }
 
 TEST(MujocoEngine, SaveRestoreIsBitExact) {
