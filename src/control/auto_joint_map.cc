@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "engine/world_spec.h"
 #include "motion/bvh.h"
+#include "motion/reference_motion.h"
 
 namespace stance {
 
@@ -85,14 +86,18 @@ void finish_tree(RestTree& t) {
   t.joint_tolerance_m = std::max(1e-4, 0.03 * (hi - lo));
 }
 
-RestTree tree_of_clip(const MotionSkeleton& sk) {
+// the clip's tree at rest, or posed (`posed`: each segment's position, not empty)
+RestTree tree_of_clip(const MotionSkeleton& sk, const std::vector<Eigen::Vector3d>& posed) {
   RestTree t;
   for (int k = 0; k < sk.segment_count(); ++k) {
     const MotionSegment& s = sk.segments[k];
     t.names.push_back(s.name);
     t.parent.push_back(s.parent);
-    t.pos.push_back(s.parent >= 0 ? Eigen::Vector3d(t.pos[s.parent] + s.offset)
-                                  : Eigen::Vector3d::Zero().eval());
+    if (!posed.empty())
+      t.pos.push_back(posed[k] - posed[0]);
+    else
+      t.pos.push_back(s.parent >= 0 ? Eigen::Vector3d(t.pos[s.parent] + s.offset)
+                                    : Eigen::Vector3d::Zero().eval());
   }
   t.member.assign(t.size(), true);
   t.mass.assign(t.size(), 1.0);
@@ -313,11 +318,33 @@ int spread(int i, int n, int k) {
   return static_cast<int>(std::lround(double(i) * (n - 1) / (k - 1)));
 }
 
+// the segments posed in the clip's first frame where its rest pose does not stand (it spans
+// less than 2/3 of that frame's height, as retarget.cc judges it: Bandai Namco's lies along X)
+std::vector<Eigen::Vector3d> first_frame_if_lying(const BvhClip& clip, const MotionSkeleton& sk) {
+  if (clip.frame_count < 1) return {};
+  const ReferenceMotion reference(clip, sk, ReferenceOptions{});
+  ReferencePose pose = reference.make_pose();
+  std::vector<Eigen::Vector3d> rest, posed;
+  std::vector<Eigen::Quaterniond> turned;
+  for (auto& r : pose.rotations) r.setIdentity();
+  pose.root_position.setZero();
+  reference.forward_kinematics(pose, rest, turned);
+  reference.frame_pose(0, pose);
+  reference.forward_kinematics(pose, posed, turned);
+  auto span = [](const std::vector<Eigen::Vector3d>& p) {
+    double lo = 1e300, hi = -1e300;
+    for (const Eigen::Vector3d& x : p) lo = std::min(lo, x.z()), hi = std::max(hi, x.z());
+    return hi - lo;
+  };
+  return span(rest) < (2.0 / 3.0) * span(posed) ? posed : std::vector<Eigen::Vector3d>{};
+}
+
 }  // namespace
 
 AutoJointMap find_joint_map(const MotionSkeleton& clip, const std::string& clip_name,
-                            const Engine& model, const std::string& model_name) {
-  const RestTree ct = tree_of_clip(clip), mt = tree_of_model(model);
+                            const Engine& model, const std::string& model_name,
+                            const std::vector<Eigen::Vector3d>& posed) {
+  const RestTree ct = tree_of_clip(clip, posed), mt = tree_of_model(model);
   Roles cr, mr;
   find_clip_legs(clip, ct, cr);
   find_model_legs(mt, mr);
@@ -379,12 +406,14 @@ AutoJointMap find_joint_map_of_files(const std::string& bvh_path, const std::str
                                      const std::string& engine, double scale_to_meters) {
   MotionSkeletonOptions options;
   options.scale_to_meters = scale_to_meters;
-  const MotionSkeleton skeleton = make_motion_skeleton(read_bvh(bvh_path), options);
+  const BvhClip clip = read_bvh(bvh_path);
+  const MotionSkeleton skeleton = make_motion_skeleton(clip, options);
   WorldSpec spec;
   spec.models.push_back({model_path});
   std::unique_ptr<Engine> model = make_engine(engine, spec);
   model->forward();
-  return find_joint_map(skeleton, bvh_path, *model, model_path);
+  return find_joint_map(skeleton, bvh_path, *model, model_path,
+                        first_frame_if_lying(clip, skeleton));
 }
 
 std::string joint_map_report(const AutoJointMap& found) {

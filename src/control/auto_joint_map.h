@@ -37,10 +37,12 @@ struct AutoJointMap {
 
 // Finds the map of the clip's skeleton onto the model in `model` (its state is read as the rest
 // pose). The names are the files', for messages. The model's up axis comes from its gravity.
-// Throws InputError when either side has no two complete legs (thigh, shin, foot), naming the
-// bodies (or the clip's joints) it saw.
+// `posed`, when not empty, places the clip's segments instead of its rest pose (a frame of a
+// clip whose rest pose does not stand). Throws InputError when either side has no two complete
+// legs (thigh, shin, foot), naming the bodies (or the clip's joints) it saw.
 AutoJointMap find_joint_map(const MotionSkeleton& clip, const std::string& clip_name,
-                            const Engine& model, const std::string& model_name);
+                            const Engine& model, const std::string& model_name,
+                            const std::vector<Eigen::Vector3d>& posed = {});
 
 // bvh track without --map: the map of the clip file (read as a tracker reads it) onto the model
 // file, loaded on `engine`; scale_to_meters 0: detected, as the tracker does

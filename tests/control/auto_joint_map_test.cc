@@ -62,6 +62,18 @@ TEST(AutoJointMap, BandaiNamcosCollarIsNoUpperArm) {
   EXPECT_EQ(pairs.count("Shoulder_L"), 0u);
 }
 
+// a rest pose that does not stand (Bandai Namco's lies along X) tells no height: the head, the
+// highest leaf above the chest, is found in the first frame's pose (before: not at all)
+TEST(AutoJointMap, BandaiNamcosHeadIsFoundInTheFirstFrame) {
+  const std::string bvh = test::shared_bvh("bandai/dataset-1_walk_active_001.bvh");
+  if (!std::filesystem::exists(bvh)) GTEST_SKIP() << bvh << " is absent";
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
+  const AutoJointMap found = find_joint_map_of_files(bvh, test::kHumanoidXml, "mujoco");
+  EXPECT_EQ(pairs_of(found.map)["Neck"], "head");
+  EXPECT_EQ(found.map.joints.size(), 14u);
+  EXPECT_NEAR(found.clip_leg_length_m, 0.80, 0.02);  // the bones' lengths: pose-free
+}
+
 // sides from the rest pose where names give none: humanoid.xml with left_/right_ renamed a_/b_
 TEST(AutoJointMap, SidesWithoutSideNamesComeFromTheRestPose) {
   std::ifstream in(test::kHumanoidXml);
