@@ -69,7 +69,9 @@ Planner::Planner(std::shared_ptr<const CorrectionModel> correction,
   for (Candidate& c : candidates_) {
     c.knots.setZero(dims, p.knots);
     c.path.reserve(path_points);
+    c.profile.stage_sums.reserve(path_points);
   }
+  best_profile_.stage_sums.reserve(path_points);
   best_path_.reserve(path_points);
   // the planner's CEM: streams of its own per candidate (draw), clamped at once, elites of
   // the last round, their deviation over n with a floor of a tenth of the noise
@@ -119,7 +121,8 @@ void Planner::refit_cem(int k) {
   cem_->tell(points_.leftCols(k), costs_);
 }
 
-double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
+double Planner::rollout(Simulation& sim, Candidate& c, double bound,
+                        const CostProfile* leader) const {
   const PlannerParams& p = correction_->params;
   const PlannerCostWeights& w = p.cost;
   // the knots' terms are known before the rollout; with the stage costs (>= 0) averaged over at
@@ -135,6 +138,12 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
   const double sample_dt = std::max(p.cost_interval_s, sim.engine().timestep());
   const double most_samples = std::floor(p.horizon_s / sample_dt) + 2;
   c.stopped = false;
+  c.profile.knots_cost = knots_cost;
+  c.profile.stage_sums.clear();
+  c.profile.complete = false;
+  // racing the leader: the stage costs averaged over the leader's samples
+  const bool race = leader && leader->complete && p.race_margin > 0 && std::isfinite(bound);
+  const double race_samples = race ? static_cast<double>(leader->stage_sums.size()) : 1.0;
   if (knots_cost > bound) {
     c.stopped = true;
     c.steps = 0;
@@ -152,17 +161,20 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
   c.path.clear();
   c.steps = 0;
   double stage = 0, penalty = 0;
+  bool fell = false;
   int samples = 0;
   double next_cost = t0 + p.cost_interval_s;
   while (sim.time() < t_end - 1e-9) {
     ++c.steps;
     if (!sim.step()) {  // diverged: the worst fall
       penalty = 2 * w.fall;
+      fell = true;
       break;
     }
     const double t = sim.time();
     if (sim.progress().fell) {
       penalty = w.fall * (1 + std::max(0.0, t_end - t) / p.horizon_s);
+      fell = true;
       break;
     }
     if (t + 1e-9 < next_cost) continue;
@@ -172,12 +184,23 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound) const {
     ++samples;
     if (model_->start.root_body >= 0 && c.path.size() < c.path.capacity())
       c.path.push_back(sim.engine().body_pose(model_->start.root_body).pos);
+    c.profile.stage_sums.push_back(stage);
     const double lower = knots_cost + stage / most_samples;
     if (lower > bound) {
       c.stopped = true;
       return lower;
     }
+    // behind the leader at the same time by more than the margin: not a bound, a bet that it
+    // will not catch up; it is never chosen
+    if (race && samples <= static_cast<int>(leader->stage_sums.size()) &&
+        knots_cost + stage / race_samples > leader->knots_cost +
+                                                leader->stage_sums[samples - 1] / race_samples +
+                                                p.race_margin * bound) {
+      c.stopped = true;
+      return std::numeric_limits<double>::infinity();
+    }
   }
+  c.profile.complete = !fell;
   return (samples ? stage / samples : 0.0) + penalty + knots_cost;
 }
 
@@ -233,6 +256,9 @@ void Planner::plan(Simulation& sim) {
       p.steady_error_m > 0 && tracking_error(sim, error) && error.body_m < p.steady_error_m;
   const int k = steady ? std::clamp(p.steady_samples, 1, p.samples) : p.samples;
   if (steady) ++plan.steady;
+  // racing rollouts is a bet: taken while the run is on track, not while it is in trouble
+  const bool racing = p.race_margin > 0 &&
+                      !(p.rescue_error_m > 0 && objective_->balance_error(sim) >= p.rescue_error_m);
   const int rounds = p.method == "cem" ? p.iterations : 1;
   restart_cem(nominal_);
   best_ = nominal_;
@@ -262,9 +288,10 @@ void Planner::plan(Simulation& sim) {
       const double bound = stop_early ? best_cost : std::numeric_limits<double>::infinity();
       pool_->run(end - begin, [&](int worker, int task) {
         Candidate& c = candidates_[begin + task];
-        c.cost = rollout(*workers_[worker], c, bound);
+        c.cost = rollout(*workers_[worker], c, bound, racing ? &best_profile_ : nullptr);
       });
       // the cheapest, the lower index on a tie: the same for any thread count
+      const double before = best_cost;
       for (int i = begin; i < end; ++i) {
         rollout_steps_ += candidates_[i].steps;
         plan.rollout_steps += candidates_[i].steps;
@@ -274,8 +301,17 @@ void Planner::plan(Simulation& sim) {
           best_round = round;
           best_index = i;
           best_path_.assign(candidates_[i].path.begin(), candidates_[i].path.end());
+          best_profile_.knots_cost = candidates_[i].profile.knots_cost;
+          best_profile_.stage_sums.assign(candidates_[i].profile.stage_sums.begin(),
+                                          candidates_[i].profile.stage_sums.end());
+          best_profile_.complete = candidates_[i].profile.complete;
         }
       }
+      // sampling that stopped paying: a batch of 4 or more drew nothing clearly cheaper than the
+      // batches before it. It reads costs only, so it stops alike for any thread count.
+      if (stop_early && p.stop_margin > 0 && end - begin >= 4 &&
+          !(best_cost < before * (1 - p.stop_margin)))
+        break;
       begin = end;
     }
   };

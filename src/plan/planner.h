@@ -57,12 +57,19 @@ class Planner : public CorrectionSource {
   double plan_seconds() const { return plan_seconds_; }
 
  private:
+  // a rollout's cost as it went: the knots' terms and the stage costs summed at each sample
+  struct CostProfile {
+    double knots_cost = 0;
+    std::vector<double> stage_sums;
+    bool complete = false;  // rolled out over the whole horizon, no fall
+  };
   struct Candidate {
     Eigen::MatrixXd knots;
     double cost = 0;
     long steps = 0;
-    bool stopped = false;  // stopped early: `cost` is a lower bound above the best's
+    bool stopped = false;  // stopped early: `cost` is a lower bound above the best's, or infinite
     std::vector<Eigen::Vector3d> path;
+    CostProfile profile;
   };
   // candidate `index` of a round, drawn from the CEM's mean and spread
   void draw(long plan, int round, int index, Eigen::MatrixXd& knots) const;
@@ -71,8 +78,9 @@ class Planner : public CorrectionSource {
   // cem: refit the mean and spread to the elites of the round's k candidates
   void refit_cem(int k);
   // the candidate's cost from start_; stopped early (at a lower bound of it) once it exceeds
-  // `bound`
-  double rollout(Simulation& sim, Candidate& c, double bound) const;
+  // `bound`, and (at an infinite cost) once it trails `leader`'s profile by planner.race_margin
+  // of `bound`
+  double rollout(Simulation& sim, Candidate& c, double bound, const CostProfile* leader) const;
   // the controllers' references over the horizon from the current start, once per planning step
   void sample_horizons();
 
@@ -93,6 +101,7 @@ class Planner : public CorrectionSource {
   std::vector<double> costs_;  // their costs
   Eigen::MatrixXd nominal_, best_;
   std::vector<Eigen::Vector3d> best_path_;
+  CostProfile best_profile_;
   uint64_t seed_ = 0;
   long rollout_steps_ = 0;
   double plan_seconds_ = 0;

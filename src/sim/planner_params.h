@@ -88,6 +88,13 @@ struct PlannerParams {
   // `steady_error_m` (0: never; nothing tracked: never), `steady_samples` of them
   double steady_error_m = 0;  // m (off: measured, it cost more accuracy than it saved)
   int steady_samples = 16;
+  // on track, stop a rollout once its cost so far trails the best's at the same time by more
+  // than this share of the best's cost (0: only once it cannot win; off: measured, it cost
+  // accuracy on some clips)
+  double race_margin = 0;
+  // stop drawing batches of candidates once a batch of 4 or more lowers the best cost by less
+  // than this share of it (0: draw every sample; off: measured, it cost accuracy)
+  double stop_margin = 0;
   // where no controller offers a correction: residual torques on these dofs (empty: every dof
   // of a hinge, slide or ball joint), `residual_torque` N m per unit
   std::vector<std::string> residual_dofs;
@@ -125,6 +132,10 @@ struct PlannerParams {
       {.unit = "m", .min = 0, .max = 10, .help = "error under which fewer samples; 0: never"});
     v("steady_samples", steady_samples,
       {.min = 1, .max = 4096, .help = "candidates per planning step while on track"});
+    v("race_margin", race_margin,
+      {.min = 0, .max = 100, .help = "on track, stop a rollout trailing the best by this share"});
+    v("stop_margin", stop_margin,
+      {.min = 0, .max = 1, .help = "stop sampling once a batch gains less than this share"});
     v("residual_dofs", residual_dofs, {.help = "dofs of residual torques; empty: all joints"});
     v("residual_torque", residual_torque,
       {.unit = "N m", .min = 0, .max = 1e5, .help = "residual torque per unit of noise"});

@@ -118,6 +118,72 @@ TEST(Planner, CemRoundsOnlyLowerTheChosenCost) {
   EXPECT_TRUE(lower) << "the refits never found a cheaper plan";
 }
 
+// what a planning step spends and the plan it keeps, from the same states, at planner settings
+// `option`, and of every sample (full) and of the warm start alone (one sample)
+void expect_plans_between_the_full_draw_and_the_warm_start(const std::string& option) {
+  SCOPED_TRACE(option);
+  auto make = [](int samples, const std::string& extra, int threads) {
+    return std::make_unique<Simulation>(
+        load_scenario(
+            test::scenario_path("biped_stand.yaml"),
+            {"planner.enabled=true", "planner.samples=" + std::to_string(samples),
+             "planner.horizon_s=0.2", "planner.interval_s=0.05", "planner.rescue_error_m=0", extra,
+             "planner.threads=" + std::to_string(threads),
+             "perturbations=[{body: h_spine, force: [80, 0, 0], start: 0.05, "
+             "duration: 0.1}]"}),
+        test::quiet());
+  };
+  std::unique_ptr<Simulation> full = make(30, "planner.stop_margin=0", 2),
+                              saving = make(30, option, 2),
+                              warm = make(1, "planner.stop_margin=0", 1);
+  while (full->time() < 0.1) ASSERT_TRUE(full->step());
+  SimulationState state;
+  int saved = 0;
+  for (int k = 0; k < 6; ++k) {
+    SCOPED_TRACE(k);
+    full->save(state);
+    long steps[3] = {};
+    double costs[3] = {};
+    Simulation* runs[3] = {full.get(), saving.get(), warm.get()};
+    for (int r = 0; r < 3; ++r) {
+      if (r > 0) runs[r]->restore(state);
+      const CorrectionPlan& plan = runs[r]->progress().plan;
+      const long plans = plan.plans, steps0 = plan.rollout_steps;
+      const double cost0 = plan.cost_sum;
+      while (runs[r]->progress().plan.plans == plans) ASSERT_TRUE(runs[r]->step());
+      costs[r] = plan.cost_sum - cost0;
+      steps[r] = plan.rollout_steps - steps0;
+    }
+    // the same candidates, fewer of them rolled out in full: never costlier than the warm start
+    EXPECT_LE(costs[0], costs[1]);
+    EXPECT_LE(costs[1], costs[2]);
+    EXPECT_LE(steps[1], steps[0]);
+    saved += steps[1] < steps[0];
+  }
+  EXPECT_GT(saved, 0) << "no rollout step was saved";
+  // its decisions read costs only: the same run on 3 threads as on 2
+  saving = make(30, option, 2);
+  std::unique_ptr<Simulation> three = make(30, option, 3);
+  while (saving->time() < 0.6) ASSERT_TRUE(saving->step());
+  while (three->time() < 0.6) ASSERT_TRUE(three->step());
+  Eigen::VectorXd a(saving->engine().nq()), b(three->engine().nq());
+  saving->engine().get_positions(a);
+  three->engine().get_positions(b);
+  EXPECT_EQ(a, b);
+  EXPECT_EQ(saving->progress().plan.cost_sum, three->progress().plan.cost_sum);
+  EXPECT_EQ(saving->progress().plan.rollout_steps, three->progress().plan.rollout_steps);
+}
+
+// sampling stops once a batch stops paying (planner.stop_margin)
+TEST(Planner, StoppingSamplingEarlyKeepsAPlanBetweenTheFullDrawAndTheWarmStart) {
+  expect_plans_between_the_full_draw_and_the_warm_start("planner.stop_margin=0.5");
+}
+
+// rollouts trailing the best at the same time are stopped (planner.race_margin) and never chosen
+TEST(Planner, RacingRolloutsKeepAPlanBetweenTheFullDrawAndTheWarmStart) {
+  expect_plans_between_the_full_draw_and_the_warm_start("planner.race_margin=0.05");
+}
+
 // rollouts stop once they cannot beat the cheapest known: the plans are those of rollouts run
 // in full (CEM with one round draws the same candidates and rolls every one out in full), for
 // fewer model steps
