@@ -136,6 +136,14 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     if (fwd.norm() > 1e-9) forward_in_root_ = fwd.normalized();
   }
 
+  init_fall_rule(engine, *probe);
+  init_gains(params, engine);
+}
+
+// the fall rule's tables (anchors, children, the sole level), from the probe at the first frame
+void MocapRetargetTracker::init_fall_rule(const Engine& engine, const Engine& probe_engine) {
+  const auto& bodies = motion_->bodies();
+  const Engine* probe = &probe_engine;
   // the fall rule: every body moves with its nearest mapped ancestor (the joints between are not
   // driven and stay at zero), so its reference COM and origin are fixed in that body's frame;
   // the probe stands at the table's first frame
@@ -168,7 +176,10 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     for (size_t i = 0; i < bodies.size(); ++i)
       sole_level_ = std::min(
           sole_level_, up_.dot(motion_->sample_body_pose(f * motion_->frame_time_s(), i).pos));
+}
 
+// kp_ and kd_ per dof (kp_joints, kd_joints, the limit cap, the root's)
+void MocapRetargetTracker::init_gains(const MocapRetargetParams& params, const Engine& engine) {
   // gains: every dof but the root's; the root's in assisted mode. A name is a dof, or a joint
   // for all its dofs.
   const int nv = engine.nv();

@@ -224,6 +224,9 @@ class MocapRetargetTracker final
                     ControlOutput& out) const override;
 
  private:
+  // the constructor's parts: the fall rule's tables; the gains
+  void init_fall_rule(const Engine& engine, const Engine& probe);
+  void init_gains(const MocapRetargetParams& params, const Engine& engine);
   void accumulate_metrics(State& s, const Engine& engine) const;
   void balance(State& s, const Engine& engine, double t, const double* correction) const;
   // the fall rule at the engine's time: the cause and the body that touched (allocates nothing);
