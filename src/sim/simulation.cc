@@ -89,6 +89,8 @@ void Simulation::start_run() {
   correction_.setZero(model_->planner ? model_->planner->dimensions.size() : 0);
   progress_ = RunProgress{};
   progress_.velocity_sent = out_.dof_velocity;
+  progress_.dof_steps_at_limit.setZero(e.nv());
+  progress_.dof_peak_limit_ratio.setZero(e.nv());
   states_.clear();
   for (const auto& c : controllers_) states_.push_back(c->make_state(e));
   progress_.com0 = progress_.com_last = e.com();
@@ -105,6 +107,8 @@ void Simulation::reset() {
   out_.resize(e.nv(), e.nu());
   progress_ = RunProgress{};
   progress_.velocity_sent = out_.dof_velocity;
+  progress_.dof_steps_at_limit.setZero(e.nv());
+  progress_.dof_peak_limit_ratio.setZero(e.nv());
   for (size_t i = 0; i < controllers_.size(); ++i) controllers_[i]->reset(*states_[i], e);
   progress_.com0 = progress_.com_last = e.com();
   progress_.com_height0 = model_->up.dot(progress_.com0) - model_->scenario.fall.ground_height;
@@ -167,6 +171,8 @@ void Simulation::limit_torques() {
     const double tau = out_.tau[i];
     const double ratio = std::abs(tau) / std::max(limit[i], 1e-12);
     at_limit = at_limit || ratio >= 1;
+    if (ratio >= 1) ++s.dof_steps_at_limit[i];
+    s.dof_peak_limit_ratio[i] = std::max(s.dof_peak_limit_ratio[i], ratio);
     if (ratio > s.peak_limit_ratio) {
       s.peak_limit_ratio = ratio;
       s.peak_limit_dof = i;
@@ -373,6 +379,27 @@ void Simulation::add_controller_metrics(nlohmann::json& metrics) const {
     if (const Reporting* r = controllers_[i]->as<Reporting>()) r->add_metrics(*states_[i], metrics);
 }
 
+// per dof that reached its limit: its share of the steps at it and its largest request over it;
+// and the three most often at it ("which joint is too weak"), ties in dof order
+void Simulation::add_limits_per_dof(nlohmann::json& torque_limit) const {
+  const RunProgress& s = progress_;
+  nlohmann::json& per_dof = torque_limit["per_dof"] = nlohmann::json::object();
+  std::vector<int> reached;
+  for (int i = 0; i < s.dof_steps_at_limit.size(); ++i) {
+    if (s.dof_steps_at_limit[i] == 0) continue;
+    reached.push_back(i);
+    per_dof[engine_->dof_name(i)] = {
+        {"share_at_limit", s.steps > 0 ? double(s.dof_steps_at_limit[i]) / s.steps : 0.0},
+        {"peak_request_ratio", s.dof_peak_limit_ratio[i]}};
+  }
+  if (reached.empty()) return;
+  std::stable_sort(reached.begin(), reached.end(),
+                   [&](int a, int b) { return s.dof_steps_at_limit[a] > s.dof_steps_at_limit[b]; });
+  nlohmann::json& most = torque_limit["most_at_limit"] = nlohmann::json::array();
+  for (size_t k = 0; k < std::min<size_t>(3, reached.size()); ++k)
+    most.push_back(engine_->dof_name(reached[k]));
+}
+
 RunResult Simulation::result() const {
   const Engine& e = *engine_;
   const RunProgress& s = progress_;
@@ -421,6 +448,7 @@ RunResult Simulation::result() const {
     tl["clamped_steps"] = s.clamped_steps;
     tl["steps_at_limit"] = s.steps_at_limit;
     tl["share_at_limit"] = s.steps > 0 ? static_cast<double>(s.steps_at_limit) / s.steps : 0.0;
+    add_limits_per_dof(tl);
   }
   m["pushes_applied"] = static_cast<int>(model_->pushes.size());
   m["pushes_survived"] = survived;

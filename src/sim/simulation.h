@@ -203,6 +203,10 @@ struct RunProgress {
   int peak_limit_dof = -1;
   long clamped_steps = 0;
   long steps_at_limit = 0;
+  // per dof (dim nv, sized at run start: the step allocates nothing): the steps on which it asked
+  // for at least its limit, and its largest |requested torque| / limit
+  Eigen::Matrix<long, Eigen::Dynamic, 1> dof_steps_at_limit;
+  Eigen::VectorXd dof_peak_limit_ratio;
   Eigen::VectorXd velocity_sent;  // the velocity commands the engine holds, dim nv; NaN: none
   CorrectionPlan plan;            // the planner's correction being applied
   // the controllers' metrics (JSON) as they were when the run fell: if the state blows up on the
@@ -215,7 +219,7 @@ struct RunProgress {
     a(steps), a(fell), a(fall_time), a(fall_reason), a(diverged), a(divergence), a(diverged_at);
     a(com_height0), a(min_com_height), a(com0), a(torque_sq_sum), a(max_abs_torque);
     a(torque_samples), a(velocity_sent), a(com_last), a(peak_limit_ratio), a(peak_limit_dof);
-    a(clamped_steps), a(steps_at_limit);
+    a(clamped_steps), a(steps_at_limit), a(dof_steps_at_limit), a(dof_peak_limit_ratio);
     plan.serialize(a);
     a(controller_metrics_at_fall);
     external.serialize(a);
@@ -333,6 +337,7 @@ class Simulation {
   void snapshot_controller_metrics();
   // the Reporting controllers' end-of-run metrics, merged into `metrics`
   void add_controller_metrics(nlohmann::json& metrics) const;
+  void add_limits_per_dof(nlohmann::json& torque_limit) const;
   // the controllers' (and the planner's) outputs into out_; false (diverged) when non-finite
   bool compute_controls();
   void limit_torques();

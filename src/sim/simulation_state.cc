@@ -76,8 +76,9 @@ std::unique_ptr<Simulation> Simulation::clone() const {
 }
 
 namespace {
-// 3: the plan counts its rescue rounds; 4: and its steps on track and rollout steps
-constexpr char kStateMagic[] = "stance-state 4\n";
+// 3: the plan counts its rescue rounds; 4: and its steps on track and rollout steps; 5: each
+// dof's steps at its torque limit and largest request over it
+constexpr char kStateMagic[] = "stance-state 5\n";
 }  // namespace
 
 void Simulation::write_state(const std::string& path) const {

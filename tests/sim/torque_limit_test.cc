@@ -111,6 +111,84 @@ TEST(TorqueLimit, SummaryReportsTheShareOfStepsAtALimit) {
   }
 }
 
+// a three-link arm held horizontal, its elbow's motor weak (gear 1 x 3 N m against gravity's
+// 9.8 N m), the shoulder's and the wrist's strong: only the elbow ever reaches its limit
+constexpr const char* kWeakElbowMjcf = R"(<mujoco model="weak_elbow">
+  <option timestep="0.001"/>
+  <default><joint type="hinge" axis="0 1 0" damping="2"/></default>
+  <worldbody>
+    <body name="upper">
+      <joint name="shoulder"/>
+      <inertial pos="0.25 0 0" mass="1" diaginertia="0.001 0.02 0.02"/>
+      <body name="fore" pos="0.5 0 0">
+        <joint name="elbow"/>
+        <inertial pos="0.25 0 0" mass="1" diaginertia="0.001 0.02 0.02"/>
+        <body name="hand" pos="0.5 0 0">
+          <joint name="wrist"/>
+          <inertial pos="0.25 0 0" mass="1" diaginertia="0.001 0.02 0.02"/>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+  <actuator>
+    <motor joint="shoulder" gear="100" ctrllimited="true" ctrlrange="-2 2"/>
+    <motor joint="elbow" gear="1" ctrllimited="true" ctrlrange="-3 3"/>
+    <motor joint="wrist" gear="25" ctrllimited="true" ctrlrange="-2 2"/>
+  </actuator>
+</mujoco>
+)";
+
+// summary.json's per-dof block names the weak joint, and its numbers are those of the steps'
+// requests: unclamped (off) the record is the requests themselves; clamped (on) a request at or
+// over the limit leaves the dof exactly at it
+TEST(TorqueLimit, PerDofShareNamesTheWeakJoint) {
+  const std::string xml = test::write_temp_file("weak_elbow.xml", kWeakElbowMjcf);
+  for (const char* limits : {"off", "on"}) {
+    SCOPED_TRACE(limits);
+    const std::string yaml = "name: weak_elbow\nmodel: " + xml +
+                             "\nduration: 1\ntimestep: 0.001\ntorque_limits: " + limits +
+                             "\nfall: {enabled: false}\ncontrollers:\n  - {type: pd, kp: 200, "
+                             "kd: 20}\n";
+    RunOptions opt;
+    opt.quiet = true;
+    Simulation run(parse_scenario(YAML::Load(yaml), "weak_elbow.yaml", ""), opt);
+    const Engine& e = run.engine();
+    ASSERT_EQ(e.nv(), 3);
+    std::map<std::string, long> at_limit;
+    std::map<std::string, double> peak;
+    const int steps = 1000;
+    for (int i = 0; i < steps; ++i) {
+      ASSERT_TRUE(run.step());
+      for (int d = 0; d < e.nv(); ++d) {
+        const double ratio =
+            std::abs(run.last_output().tau[d]) / e.joint(e.dof_joint(d)).force_limit;
+        if (ratio >= 1) ++at_limit[e.dof_name(d)];
+        peak[e.dof_name(d)] = std::max(peak[e.dof_name(d)], ratio);
+      }
+    }
+    const nlohmann::json tl = run.result().metrics.at("torque_limit");
+    const nlohmann::json& per_dof = tl.at("per_dof");
+    ASSERT_EQ(per_dof.size(), 1u) << tl.dump();
+    EXPECT_EQ(at_limit.count("shoulder") + at_limit.count("wrist"), 0u);
+    const nlohmann::json& elbow = per_dof.at("elbow");
+    EXPECT_GT(at_limit.at("elbow"), steps / 2) << "the elbow sags against its limit";
+    EXPECT_DOUBLE_EQ(elbow.at("share_at_limit").get<double>(),
+                     double(at_limit.at("elbow")) / steps);
+    EXPECT_EQ(tl.at("most_at_limit"), nlohmann::json::array({"elbow"}));
+    EXPECT_EQ(tl.at("steps_at_limit").get<long>(), at_limit.at("elbow"));
+    if (std::string(limits) == "off") {
+      EXPECT_DOUBLE_EQ(elbow.at("peak_request_ratio").get<double>(), peak.at("elbow"));
+      EXPECT_DOUBLE_EQ(tl.at("peak_ratio").get<double>(), peak.at("elbow"));
+    } else {
+      // the requests over the limit were clamped: their peak is over the applied ones' 1
+      EXPECT_GT(elbow.at("peak_request_ratio").get<double>(), 1.5);
+      EXPECT_EQ(peak.at("elbow"), 1.0);
+    }
+    EXPECT_LT(peak.at("shoulder"), 1.0);
+    EXPECT_LT(peak.at("wrist"), 1.0);
+  }
+}
+
 TEST(TorqueLimit, MjcfGearTimesCtrlrange) {
   const std::string xml = test::write_temp_file("pendulum_limit.xml", kPendulumMjcf);
   const double sag = std::acos(5 / (2 * 9.81 * 0.5));
