@@ -13,6 +13,7 @@
 #include "core/error.h"
 #include "engine/world_spec.h"
 #include "motion/bvh.h"
+#include "motion/bvh_measure.h"
 #include "motion/reference_motion.h"
 
 namespace stance {
@@ -336,7 +337,7 @@ std::vector<Eigen::Vector3d> first_frame_if_lying(const BvhClip& clip, const Mot
     for (const Eigen::Vector3d& x : p) lo = std::min(lo, x.z()), hi = std::max(hi, x.z());
     return hi - lo;
   };
-  return span(rest) < (2.0 / 3.0) * span(posed) ? posed : std::vector<Eigen::Vector3d>{};
+  return rest_span_stands(span(rest), span(posed)) ? std::vector<Eigen::Vector3d>{} : posed;
 }
 
 }  // namespace

@@ -12,6 +12,7 @@
 #include "core/error.h"
 #include "engine/engine.h"
 #include "math/rotations.h"
+#include "motion/bvh_measure.h"
 
 namespace stance {
 
@@ -145,7 +146,7 @@ void RetargetedMotion::find_lying_rest(Build& b) const {
   std::vector<Eigen::Vector3d> posed;
   std::vector<Eigen::Quaterniond> turned;
   b.reference.forward_kinematics(first, posed, turned);
-  if (height_span(b.clip_rest) >= (2.0 / 3.0) * height_span(posed)) return;
+  if (rest_span_stands(height_span(b.clip_rest), height_span(posed))) return;
   b.first_pos = std::move(posed);
   b.first_rot = std::move(turned);
 }

@@ -131,7 +131,7 @@ std::vector<int> measured_frames(const BvhClip& clip) {
 // frames' largest (along the world's up axis)
 struct LegDrops {
   double rest = 0, posed = 0;
-  bool rest_stands() const { return rest >= posed * (2.0 / 3.0); }
+  bool rest_stands() const { return rest_span_stands(rest, posed); }
 };
 
 LegDrops leg_drops(const BvhClip& clip, const Tree& t) {

@@ -19,6 +19,12 @@
 
 namespace stance {
 
+// whether a rest pose stands: it spans (along the up axis) at least 2/3 of what the posed frames
+// span. Below that it lies (Bandai Namco's bones lie along X) and tells no height or facing.
+inline bool rest_span_stands(double rest_span, double posed_span) {
+  return rest_span >= posed_span * (2.0 / 3.0);
+}
+
 // the legs: the drop from the body root to its lowest leaf (end site or childless joint) along
 // the up axis, in the rest pose, or in the posed frames (their largest) where the rest pose does
 // not stand. File units; 0 when there is no leg. detect_bvh_scale_to_meters snaps it to a unit.

@@ -9,7 +9,6 @@
 #include <limits>
 #include <memory>
 #include <sstream>
-#include <type_traits>
 #include <vector>
 
 #include "core/error.h"
