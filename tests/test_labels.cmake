@@ -14,7 +14,7 @@ set(stance_timeout_viz 600)
 set(stance_label_patterns
   viz "^(ViewerTest|RecorderTest|SceneViewTest|TrackVideoTest)\\."
   physics "^(BipedStand|BipedSkateboard|LqrBalance|SimbiconWalk|SimbiconGaits|Simbicon3d|SimbiconCharacter)\\."
-  physics "^LqrTwoFeet\\.(Humanoid|Atlas)"
+  physics "^LqrTwoFeet\\.(Humanoid|Atlas|PitchAnkleRobot)"
   physics "^SimbiconDart\\.Walks"
   physics "^(SimbiconHumanoid|SimbiconFullbody1|SimbiconSpine|SimbiconSteps)\\."
   physics "^SimbiconPitchAnkles\\.Walks"

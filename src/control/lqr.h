@@ -35,7 +35,8 @@ namespace stance {
 struct LqrParams {
   std::string root_body = "torso";  // its subtree COM is balanced; has the free joint
   // the COM is kept above the centre of these bodies' COMs: a body name, several separated by
-  // commas, or "left", "right", "both" (the bodies named like a foot on that side)
+  // commas, or "left", "right", "both" (the bodies named like a foot on that side; where no body
+  // is named a foot, the lowest body named on that side)
   std::string stance_foot = "left_foot";
   double balance_cost = 1000;     // weight of |COM - foot| (m^-2)
   double balance_joint_cost = 3;  // stance leg and abdomen (rad^-2)

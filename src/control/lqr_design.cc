@@ -85,6 +85,21 @@ std::string feet_names(const Engine& engine, const std::vector<int>& feet) {
   return names.empty() ? std::string("none") : fmt::format("{}", fmt::join(names, ", "));
 }
 
+// the body whose origin is lowest along up among those named on one side (-1 left, +1 right),
+// or -1: on a robot that names no body a foot, its foot (the standing pose's rule, a sole's
+// link being its leg's lowest body)
+int lowest_body_of_side(const Engine& engine, int side) {
+  if (engine.gravity().norm() == 0) return -1;
+  const Eigen::Vector3d up = -engine.gravity().normalized();
+  int lowest = -1;
+  for (int b = 0; b < engine.nbody(); ++b) {
+    if (side_of_joint_name(engine.body_name(b)) != side) continue;
+    if (lowest < 0 || engine.body_pose(b).pos.dot(up) < engine.body_pose(lowest).pos.dot(up))
+      lowest = b;
+  }
+  return lowest;
+}
+
 // the body named like a foot on one side (-1 left, +1 right): among bodies whose name holds
 // "foot", the topmost of that side (a toe body "l_foot_toe" below "l_foot" is not another foot)
 int foot_of_side(const Engine& engine, int side) {
@@ -99,6 +114,10 @@ int foot_of_side(const Engine& engine, int side) {
   }
   const char* word = side < 0 ? "left" : "right";
   if (found.size() == 1) return found[0];
+  if (found.empty() && feet_seen.empty()) {
+    // no body is named a foot (a robot's "left_ankle_link"): its lowest body on that side
+    if (const int lowest = lowest_body_of_side(engine, side); lowest >= 0) return lowest;
+  }
   if (found.empty())
     throw InputError(fmt::format(
         "lqr: stance_foot: no body is named like a {} foot (bodies with 'foot' in the name: "

@@ -307,6 +307,51 @@ TEST(LqrStanceFeet, ASideWithNoFootOrTwoIsAnErrorNamingTheBodies) {
   EXPECT_NE(both.find("ambiguous (l_foot, LeftFoot)"), std::string::npos) << both;
 }
 
+// a robot of a public collection's kind names no body a foot (its feet are "left_sole_link"):
+// both takes each side's lowest body, and LQR holds the scene's own keyframe 30 s at the costs,
+// +-20 % and a 4 ms step (tests/models/pitch_ankle_robot*.xml: our own numbers)
+LoadedScenario pitch_ankle_robot_lqr(const std::vector<std::string>& sets = {}) {
+  const std::string yaml = fmt::format(R"yaml(name: pitch_ankle_robot_lqr
+engine: mujoco
+model: {}/tests/models/pitch_ankle_robot_scene.xml
+keyframe: home
+timestep: 0.002
+duration: 30
+controllers:
+  - {{type: lqr, root_body: base, stance_foot: both, balance_cost: 1.0e+6,
+     balance_joint_cost: 3000, other_joint_cost: 300,
+     balance_dofs: ["waist_yaw", "(left|right)_(hip_.*|knee|ankle)"]}}
+fall: {{com_height_fraction: 0.8, allowed_contacts: [left_sole_link, right_sole_link]}}
+)yaml",
+                                       test::source_dir());
+  return load_scenario(test::write_temp_file("pitch_ankle_robot_lqr.yaml", yaml), sets);
+}
+
+TEST(LqrTwoFeet, PitchAnkleRobotNamingNoFootStandsOnEachSidesLowestBody) {
+  LoadedScenario l = pitch_ankle_robot_lqr();
+  auto engine = make_scenario_engine(l.scenario, "mujoco");
+  const int left = engine->body_index("left_sole_link");
+  const int right = engine->body_index("right_sole_link");
+  EXPECT_EQ(find_stance_feet("both", *engine), std::vector<int>({left, right}));
+  EXPECT_EQ(find_stance_feet("right", *engine), std::vector<int>({right}));
+  const std::string c = "controllers.0.";
+  const std::vector<std::vector<std::string>> cases = {
+      {},
+      {c + "balance_cost=8e5", c + "balance_joint_cost=2400", c + "other_joint_cost=240"},
+      {c + "balance_cost=1.2e6", c + "balance_joint_cost=3600", c + "other_joint_cost=360"},
+      {"timestep=0.004"},
+  };
+  for (const auto& sets : cases) {
+    RunResult r = Simulation(pitch_ankle_robot_lqr(sets), {.quiet = true}).run();
+    const std::string what = fmt::format("{}", fmt::join(sets, " "));
+    ASSERT_FALSE(r.diverged) << what << ": " << r.divergence;
+    EXPECT_FALSE(r.fell) << what << ": fell at " << r.fall_time.value_or(-1);
+    EXPECT_NEAR(r.sim_time, 30.0, 1e-6) << what;
+    EXPECT_LT(r.metrics.at("com_displacement_m").get<double>(), 0.02) << what;
+    EXPECT_LT(r.metrics.at("ctrl0_mismatch_root_N").get<double>(), 1) << what;
+  }
+}
+
 // the issue's fall: a two-foot pose designed on one foot was a silent fall at 1 s; now the
 // design stops and names the force and the feet
 TEST(LqrTwoFeet, OneFootOnATwoFootPoseIsAnErrorNamingTheFeet) {
