@@ -44,6 +44,7 @@ py::dict rows_table(const std::vector<TrackRow>& rows) {
   d["foot_skate_m_per_s"] = column<double>(rows, [](R r) { return r.foot_skate_m_per_s; });
   d["error"] = error;
   d["compute_s_per_sim_s"] = column<double>(rows, [](R r) { return r.compute_s_per_sim_s; });
+  d["cpu_s_per_sim_s"] = column<double>(rows, [](R r) { return r.cpu_s_per_sim_s; });
   return d;
 }
 
@@ -103,8 +104,8 @@ void bind_track_batch_result(py::module_& m) {
           "rows", [](const PyTrackBatchResult& b) { return rows_table(b.r.rows); },
           "results.csv's columns, one entry per clip in order: numpy arrays (frames, clip_s, "
           "sim_s, fell, diverged, success, g_mpjpe_m, root_error_m, joint_error_deg, "
-          "foot_skate_m_per_s, compute_s_per_sim_s) and lists (clip, error: non-empty where the "
-          "clip could not be read)")
+          "foot_skate_m_per_s, compute_s_per_sim_s, cpu_s_per_sim_s) and lists (clip, error: "
+          "non-empty where the clip could not be read)")
       .def_property_readonly(
           "summary", [](const PyTrackBatchResult& b) { return summary_dict(b.r.summary); },
           "clips, tracked, succeeded, fell, diverged, errors, success_rate, median_g_mpjpe_m, "

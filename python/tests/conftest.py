@@ -35,7 +35,7 @@ def read_summary(folder):
     return json.loads((pathlib.Path(folder) / "summary.json").read_text())
 
 
-WALL_CLOCK = ("realtime_factor", "wall_time_s", "compute_s_per_sim_s")
+WALL_CLOCK = ("realtime_factor", "wall_time_s", "compute_s_per_sim_s", "cpu_s_per_sim_s")
 
 
 def without_wall_clock(d):

@@ -6,8 +6,9 @@
 // handed out one at a time to the threads of each process and, under mpirun or srun, to the MPI
 // ranks (scenario/batch_ranks.h); rank 0 gathers the rows and writes
 //  - OUT/results.csv: one row per clip (clip, frames, clip_s, sim_s, fell, diverged, success,
-//    g_mpjpe_m, root_error_m, joint_error_deg, foot_skate_m_per_s, error, compute_s_per_sim_s);
-//    every column but the last (wall clock) is reproducible;
+//    g_mpjpe_m, root_error_m, joint_error_deg, foot_skate_m_per_s, error, compute_s_per_sim_s,
+//    cpu_s_per_sim_s); every column but the last two (wall clock, the run's own CPU time) is
+//    reproducible;
 //  - OUT/results.md: the same as a table, and the summary line (success rate, median and
 //    90th-percentile G-MPJPE);
 //  - OUT/results.png (and results.gp, its gnuplot script with the data): the G-MPJPE distribution
@@ -58,7 +59,9 @@ struct TrackRow {
   // NaN where the clip has no result
   double g_mpjpe_m = kNoValue, root_error_m = kNoValue, joint_error_deg = kNoValue;
   double foot_skate_m_per_s = kNoValue;
-  double compute_s_per_sim_s = kNoValue;  // wall clock: the one column that is not reproducible
+  // the columns that are not reproducible: wall seconds and the run's own CPU seconds per
+  // simulated second
+  double compute_s_per_sim_s = kNoValue, cpu_s_per_sim_s = kNoValue;
   std::string error;                      // not empty: the clip was not tracked, and why
   bool internal_error = false;            // the error is a bug in stance, not the clip's
   // the body position error over time (m): the mean over each strip_bin_s from t = 0 (NaN: no

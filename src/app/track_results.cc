@@ -255,6 +255,7 @@ nlohmann::json track_row_to_json(const TrackRow& r) {
           {"joint_error_deg", number_or_null(r.joint_error_deg)},
           {"foot_skate_m_per_s", number_or_null(r.foot_skate_m_per_s)},
           {"compute_s_per_sim_s", number_or_null(r.compute_s_per_sim_s)},
+          {"cpu_s_per_sim_s", number_or_null(r.cpu_s_per_sim_s)},
           {"error", r.error},
           {"internal_error", r.internal_error},
           {"strip_bin_s", r.strip_bin_s},
@@ -276,6 +277,7 @@ TrackRow track_row_from_json(const nlohmann::json& j) {
   r.joint_error_deg = number_from(j.at("joint_error_deg"));
   r.foot_skate_m_per_s = number_from(j.at("foot_skate_m_per_s"));
   r.compute_s_per_sim_s = number_from(j.at("compute_s_per_sim_s"));
+  r.cpu_s_per_sim_s = number_from(j.at("cpu_s_per_sim_s"));
   r.error = j.at("error").get<std::string>();
   r.internal_error = j.at("internal_error").get<bool>();
   r.strip_bin_s = j.at("strip_bin_s").get<double>();
@@ -305,6 +307,7 @@ TrackRow read_track_row(const std::string& clip, const std::string& dir) {
     row.joint_error_deg = number_at(mocap, "mean_joint_error_deg");
     row.foot_skate_m_per_s = number_at(mocap, "foot_skate_m_per_s");
     row.compute_s_per_sim_s = number_at(mocap, "compute_s_per_sim_s");
+    row.cpu_s_per_sim_s = number_at(mocap, "cpu_s_per_sim_s");
   } catch (const nlohmann::json::exception&) {
     return row;  // not a summary of stance: the clip runs again
   }
@@ -351,27 +354,28 @@ void write_track_results(const std::string& dir, const TrackBatchResult& result)
   std::ostream& csv = csv_file.stream();
   std::ostream& md = md_file.stream();
   csv << "clip,frames,clip_s,sim_s,fell,diverged,success,g_mpjpe_m,root_error_m,"
-         "joint_error_deg,foot_skate_m_per_s,error,compute_s_per_sim_s\n";
+         "joint_error_deg,foot_skate_m_per_s,error,compute_s_per_sim_s,cpu_s_per_sim_s\n";
   md << "| clip | frames | clip s | sim s | fell | success | G-MPJPE m | root m | joint deg | "
-        "skate m/s | compute s/s | error |\n"
-        "|---|---|---|---|---|---|---|---|---|---|---|---|\n";
+        "skate m/s | compute s/s | CPU s/s | error |\n"
+        "|---|---|---|---|---|---|---|---|---|---|---|---|---|\n";
   for (const TrackRow& r : result.rows) {
     if (!r.error.empty()) {
-      csv << csv_field(r.clip) << ",,,,,,0,,,,," << csv_field(r.error) << ",\n";
-      md << "| " << md_text(r.clip) << " | | | | | no | | | | | | " << md_text(r.error) << " |\n";
+      csv << csv_field(r.clip) << ",,,,,,0,,,,," << csv_field(r.error) << ",,\n";
+      md << "| " << md_text(r.clip) << " | | | | | no | | | | | | | " << md_text(r.error)
+         << " |\n";
       continue;
     }
     csv << csv_field(r.clip) << ',' << r.frames << ',' << csv_number(r.clip_s) << ','
         << csv_number(r.sim_s) << ',' << r.fell << ',' << r.diverged << ',' << r.success << ','
         << csv_number(r.g_mpjpe_m) << ',' << csv_number(r.root_error_m) << ','
         << csv_number(r.joint_error_deg) << ',' << csv_number(r.foot_skate_m_per_s) << ",,"
-        << csv_number(r.compute_s_per_sim_s) << '\n';
-    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | |\n",
+        << csv_number(r.compute_s_per_sim_s) << ',' << csv_number(r.cpu_s_per_sim_s) << '\n';
+    md << fmt::format("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | |\n",
                       md_text(r.clip), r.frames, md_number(r.clip_s, 2), md_number(r.sim_s, 2),
                       r.diverged ? "diverged" : yes_no(r.fell), yes_no(r.success),
                       md_number(r.g_mpjpe_m, 3), md_number(r.root_error_m, 3),
                       md_number(r.joint_error_deg, 2), md_number(r.foot_skate_m_per_s, 3),
-                      md_number(r.compute_s_per_sim_s, 1));
+                      md_number(r.compute_s_per_sim_s, 1), md_number(r.cpu_s_per_sim_s, 1));
   }
   md << "\n" << result.summary.line() << "\n";
   csv_file.commit();

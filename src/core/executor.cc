@@ -1,5 +1,8 @@
 #include "core/executor.h"
 
+#include <pthread.h>
+#include <time.h>
+
 #include <algorithm>
 
 namespace stance {
@@ -31,6 +34,10 @@ class WorkerMark {
 
 Executor::Executor(int threads) {
   for (int w = 1; w < threads; ++w) threads_.emplace_back([this, w] { serve(w); });
+  for (std::thread& t : threads_) {
+    clockid_t clock;
+    if (pthread_getcpuclockid(t.native_handle(), &clock) == 0) cpu_clocks_.push_back(clock);
+  }
 }
 
 Executor::~Executor() {
@@ -114,6 +121,24 @@ void Executor::serve(int worker) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (--busy_ == 0) done_.notify_all();
   }
+}
+
+namespace {
+double cpu_clock_seconds(clockid_t clock) {
+  timespec t{};
+  if (clock_gettime(clock, &t) != 0) return 0;
+  return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+}
+}  // namespace
+
+double Executor::started_threads_cpu_seconds() const {
+  double sum = 0;
+  for (clockid_t clock : cpu_clocks_) sum += cpu_clock_seconds(clock);
+  return sum;
+}
+
+double thread_cpu_seconds() {
+  return cpu_clock_seconds(CLOCK_THREAD_CPUTIME_ID);
 }
 
 int executor_threads(int requested, int tasks) {

@@ -19,6 +19,8 @@
 //  - two threads that call run() on one executor at the same time take turns.
 #pragma once
 
+#include <time.h>
+
 #include <condition_variable>
 #include <exception>
 #include <functional>
@@ -37,6 +39,9 @@ class Executor {
   Executor& operator=(const Executor&) = delete;
 
   int size() const { return static_cast<int>(threads_.size()) + 1; }
+  // CPU seconds the started threads (workers 1 and up) have used since they started; worker 0's
+  // share is on the calling thread's own clock (thread_cpu_seconds)
+  double started_threads_cpu_seconds() const;
 
   // job(worker, task) for every task in [0, n), worker in [0, size()); see the top of the file
   void run(int n, const std::function<void(int worker, int task)>& job);
@@ -46,8 +51,9 @@ class Executor {
   void take_tasks(int worker);  // runs tasks until none is left
   void run_task(const std::function<void(int, int)>& job, int worker, int task);
   std::vector<std::thread> threads_;
-  std::mutex run_mutex_;  // one run() at a time
-  std::mutex mutex_;      // guards what follows
+  std::vector<clockid_t> cpu_clocks_;  // the started threads' CPU clocks
+  std::mutex run_mutex_;               // one run() at a time
+  std::mutex mutex_;                   // guards what follows
   std::condition_variable wake_, done_;
   const std::function<void(int, int)>* job_ = nullptr;
   int tasks_ = 0, next_ = 0, busy_ = 0;
@@ -55,6 +61,10 @@ class Executor {
   bool stop_ = false;
   std::exception_ptr error_;
 };
+
+// CPU seconds the calling thread has used (its own clock, not the process's: right when other
+// runs share the process)
+double thread_cpu_seconds();
 
 // the workers for `tasks` tasks when `requested` threads are asked for: `requested` (0 or less:
 // every core), at most `tasks`, at least 1

@@ -69,6 +69,9 @@ class CorrectionSource {
   virtual ~CorrectionSource() = default;
   // set sim.correction_plan() (knots, t0, next_plan, its counters) from the run's state now
   virtual void plan(Simulation& sim) = 0;
+  // CPU seconds used so far by threads of its own (a planner's rollout workers; the share run on
+  // the stepping thread is on that thread's clock)
+  virtual double own_threads_cpu_seconds() const { return 0; }
 };
 
 // what the plan layer resolves once per planning model (its objective's data at the start) and

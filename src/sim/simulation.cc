@@ -16,6 +16,7 @@
 #include "control/standing_pose.h"
 #include "core/atomic_file.h"
 #include "core/error.h"
+#include "core/executor.h"
 #include "core/model_format.h"
 #include "core/timestep.h"
 #include "engine/world_spec.h"
@@ -69,7 +70,7 @@ bool is_wall_clock_metric(const std::string& key) {
            key.compare(key.size() - suffix.size(), suffix.size(), suffix.data()) == 0;
   };
   return key == "realtime_factor" || key == "wall_time_s" || key == "compute_s_per_sim_s" ||
-         ends_with("_time_ms") || ends_with("_ns_per_step");
+         key == "cpu_s_per_sim_s" || ends_with("_time_ms") || ends_with("_ns_per_step");
 }
 
 nlohmann::json without_wall_clock(const nlohmann::json& metrics) {
@@ -151,6 +152,7 @@ void Simulation::set_planner_params(const PlannerParams& params) {
   auto model = std::make_shared<SimulationModel>(*model_);
   model->planner = planner;
   model_ = std::move(model);
+  if (planner_) retired_planners_cpu_s_ += planner_->own_threads_cpu_seconds();
   planner_.reset();
   if (params.enabled) {
     planner_ = model_->planner_maker->make_source(model_->planner);
@@ -478,8 +480,15 @@ RunResult Simulation::result() const {
   return r;
 }
 
+double Simulation::run_cpu_seconds() const {
+  const double planners =
+      retired_planners_cpu_s_ + (planner_ ? planner_->own_threads_cpu_seconds() : 0.0);
+  return thread_cpu_seconds() + planners;
+}
+
 RunResult Simulation::run(long max_steps) {
   auto wall0 = std::chrono::steady_clock::now();
+  const double cpu0 = run_cpu_seconds();
   std::unique_ptr<CsvLog> log;
   std::unique_ptr<ProgressBar> bar;
   if (!run_files_.out_dir.empty()) {
@@ -504,8 +513,10 @@ RunResult Simulation::run(long max_steps) {
   r.wall_time_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   r.metrics["realtime_factor"] = r.wall_time_s > 0 ? r.sim_time / r.wall_time_s : 0.0;
   r.metrics["compute_s_per_sim_s"] = r.sim_time > 0 ? r.wall_time_s / r.sim_time : 0.0;
+  r.metrics["cpu_s_per_sim_s"] = r.sim_time > 0 ? (run_cpu_seconds() - cpu0) / r.sim_time : 0.0;
   if (r.metrics.contains("mocap") && r.metrics["mocap"].is_object())
-    r.metrics["mocap"]["compute_s_per_sim_s"] = r.metrics["compute_s_per_sim_s"];
+    for (const char* key : {"compute_s_per_sim_s", "cpu_s_per_sim_s"})
+      r.metrics["mocap"][key] = r.metrics[key];
   if (model_->scenario.expect.given)
     r.expectation = evaluate_expectation(model_->scenario.expect, r.to_json());
   for (StepObserver* o : observers_) o->on_finish(*this, r);

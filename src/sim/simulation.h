@@ -76,7 +76,8 @@ struct RunResult {
 };
 
 // metrics measured on the wall clock (realtime_factor, design_time_ms, controller_ns_per_step,
-// ...): they vary from run to run, so comparisons of results leave them out
+// ...) or a CPU clock (cpu_s_per_sim_s): they vary from run to run, so comparisons of results
+// leave them out
 bool is_wall_clock_metric(const std::string& key);
 // `metrics` without its wall-clock entries (nested objects included)
 nlohmann::json without_wall_clock(const nlohmann::json& metrics);
@@ -344,6 +345,8 @@ class Simulation {
   void send_velocity_commands(const Eigen::VectorXd& commands);
   // a non-finite command from controller i stops the run as a divergence
   bool check_output(size_t i, double t);
+  // CPU seconds this run's stepping thread and its planners' threads have used so far
+  double run_cpu_seconds() const;
 
   std::shared_ptr<const SimulationModel> model_;
   std::unique_ptr<Engine> engine_;
@@ -356,6 +359,7 @@ class Simulation {
   std::vector<double>* controller_seconds_ = nullptr;
   Eigen::VectorXd correction_;                 // this step's correction, dim planner dimensions
   std::unique_ptr<CorrectionSource> planner_;  // made when the model plans
+  double retired_planners_cpu_s_ = 0;  // own threads' CPU of planners replaced by retuning
   // a rollout's steps that still hold out_ (planner.control_every)
   int held_steps_left_ = 0;
 };

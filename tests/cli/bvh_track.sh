@@ -26,8 +26,9 @@ import json, sys
 s = json.load(open(sys.argv[1] + "/summary.json"))
 m = s["metrics"]["mocap"]
 for k in ("mean_body_position_error_m", "success", "mean_joint_error_deg", "mean_root_error_m",
-          "foot_skate_m_per_s", "compute_s_per_sim_s"):
+          "foot_skate_m_per_s", "compute_s_per_sim_s", "cpu_s_per_sim_s"):
     assert k in m, k
+assert m["cpu_s_per_sim_s"] > 0 and m["cpu_s_per_sim_s"] == s["metrics"]["cpu_s_per_sim_s"], m
 assert s["metrics"]["planner"]["plans"] >= 9, s["metrics"]["planner"]
 assert abs(s["sim_time"] - 0.4) < 0.01, s["sim_time"]
 PY

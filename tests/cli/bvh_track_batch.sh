@@ -20,11 +20,11 @@ echo "not a clip" >"$tmp/clips/notes.txt"
 # a small planner: this checks the batch, not the tracking
 opts=(--duration 0.3 --threads 2 --set planner.samples=8 --set planner.horizon_s=0.3 --quiet)
 
-# results.csv without its wall-clock column (the last), for comparing runs
+# results.csv without its wall-clock and CPU-time columns (the last two), for comparing runs
 results() {
   python3 -c "
 import csv, sys
-for row in csv.reader(open(sys.argv[1])): print(row[:-1])" "$1"
+for row in csv.reader(open(sys.argv[1])): print(row[:-2])" "$1"
 }
 # summary.json without the wall-clock fields
 summary() {
@@ -32,8 +32,8 @@ summary() {
 import json, sys
 s = json.load(open(sys.argv[1]))
 for k in ('wall_time_s',): s.pop(k)
-for k in ('realtime_factor', 'compute_s_per_sim_s'): s['metrics'].pop(k)
-s['metrics']['mocap'].pop('compute_s_per_sim_s')
+for k in ('realtime_factor', 'compute_s_per_sim_s', 'cpu_s_per_sim_s'): s['metrics'].pop(k)
+for k in ('compute_s_per_sim_s', 'cpu_s_per_sim_s'): s['metrics']['mocap'].pop(k)
 print(json.dumps(s, sort_keys=True))" "$1"
 }
 # same_clip DIR_A DIR_B: the same files of one clip's run
@@ -58,6 +58,7 @@ for r in (run, walk):
     assert r["error"] == "" and r["fell"] == "0" and r["success"] == "1", r
     assert abs(float(r["sim_s"]) - 0.3) < 1e-9 and 0 < float(r["g_mpjpe_m"]) < 0.2, r
 assert walk["frames"] == "67" and run["frames"] == "43", rows
+assert broken["cpu_s_per_sim_s"] == "", broken
 PY
 grep -q "^3 clips: 2 succeeded (66.7%), 0 fell, 0 diverged, 1 could not be read; G-MPJPE median" \
   "$tmp/out" || fail "no summary line: $(cat "$tmp/out")"
@@ -73,6 +74,14 @@ fi
 "$stance" bvh track "$tmp/clips/more/run.bvh" --out "$tmp/single" "${opts[@]}" >/dev/null 2>&1 ||
   fail "the single run exited $?"
 same_clip "$tmp/all/more/run" "$tmp/single"
+# its own CPU time too, though the batch ran two clips at once in one process: loose bounds, the
+# same order of magnitude (timing decides nothing finer)
+python3 - "$tmp/all/results.csv" "$tmp/single/summary.json" <<'PY' || fail "per-clip CPU time"
+import csv, json, sys
+row = [r for r in csv.DictReader(open(sys.argv[1])) if r["clip"] == "more/run"][0]
+single = json.load(open(sys.argv[2]))["metrics"]["mocap"]["cpu_s_per_sim_s"]
+assert single > 0 and single / 3 < float(row["cpu_s_per_sim_s"]) < single * 3, (row, single)
+PY
 results "$tmp/all/results.csv" >"$tmp/expected"
 
 # --resume after a clip's folder is deleted: that clip runs again, the same

@@ -1,6 +1,7 @@
 #include "core/executor.h"
 
 #include <gtest/gtest.h>
+#include <time.h>
 
 #include <algorithm>
 #include <atomic>
@@ -137,5 +138,44 @@ TEST(Executor, ThreadCountForAJob) {
   EXPECT_EQ(executor_threads(0, 1000), std::min(cores, 1000));
 }
 
+// spins until the calling thread has used `seconds` more of its own CPU
+void burn_cpu(double seconds) {
+  const double start = thread_cpu_seconds();
+  while (thread_cpu_seconds() - start < seconds) {
+  }
+}
+
+// a thread's CPU clock counts that thread alone: the caller waits while another thread works
+TEST(Executor, ThreadCpuCountsTheCallingThreadAlone) {
+  const double start = thread_cpu_seconds();
+  std::thread other([] { burn_cpu(0.05); });
+  other.join();
+  EXPECT_LT(thread_cpu_seconds() - start, 0.02);
+  burn_cpu(0.02);
+  EXPECT_GE(thread_cpu_seconds() - start, 0.02);
+}
+
+// the started threads' CPU holds every task they ran (each spins 20 ms of its thread's CPU) and
+// no more than the process used besides the caller
+TEST(Executor, StartedThreadsCpuHoldsTheirTasks) {
+  Executor executor(3);
+  const double started0 = executor.started_threads_cpu_seconds();
+  const double caller0 = thread_cpu_seconds();
+  timespec process0{}, process1{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &process0);
+  std::atomic<int> on_started{0};
+  executor.run(8, [&](int worker, int) {
+    burn_cpu(0.02);
+    on_started += worker > 0;
+  });
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &process1);
+  const double started = executor.started_threads_cpu_seconds() - started0;
+  const double others = (process1.tv_sec - process0.tv_sec) +
+                        1e-9 * (process1.tv_nsec - process0.tv_nsec) -
+                        (thread_cpu_seconds() - caller0);
+  EXPECT_GE(started, 0.02 * on_started.load());
+  EXPECT_LE(started, others + 1e-3);
+  EXPECT_EQ(Executor(1).started_threads_cpu_seconds(), 0);
+}
 }  // namespace
 }  // namespace stance
