@@ -196,11 +196,13 @@ for prefix, label in (("BM_PlannerBipedStand", "biped_stand_planner, MuJoCo, 1 m
     p = planner(prefix)
     if "1" in p and "2" in p:
         one, two = p["1"], p["2"]
-        rows.append((f"Sampling planner ({label}): compute per simulated second, 1 / 2 threads; "
+        rows.append((f"Sampling planner ({label}): compute per simulated second, 1 / 2 threads "
+                     "(wall; the run's own CPU time); "
                      "the model steps it took; the bare `mj_step` of the same character from the "
                      "states of the planned run; the physical limit (those steps as bare steps over "
                      "the threads) and the distance to it",
-                     f"{fmt(get(one, 'compute_s_per_sim_s'))} / {fmt(get(two, 'compute_s_per_sim_s'))} s/s; "
+                     f"{fmt(get(one, 'compute_s_per_sim_s'))} / {fmt(get(two, 'compute_s_per_sim_s'))} s/s "
+                     f"(CPU {fmt(get(one, 'cpu_s_per_sim_s'))} / {fmt(get(two, 'cpu_s_per_sim_s'))} s/s); "
                      f"{fmt(get(one, 'model_steps_per_sim_s'))} steps/s; bare step "
                      f"{fmt(get(one, 'step_us'))} µs (a rollout step {fmt(get(one, 'rollout_us'))} µs, "
                      f"the base policy's {fmt(get(one, 'controlled_us'))} µs); limit "

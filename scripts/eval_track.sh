@@ -15,7 +15,8 @@
 # Environment:
 #   THREADS=2          threads of the batch (default: every core)
 #   EVAL_JOBS=1        clips at once; the default 1 gives each clip every thread, so that its
-#                      compute column is the one of a single run on THREADS threads
+#                      compute column (wall) is the one of a single run on THREADS threads; the
+#                      CPU column is each run's own CPU time, whatever runs beside it
 #   EVAL_SET="--set controllers.0.root_force_kd=100"   a candidate change of the shared defaults,
 #                      added to every run, into out/eval_track_candidate (the docs are left alone)
 #   EVAL_ONLY="synthetic_run mass_walk/kp0.8"   reruns only those clips (or clip/setting rows);
@@ -143,9 +144,9 @@ out, table = sys.argv[1:3]
 rest = sys.argv[3:]
 groups, settings = rest[:rest.index("--")], rest[rest.index("--") + 1:]
 def num(r, k, digits):
-    return "{:.{}f}".format(float(r[k]), digits) if r[k] else "-"
+    return "{:.{}f}".format(float(r[k]), digits) if r.get(k) else "-"
 lines = ["| clip | setting | sim s | fell | success | G-MPJPE m | root m | joint deg | skate m/s "
-         "| compute s/s | holds |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+         "| compute s/s | CPU s/s | holds |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
 for group in groups:
     rows = {}
     for setting in settings:
@@ -161,18 +162,18 @@ for group in groups:
             if r is None:
                 continue
             if r["error"]:
-                lines.append("| {} | {} | - | - | - | - | - | - | - | - | ERROR: {} |".format(
+                lines.append("| {} | {} | - | - | - | - | - | - | - | - | - | ERROR: {} |".format(
                     clip, setting, r["error"].replace("|", "\\|")))
                 continue
             fell, success = r["fell"] == "1" or r["diverged"] == "1", r["success"] == "1"
             holds = (not fell and success and float(r["root_error_m"]) <= 0.2
                      and float(r["joint_error_deg"]) <= 6)
-            lines.append("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |".format(
+            lines.append("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |".format(
                 clip, setting, num(r, "sim_s", 1), "diverged" if r["diverged"] == "1" else
                 ("yes" if fell else "no"), "yes" if success else "no", num(r, "g_mpjpe_m", 3),
                 num(r, "root_error_m", 3), num(r, "joint_error_deg", 2),
                 num(r, "foot_skate_m_per_s", 3), num(r, "compute_s_per_sim_s", 1),
-                "PASS" if holds else "FAIL"))
+                num(r, "cpu_s_per_sim_s", 1), "PASS" if holds else "FAIL"))
 open(table, "w").write("\n".join(lines) + "\n")
 PY
 cat "$table"
