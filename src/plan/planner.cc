@@ -121,8 +121,8 @@ void Planner::refit_cem(int k) {
   cem_->tell(points_.leftCols(k), costs_);
 }
 
-double Planner::rollout(Simulation& sim, Candidate& c, double bound,
-                        const CostProfile* leader) const {
+double Planner::rollout(Simulation& sim, Candidate& c, double bound, const CostProfile* leader,
+                        double race_margin) const {
   const PlannerParams& p = correction_->params;
   const PlannerCostWeights& w = p.cost;
   // the knots' terms are known before the rollout; with the stage costs (>= 0) averaged over at
@@ -142,7 +142,7 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound,
   c.profile.stage_sums.clear();
   c.profile.complete = false;
   // racing the leader: the stage costs averaged over the leader's samples
-  const bool race = leader && leader->complete && p.race_margin > 0 && std::isfinite(bound);
+  const bool race = leader && leader->complete && race_margin > 0 && std::isfinite(bound);
   const double race_samples = race ? static_cast<double>(leader->stage_sums.size()) : 1.0;
   if (knots_cost > bound) {
     c.stopped = true;
@@ -195,7 +195,7 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound,
     if (race && samples <= static_cast<int>(leader->stage_sums.size()) &&
         knots_cost + stage / race_samples > leader->knots_cost +
                                                 leader->stage_sums[samples - 1] / race_samples +
-                                                p.race_margin * bound) {
+                                                race_margin * bound) {
       c.stopped = true;
       return std::numeric_limits<double>::infinity();
     }
@@ -254,41 +254,48 @@ void Planner::plan(Simulation& sim) {
   TrackingError error;
   const bool steady =
       p.steady_error_m > 0 && tracking_error(sim, error) && error.body_m < p.steady_error_m;
-  const int k = steady ? std::clamp(p.steady_samples, 1, p.samples) : p.samples;
+  const double balance_error = objective_->balance_error(sim);
+  const bool in_trouble = p.rescue_error_m > 0 && balance_error >= p.rescue_error_m;
+  // calm for long enough (and still now): the cheap budget, the full one at the first sign of
+  // trouble. It reads the run's state only, so it is the same for any thread count.
+  const bool calm = p.calm_plans > 0 && plan.calm_streak >= p.calm_plans &&
+                    balance_error < p.calm_error_m && !in_trouble;
+  int k = steady ? std::clamp(p.steady_samples, 1, p.samples) : p.samples;
+  if (calm) k = std::clamp(p.calm_samples, 1, p.samples);
   if (steady) ++plan.steady;
+  if (calm) ++plan.calm;
   // racing rollouts is a bet: taken while the run is on track, not while it is in trouble
-  const bool racing = p.race_margin > 0 &&
-                      !(p.rescue_error_m > 0 && objective_->balance_error(sim) >= p.rescue_error_m);
+  const double race_margin = calm ? p.calm_race_margin : in_trouble ? 0.0 : p.race_margin;
   const int rounds = p.method == "cem" ? p.iterations : 1;
   restart_cem(nominal_);
   best_ = nominal_;
   double best_cost = std::numeric_limits<double>::infinity();
   int best_round = -1, best_index = -1;
-  // one round: candidate 0 is the plan so far (rolled out again only in round 0), the others
-  // are drawn from the CEM
-  auto run_round = [&](int round) {
-    for (int i = 0; i < k; ++i) {
+  // one round's candidates [from, to): candidate 0 is the plan so far (rolled out again only in
+  // round 0), the others are drawn from the CEM; rollouts race at `margin`
+  auto run_round = [&](int round, int from, int to, double margin) {
+    for (int i = from; i < to; ++i) {
       Eigen::MatrixXd& knots = candidates_[i].knots;
       if (i == 0)
         knots = round == 0 ? nominal_ : best_;  // the plan so far is always a candidate
-      else if (i == 1 && round == 0 && k > 2)
+      else if (i == 1 && round == 0 && to > 2)
         knots.setZero();  // so is no correction at all
       else
         draw(plan.plans, round, i, knots);
     }
     // after round 0, candidate 0 is best_, whose cost is known (rollouts are deterministic)
-    const int first = round == 0 ? 0 : 1;
+    const int first = round == 0 || from > 0 ? from : 1;
     if (first == 1) candidates_[0].cost = best_cost;
     // batches of 2, 4, 8, ... candidates: a batch's rollouts stop once they cannot beat the
     // cheapest of the batches before it. The batches are fixed, so the bound (and the plan) is
     // the same for any thread count. CEM refits to every cost: it rolls all out in one batch.
     const bool stop_early = p.method == "sampling";
-    for (int begin = first, size = 2; begin < k; size *= 2) {
-      const int end = stop_early ? std::min(k, begin + size) : k;
+    for (int begin = first, size = std::max(2, from); begin < to; size *= 2) {
+      const int end = stop_early ? std::min(to, begin + size) : to;
       const double bound = stop_early ? best_cost : std::numeric_limits<double>::infinity();
       pool_->run(end - begin, [&](int worker, int task) {
         Candidate& c = candidates_[begin + task];
-        c.cost = rollout(*workers_[worker], c, bound, racing ? &best_profile_ : nullptr);
+        c.cost = rollout(*workers_[worker], c, bound, &best_profile_, margin);
       });
       // the cheapest, the lower index on a tie: the same for any thread count
       const double before = best_cost;
@@ -316,20 +323,29 @@ void Planner::plan(Simulation& sim) {
     }
   };
   for (int round = 0; round < rounds; ++round) {
-    run_round(round);
+    run_round(round, 0, k, race_margin);
+    // calm, but the best of the cheap budget falls within the horizon: the rest of the full one
+    int rolled = k;
+    if (calm && k < p.samples && !best_profile_.complete) {
+      run_round(round, k, p.samples, p.race_margin);
+      rolled = p.samples;
+    }
     if (round + 1 == rounds) break;
-    refit_cem(k);
+    refit_cem(rolled);
   }
   // in trouble (the reference slipping away, or a push), more rounds around the best: the
   // budget goes where a miss would cost the run, not to every step of a walk that goes well
-  if (p.rescue_rounds > 0 && p.rescue_error_m > 0 &&
-      objective_->balance_error(sim) >= p.rescue_error_m) {
+  const bool rescue = p.rescue_rounds > 0 && in_trouble;
+  if (rescue) {
     ++plan.rescues;
     for (int r = 0; r < p.rescue_rounds; ++r) {
       restart_cem(best_);
-      run_round(rounds + r);
+      run_round(rounds + r, 0, k, 0.0);
     }
   }
+  // a calm step: no rescue round, under calm_error_m, and a plan that does not fall
+  const bool calm_step = !rescue && balance_error < p.calm_error_m && best_profile_.complete;
+  plan.calm_streak = calm_step ? plan.calm_streak + 1 : 0;
   plan.knots = best_;
   ++plan.plans;
   plan.cost_sum += best_cost;

@@ -82,9 +82,10 @@ class Planner : public CorrectionSource {
   // cem: refit the mean and spread to the elites of the round's k candidates
   void refit_cem(int k);
   // the candidate's cost from start_; stopped early (at a lower bound of it) once it exceeds
-  // `bound`, and (at an infinite cost) once it trails `leader`'s profile by planner.race_margin
-  // of `bound`
-  double rollout(Simulation& sim, Candidate& c, double bound, const CostProfile* leader) const;
+  // `bound`, and (at an infinite cost) once it trails `leader`'s profile by `race_margin` of
+  // `bound`
+  double rollout(Simulation& sim, Candidate& c, double bound, const CostProfile* leader,
+                 double race_margin) const;
   // the controllers' references over the horizon from the current start, once per planning step
   void sample_horizons();
 

@@ -40,6 +40,8 @@ struct CorrectionPlan {
   long rescues = 0;        // planning steps that ran rescue rounds
   long steady = 0;         // planning steps on track (with steady_samples candidates)
   long rollout_steps = 0;  // model steps the rollouts took (the planner's compute)
+  long calm_streak = 0;    // calm planning steps in a row so far (planner.calm_plans)
+  long calm = 0;           // planning steps planned cheaply while calm
 
   // the correction at time t in plan units (dim knots.rows()); beyond the last knot it holds
   void evaluate(double t, Eigen::Ref<Eigen::VectorXd> out) const;
@@ -47,7 +49,7 @@ struct CorrectionPlan {
   template <class A>
   void serialize(A& a) {
     a(knots), a(t0), a(knot_dt), a(next_plan), a(plans), a(cost_sum), a(kept_nominal), a(rescues);
-    a(steady), a(rollout_steps);
+    a(steady), a(rollout_steps), a(calm_streak), a(calm);
   }
 };
 

@@ -95,6 +95,14 @@ struct PlannerParams {
   // stop drawing batches of candidates once a batch of 4 or more lowers the best cost by less
   // than this share of it (0: draw every sample; off: measured, it cost accuracy)
   double stop_margin = 0;
+  // spend by need: once `calm_plans` planning steps in a row ran no rescue round, were under
+  // `calm_error_m` and chose a plan that does not fall, plan cheaply (`calm_samples`
+  // candidates, rollouts racing at `calm_race_margin`) until the first step that is not calm
+  // (0: never; off: an option, measured in docs/planner.md#compute)
+  int calm_plans = 0;
+  double calm_error_m = 0.1;  // m
+  int calm_samples = 32;
+  double calm_race_margin = 0.1;
   // where no controller offers a correction: residual torques on these dofs (empty: every dof
   // of a hinge, slide or ball joint), `residual_torque` N m per unit
   std::vector<std::string> residual_dofs;
@@ -136,6 +144,14 @@ struct PlannerParams {
       {.min = 0, .max = 100, .help = "on track, stop a rollout trailing the best by this share"});
     v("stop_margin", stop_margin,
       {.min = 0, .max = 1, .help = "stop sampling once a batch gains less than this share"});
+    v("calm_plans", calm_plans,
+      {.min = 0, .max = 100000, .help = "calm steps in a row before planning cheaply; 0: never"});
+    v("calm_error_m", calm_error_m,
+      {.unit = "m", .min = 0, .max = 10, .help = "a calm step's error is under this"});
+    v("calm_samples", calm_samples,
+      {.min = 1, .max = 4096, .help = "candidates per planning step while calm"});
+    v("calm_race_margin", calm_race_margin,
+      {.min = 0, .max = 100, .help = "while calm, stop a rollout trailing the best by this"});
     v("residual_dofs", residual_dofs, {.help = "dofs of residual torques; empty: all joints"});
     v("residual_torque", residual_torque,
       {.unit = "N m", .min = 0, .max = 1e5, .help = "residual torque per unit of noise"});

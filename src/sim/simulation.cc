@@ -475,6 +475,7 @@ RunResult Simulation::result() const {
     pm["kept_nominal_share"] = plan.plans ? double(plan.kept_nominal) / plan.plans : 0.0;
     pm["rescues"] = plan.rescues;
     pm["steady"] = plan.steady;
+    pm["calm"] = plan.calm;
     pm["model_steps_per_sim_s"] = s.steps ? plan.rollout_steps / time() : 0.0;
   }
   return r;

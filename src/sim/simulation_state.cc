@@ -77,8 +77,8 @@ std::unique_ptr<Simulation> Simulation::clone() const {
 
 namespace {
 // 3: the plan counts its rescue rounds; 4: and its steps on track and rollout steps; 5: each
-// dof's steps at its torque limit and largest request over it
-constexpr char kStateMagic[] = "stance-state 5\n";
+// dof's steps at its torque limit and largest request over it; 6: the plan's calm streak
+constexpr char kStateMagic[] = "stance-state 6\n";
 }  // namespace
 
 void Simulation::write_state(const std::string& path) const {

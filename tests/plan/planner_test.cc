@@ -120,22 +120,24 @@ TEST(Planner, CemRoundsOnlyLowerTheChosenCost) {
 
 // what a planning step spends and the plan it keeps, from the same states, at planner settings
 // `option`, and of every sample (full) and of the warm start alone (one sample)
-void expect_plans_between_the_full_draw_and_the_warm_start(const std::string& option) {
-  SCOPED_TRACE(option);
-  auto make = [](int samples, const std::string& extra, int threads) {
+void expect_plans_between_the_full_draw_and_the_warm_start(
+    const std::vector<std::string>& options) {
+  SCOPED_TRACE(options.front());
+  auto make = [](int samples, const std::vector<std::string>& extra, int threads) {
+    std::vector<std::string> sets = {
+        "planner.enabled=true",
+        "planner.samples=" + std::to_string(samples),
+        "planner.horizon_s=0.2",
+        "planner.interval_s=0.05",
+        "planner.rescue_error_m=0",
+        "planner.threads=" + std::to_string(threads),
+        "perturbations=[{body: h_spine, force: [80, 0, 0], start: 0.05, duration: 0.1}]"};
+    sets.insert(sets.end(), extra.begin(), extra.end());
     return std::make_unique<Simulation>(
-        load_scenario(
-            test::scenario_path("biped_stand.yaml"),
-            {"planner.enabled=true", "planner.samples=" + std::to_string(samples),
-             "planner.horizon_s=0.2", "planner.interval_s=0.05", "planner.rescue_error_m=0", extra,
-             "planner.threads=" + std::to_string(threads),
-             "perturbations=[{body: h_spine, force: [80, 0, 0], start: 0.05, "
-             "duration: 0.1}]"}),
-        test::quiet());
+        load_scenario(test::scenario_path("biped_stand.yaml"), sets), test::quiet());
   };
-  std::unique_ptr<Simulation> full = make(30, "planner.stop_margin=0", 2),
-                              saving = make(30, option, 2),
-                              warm = make(1, "planner.stop_margin=0", 1);
+  std::unique_ptr<Simulation> full = make(30, {}, 2), saving = make(30, options, 2),
+                              warm = make(1, {}, 1);
   while (full->time() < 0.1) ASSERT_TRUE(full->step());
   SimulationState state;
   int saved = 0;
@@ -162,8 +164,8 @@ void expect_plans_between_the_full_draw_and_the_warm_start(const std::string& op
   }
   EXPECT_GT(saved, 0) << "no rollout step was saved";
   // its decisions read costs only: the same run on 3 threads as on 2
-  saving = make(30, option, 2);
-  std::unique_ptr<Simulation> three = make(30, option, 3);
+  saving = make(30, options, 2);
+  std::unique_ptr<Simulation> three = make(30, options, 3);
   while (saving->time() < 0.6) ASSERT_TRUE(saving->step());
   while (three->time() < 0.6) ASSERT_TRUE(three->step());
   Eigen::VectorXd a(saving->engine().nq()), b(three->engine().nq());
@@ -176,12 +178,79 @@ void expect_plans_between_the_full_draw_and_the_warm_start(const std::string& op
 
 // sampling stops once a batch stops paying (planner.stop_margin)
 TEST(Planner, StoppingSamplingEarlyKeepsAPlanBetweenTheFullDrawAndTheWarmStart) {
-  expect_plans_between_the_full_draw_and_the_warm_start("planner.stop_margin=0.5");
+  expect_plans_between_the_full_draw_and_the_warm_start({"planner.stop_margin=0.5"});
 }
 
 // rollouts trailing the best at the same time are stopped (planner.race_margin) and never chosen
 TEST(Planner, RacingRolloutsKeepAPlanBetweenTheFullDrawAndTheWarmStart) {
-  expect_plans_between_the_full_draw_and_the_warm_start("planner.race_margin=0.05");
+  expect_plans_between_the_full_draw_and_the_warm_start({"planner.race_margin=0.05"});
+}
+
+// calm steps (planner.calm_plans) plan with fewer candidates, racing: the first candidates of
+// the same streams, so never costlier than the warm start nor cheaper than every sample
+TEST(Planner, CalmStepsKeepAPlanBetweenTheFullDrawAndTheWarmStart) {
+  expect_plans_between_the_full_draw_and_the_warm_start(
+      {"planner.calm_plans=1", "planner.calm_error_m=10", "planner.calm_samples=12"});
+}
+
+// biped_stand planned with 8 samples and pushed at 0.3 s: calm after `calm_plans` quiet planning
+// steps (its capture point within 4 cm; 0: never calm)
+std::unique_ptr<Simulation> calm_run(int threads, int calm_plans) {
+  return std::make_unique<Simulation>(
+      load_scenario(test::scenario_path("biped_stand.yaml"),
+                    {"planner.enabled=true", "planner.samples=8", "planner.horizon_s=0.2",
+                     "planner.interval_s=0.05", "planner.threads=" + std::to_string(threads),
+                     "planner.rescue_error_m=0", "planner.calm_error_m=0.04",
+                     "planner.calm_plans=" + std::to_string(calm_plans), "planner.calm_samples=3",
+                     "perturbations=[{body: h_spine, force: [120, 0, 0], start: 0.3, "
+                     "duration: 0.1}]"}),
+      test::quiet());
+}
+
+// positions from the run's time on to t
+std::vector<double> trace_to(Simulation& sim, double t) {
+  std::vector<double> out;
+  Eigen::VectorXd q(sim.engine().nq());
+  while (sim.time() < t - 1e-9) {
+    EXPECT_TRUE(sim.step());
+    sim.engine().get_positions(q);
+    out.insert(out.end(), q.data(), q.data() + q.size());
+  }
+  return out;
+}
+
+// quiet standing turns calm and plans cheaply; the push ends the streak and brings the full
+// budget back while it lasts. The decisions read the run's state only: the same run on any
+// thread count, and the streak is carried in the state file.
+TEST(Planner, CalmRunsPlanCheaplyUntilTroubleAndTheSameOnAnyThreadCount) {
+  std::unique_ptr<Simulation> one = calm_run(1, 3);
+  const CorrectionPlan& plan = one->progress().plan;
+  trace_to(*one, 0.2);
+  const long streak_written = plan.calm_streak;
+  EXPECT_GE(streak_written, 3);
+  const std::string file = test::write_temp_file("planner_calm_streak.state", "");
+  one->write_state(file);
+  std::vector<double> after = trace_to(*one, 0.45);
+  EXPECT_GE(plan.calm, 2);
+  EXPECT_EQ(plan.calm_streak, 0) << "the push did not end the calm streak";
+  const long calm_in_push = plan.calm;
+  const std::vector<double> rest = trace_to(*one, 0.7);
+  after.insert(after.end(), rest.begin(), rest.end());
+  EXPECT_EQ(plan.calm, calm_in_push) << "calm while the push lasts";
+  // the same run on 3 threads, and read back from the state file on 2
+  std::unique_ptr<Simulation> three = calm_run(3, 3), resumed = calm_run(2, 3);
+  trace_to(*three, 0.2);
+  EXPECT_EQ(trace_to(*three, 0.7), after);
+  EXPECT_EQ(three->progress().plan.rollout_steps, plan.rollout_steps);
+  resumed->read_state(file);
+  EXPECT_EQ(resumed->progress().plan.calm_streak, streak_written);
+  EXPECT_EQ(trace_to(*resumed, 0.7), after);
+  EXPECT_EQ(resumed->progress().plan.calm, plan.calm);
+  // the full budget at every step spends more
+  std::unique_ptr<Simulation> full = calm_run(1, 0);
+  trace_to(*full, 0.7);
+  EXPECT_EQ(full->progress().plan.calm, 0);
+  EXPECT_LT(plan.rollout_steps, full->progress().plan.rollout_steps);
 }
 
 // rollouts stop once they cannot beat the cheapest known: the plans are those of rollouts run
