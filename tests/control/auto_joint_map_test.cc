@@ -14,6 +14,7 @@
 #include "core/error.h"
 #include "engine/world_spec.h"
 #include "motion/bvh.h"
+#include "motion/clip_conventions.h"
 #include "test_support.h"
 
 namespace stance {
@@ -72,6 +73,25 @@ TEST(AutoJointMap, BandaiNamcosHeadIsFoundInTheFirstFrame) {
   EXPECT_EQ(pairs_of(found.map)["Neck"], "head");
   EXPECT_EQ(found.map.joints.size(), 14u);
   EXPECT_NEAR(found.clip_leg_length_m, 0.80, 0.02);  // the bones' lengths: pose-free
+}
+
+// LaFAN1's convention (tests/motion/clip_conventions.h: a rest pose along X, toes, hands and
+// head as joints with zero End Sites, Z-Y-X rotations, 30 Hz): the map onto humanoid.xml is the
+// plain walk's, under LaFAN1's names, at the same scale
+TEST(AutoJointMap, LaFan1sClipMapsAsThePlainWalk) {
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
+  const BvhClip plain = make_synthetic_walk_clip();
+  const std::string plain_file = test::write_temp_file("plain_walk.bvh", format_bvh(plain));
+  const std::string lafan_file =
+      test::write_temp_file("lafan1_walk.bvh", format_bvh(test::lafan1_like(plain)));
+  const AutoJointMap want = find_joint_map_of_files(plain_file, test::kHumanoidXml, "mujoco");
+  const AutoJointMap got = find_joint_map_of_files(lafan_file, test::kHumanoidXml, "mujoco");
+  std::map<std::string, std::string> renamed;
+  for (auto [segment, body] : pairs_of(want.map))
+    renamed[segment == "Head" ? "Neck" : segment == "Chest" ? "Spine1" : segment] = body;
+  EXPECT_EQ(pairs_of(got.map), renamed);
+  EXPECT_EQ(got.map.joints.size(), 14u);
+  EXPECT_NEAR(*got.map.scale, *want.map.scale, 0.01 * *want.map.scale);
 }
 
 // sides from the rest pose where names give none: humanoid.xml with left_/right_ renamed a_/b_

@@ -245,4 +245,98 @@ inline BvhClip with_leading_t_pose(const BvhClip& in, int count, const Eigen::Ve
   return out;
 }
 
+// every End Site of a joint named in `names` becomes a joint of that name (3 rotation channels,
+// still, with an End Site of zero length), as LaFAN1's toes, hands and head are
+inline BvhClip with_end_sites_as_joints(const BvhClip& in,
+                                        const std::map<std::string, std::string>& names) {
+  BvhClip out = in;
+  out.joints.clear();
+  std::vector<int> from;  // per new joint: its joint in `in`, or -1
+  std::vector<int> index(in.joints.size());
+  for (size_t j = 0; j < in.joints.size(); ++j) {
+    BvhJoint joint = in.joints[j];
+    if (joint.parent >= 0) joint.parent = index[joint.parent];
+    index[j] = static_cast<int>(out.joints.size());
+    const auto it = joint.has_end_site ? names.find(joint.name) : names.end();
+    BvhJoint leaf;
+    if (it != names.end()) {  // a joint with an End Site has no children: its leaf comes next
+      leaf.name = it->second;
+      leaf.parent = index[j];
+      leaf.offset = joint.end_site_offset;
+      leaf.channels = {BvhChannel::kZrotation, BvhChannel::kXrotation, BvhChannel::kYrotation};
+      leaf.order = RotationOrder::kZXY;
+      leaf.rotation_channel_count = 3;
+      leaf.has_end_site = true;
+      joint.has_end_site = false;
+    }
+    out.joints.push_back(joint);
+    from.push_back(static_cast<int>(j));
+    if (it != names.end()) {
+      out.joints.push_back(leaf);
+      from.push_back(-1);
+    }
+  }
+  int column = 0;
+  for (BvhJoint& joint : out.joints) {
+    joint.first_column = column;
+    column += static_cast<int>(joint.channels.size());
+  }
+  out.channel_count = column;
+  out.raw.resize(0, 0);
+  out.rotations.assign(out.joints.size() * in.frame_count, Eigen::Quaterniond::Identity());
+  for (int f = 0; f < in.frame_count; ++f)
+    for (size_t j = 0; j < out.joints.size(); ++j)
+      if (from[j] >= 0) out.rotation(f, static_cast<int>(j)) = in.rotation(f, from[j]);
+  return out;
+}
+
+// every joint's rotation channels listed Z, Y, X (the root's after its positions), the frames
+// unchanged
+inline BvhClip with_zyx_channels(BvhClip clip) {
+  for (BvhJoint& joint : clip.joints) {
+    std::vector<BvhChannel> channels;
+    if (joint.has_position)
+      channels = {BvhChannel::kXposition, BvhChannel::kYposition, BvhChannel::kZposition};
+    for (BvhChannel c : {BvhChannel::kZrotation, BvhChannel::kYrotation, BvhChannel::kXrotation})
+      channels.push_back(c);
+    joint.channels = channels;
+    joint.order = RotationOrder::kZYX;
+  }
+  clip.raw.resize(0, 0);
+  return clip;
+}
+
+// every `step`-th frame (60 Hz -> 30 Hz at 2)
+inline BvhClip every_nth_frame(const BvhClip& in, int step) {
+  BvhClip out = in;
+  out.frame_count = (in.frame_count + step - 1) / step;
+  out.frame_time_s = in.frame_time_s * step;
+  out.raw.resize(0, 0);
+  out.rotations.clear();
+  out.positions.clear();
+  for (int f = 0; f < in.frame_count; f += step) {
+    for (int j = 0; j < in.joint_count(); ++j) out.rotations.push_back(in.rotation(f, j));
+    for (int k = 0; k < in.position_joint_count; ++k)
+      out.positions.push_back(in.positions[static_cast<size_t>(f) * in.position_joint_count + k]);
+  }
+  return out;
+}
+
+// the synthetic walk or run as Ubisoft LaForge's LaFAN1 writes its clips: 30 Hz, centimetres,
+// Y up; rotations Z, Y, X, positions on the root only, whose OFFSET is where it starts; the rest
+// pose lies along X (every bone on its joint's +X, the hips across Z); the toes, hands and head
+// are joints of their own whose End Sites have zero length; LaFAN1's joint names
+inline BvhClip lafan1_like(const BvhClip& walk) {
+  BvhClip clip = renamed(with_end_sites_as_joints(walk, {{"LeftFoot", "LeftToe"},
+                                                         {"RightFoot", "RightToe"},
+                                                         {"LeftForeArm", "LeftHand"},
+                                                         {"RightForeArm", "RightHand"},
+                                                         {"Head", "HeadEnd"}}),
+                         {{"Head", "Neck"}, {"Chest", "Spine1"}});
+  clip = renamed(clip, {{"HeadEnd", "Head"}});
+  clip = with_zyx_channels(every_nth_frame(with_bones_along_x(clip), 2));
+  clip.joints[0].offset = clip.translation(0, 0);
+  return clip;
+}
+
 }  // namespace stance::test
