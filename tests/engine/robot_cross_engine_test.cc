@@ -2,12 +2,15 @@
 // Atlas (dart-doc) through DART's own parsers and through stance's MJCF translation on MuJoCo.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
+#include <map>
 #include <random>
 
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "model/robot_model.h"
 #include "test_support.h"
 
 namespace stance {
@@ -106,6 +109,55 @@ TEST(RobotCrossEngine, AtlasUrdfSameBodiesMassesAndLimits) {
     EXPECT_EQ(e->joint(e->require_joint("l_leg_hpy")).force_limit, 260) << e->engine_name();
     EXPECT_EQ(e->joint(e->require_joint("back_bkx")).force_limit, 200) << e->engine_name();
   }
+}
+
+// every dof's torque limit is the URDF's effort on both engines, and one step under torques
+// clamped to them (as Simulation::limit_torques clamps) moves every joint alike: neither engine
+// scales or clamps the torques again, and both read the joints' damping (0.1)
+TEST(RobotCrossEngine, AtlasUrdfEveryDofHasTheSameLimitAndStepsAlikeUnderIt) {
+  if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
+  const RobotOptions fixed{.fixed_base = true};
+  auto mj = load_robot("mujoco", kAtlasUrdf, fixed);
+  auto dart = load_robot("dart", kAtlasUrdf, fixed);
+  const RobotModel file =
+      read_robot(kAtlasUrdf, "/usr/share/doc/dart/data/sdf/atlas/atlas_v3_no_head.urdf", fixed);
+  std::map<std::string, double> effort;
+  for (const RobotJoint& j : file.joints)
+    if (j.type == RobotJointType::kRevolute) effort[j.name] = j.effort;
+  ASSERT_EQ(dart->nv(), 27);
+  ASSERT_EQ(effort.size(), 27u);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> unit(-1, 1);
+  Eigen::VectorXd tau_dart(27), tau_mj(27), v_dart(27), v_mj(27);
+  for (int i = 0; i < 27; ++i) {
+    const std::string& name = dart->dof_name(i);
+    const int k = mj->require_dof(name);
+    const double limit = dart->joint(dart->dof_joint(i)).force_limit;
+    EXPECT_EQ(limit, effort.at(name)) << name;
+    EXPECT_EQ(mj->joint(mj->dof_joint(k)).force_limit, limit) << name;
+    dart->set_dof_position(i, 0.4 * unit(rng));
+    mj->set_dof_position(k, dart->dof_position(i));
+    v_dart[i] = v_mj[k] = unit(rng);
+    tau_dart[i] = std::clamp(2 * limit * unit(rng), -limit, limit);
+    tau_mj[k] = tau_dart[i];
+  }
+  mj->set_velocities(v_mj);
+  dart->set_velocities(v_dart);
+  mj->forward();
+  dart->forward();
+  mj->set_generalized_forces(tau_mj);
+  dart->set_generalized_forces(tau_dart);
+  mj->step();
+  dart->step();
+  ASSERT_EQ(mj->num_contacts(), 0);
+  double worst = 0, largest = 0;
+  for (int i = 0; i < 27; ++i) {
+    const int k = mj->require_dof(dart->dof_name(i));
+    worst = std::max(worst, std::abs(mj->dof_velocity(k) - dart->dof_velocity(i)));
+    largest = std::max(largest, std::abs(dart->dof_velocity(i)));
+  }
+  EXPECT_GT(largest, 10);  // the torques moved the joints
+  EXPECT_LT(worst, 1e-9);  // 6e-12 rad/s, where the fastest joint reaches 73 rad/s
 }
 
 TEST(RobotCrossEngine, AtlasUrdfForwardKinematicsAndMassMatrixAgree) {
