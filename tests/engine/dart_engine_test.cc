@@ -1,5 +1,6 @@
 // DART backend: sizes and names, the dynamics quantities against finite differences and dense
 // algebra, position algebra on free joints, determinism of save/restore, and simple physics.
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
 #include <Eigen/Cholesky>
@@ -820,6 +821,64 @@ TEST(DartEngine, UnnamedJointsSitesAndInfinitePlanesLoad) {
   // the plane holds the ball up on both engines
   for (int k = 0; k < 500; ++k) dart->step();
   EXPECT_GT(dart->body_pose(dart->body_index("a")).pos.z(), 0.05);
+}
+
+// a robot laid out as public model collections lay it out (tests/models/pitch_ankle_robot*.xml,
+// our own numbers): a scene file that <include>s the robot, capsule feet and limbs (FCL) and a
+// pelvis with no geom. DART 6.12 skipped the <include> (an empty world) and, in the next
+// collide after the broad phase was rebuilt, crashed on the robot's stale collision records
+TEST(DartEngine, PitchAnkleRobotSceneLoadsAsOnMujocoAndSteps) {
+  WorldSpec spec;
+  spec.models.push_back({test::source_dir() + "/tests/models/pitch_ankle_robot_scene.xml"});
+  std::unique_ptr<Engine> dart = make_dart_engine(spec);
+  std::unique_ptr<Engine> mujoco = make_engine("mujoco", spec);
+  ASSERT_EQ(dart->nv(), mujoco->nv());
+  EXPECT_EQ(dart->nbody(), mujoco->nbody());
+  EXPECT_NEAR(dart->total_mass(), mujoco->total_mass(), 1e-9);
+  std::vector<std::string> dart_names = dart->dof_names(), mujoco_names = mujoco->dof_names();
+  std::sort(dart_names.begin(), dart_names.end());
+  std::sort(mujoco_names.begin(), mujoco_names.end());
+  EXPECT_EQ(dart_names, mujoco_names);
+  // steps, a save and a restore, each rebuilding the broad phase, and the contact query (short:
+  // DART's LCP on capsule soles costs about 60 ms a step once they touch)
+  const int sole = dart->body_index("left_sole_link");
+  ASSERT_GE(sole, 0);
+  const double sole_z = dart->body_pose(sole).pos.z();
+  EngineState saved;
+  dart->forward();
+  for (int k = 0; k < 10; ++k) dart->step();
+  dart->save_state(saved);
+  for (int k = 0; k < 10; ++k) dart->step();
+  dart->restore_state(saved);
+  dart->forward();
+  for (int k = 0; k < 10; ++k) dart->step();
+  EXPECT_NEAR(dart->body_pose(sole).pos.z(), sole_z, 0.01);  // the soles land on the floor
+  EXPECT_TRUE(dart->state_is_finite());
+}
+
+// a mesh asset without a name is named after its file by MuJoCo; DART 6.12 asserted on the geom
+// that uses it by that name. It loads on DART with the same bodies
+TEST(DartEngine, UnnamedMeshAssetsLoadByTheirFileName) {
+  const std::string dir =
+      std::filesystem::path(write_temp("shell.obj",
+                                       "v 0 0 0\nv 0.05 0 0\nv 0 0.05 0\nv 0 0 0.05\n"
+                                       "f 1 3 2\nf 1 2 4\nf 1 4 3\nf 2 3 4\n"))
+          .parent_path()
+          .string();
+  WorldSpec spec;
+  spec.models.push_back({write_temp("meshed.xml", fmt::format(R"(<mujoco>
+<compiler meshdir="{}"/>
+<asset><mesh file="dart_shell.obj"/></asset>
+<worldbody><geom type="plane" size="1 1 0.1"/>
+<body name="a" pos="0 0 1"><freejoint/><inertial pos="0 0 0" mass="1" diaginertia="0.01 0.01 0.01"/>
+<geom type="sphere" size="0.1"/><geom type="mesh" mesh="dart_shell" contype="0" conaffinity="0" mass="0"/></body>
+</worldbody></mujoco>
+)",
+                                                              dir))});
+  std::unique_ptr<Engine> dart = make_dart_engine(spec);
+  std::unique_ptr<Engine> mujoco = make_engine("mujoco", spec);
+  EXPECT_EQ(dart->nbody(), mujoco->nbody());
+  EXPECT_NEAR(dart->total_mass(), mujoco->total_mass(), 1e-9);
 }
 
 // a carriage return between the numbers of a capsule's fromto: MuJoCo reads it as a separator,

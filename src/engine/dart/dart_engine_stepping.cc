@@ -50,6 +50,11 @@ void DartEngine::rebuild_broad_phase() const {
   for (size_t i = 0; i < world_->getNumSkeletons(); ++i)
     holder->addShapeFramesOf(world_->getSkeleton(i).get());
   holder->collide(dart::collision::CollisionOption(false, 1));
+  // each skeleton's frames removed through it first: removeAllShapeFrames alone keeps the
+  // group's subscription to the skeleton, whose records then point at freed objects (a crash in
+  // the next collide on MJCF robots with capsules, which go to FCL)
+  for (size_t i = 0; i < world_->getNumSkeletons(); ++i)
+    group->removeShapeFramesOf(world_->getSkeleton(i).get());
   group->removeAllShapeFrames();
   for (size_t i = 0; i < world_->getNumSkeletons(); ++i)
     group->addShapeFramesOf(world_->getSkeleton(i).get());

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <functional>
 #include <set>
 #include <sstream>
@@ -284,6 +285,79 @@ bool expand_freejoints(tinyxml2::XMLElement* parent) {
   return changed;
 }
 
+// DART 6.12's MJCF reader skips <include> (a robot's scene file then loads as an empty world):
+// each is replaced by the included file's elements, as MuJoCo assembles them, the file resolved
+// from the main file's folder; each file's bodies are checked and its inertials read under its
+// own name and lines first. Nested includes too; true when any was inlined
+bool inline_includes(const std::string& shown_name, const std::filesystem::path& folder,
+                     tinyxml2::XMLDocument& doc, tinyxml2::XMLElement* parent,
+                     std::map<std::string, MjcfInertial>& inertials, int depth = 0) {
+  bool changed = false;
+  for (tinyxml2::XMLElement* e = parent->FirstChildElement(); e;) {
+    tinyxml2::XMLElement* next = e->NextSiblingElement();
+    const char* file = e->Attribute("file");
+    if (std::strcmp(e->Name(), "include") != 0 || file == nullptr) {
+      changed = inline_includes(shown_name, folder, doc, e, inertials, depth) || changed;
+      e = next;
+      continue;
+    }
+    if (depth > 20)
+      throw InputError(located(shown_name, e->GetLineNum(), "<include>: nested too deep"));
+    const std::string path = (folder / file).string();
+    tinyxml2::XMLDocument included;
+    load_xml(path, path, included);
+    tinyxml2::XMLElement* root = included.RootElement();
+    if (root == nullptr) throw InputError(located(path, 0, "an included file has no element"));
+    if (tinyxml2::XMLElement* worldbody = root->FirstChildElement("worldbody")) {
+      collect_inertials(path, worldbody, inertials);
+      check_bodies_have_joints(path, worldbody, false);
+    }
+    inline_includes(path, folder, included, root, inertials, depth + 1);
+    tinyxml2::XMLNode* at = e->PreviousSibling();
+    for (const tinyxml2::XMLElement* c = root->FirstChildElement(); c;
+         c = c->NextSiblingElement()) {
+      tinyxml2::XMLNode* copy = c->DeepClone(&doc);
+      at = at ? parent->InsertAfterChild(at, copy) : parent->InsertFirstChild(copy);
+    }
+    parent->DeleteChild(e);
+    changed = true;
+    e = next;
+  }
+  return changed;
+}
+
+// after inlining, a section written in both files (two <worldbody>, two <asset>) is one for
+// DART, which reads only the first of each: later ones move into it
+void merge_repeated_sections(tinyxml2::XMLElement* root) {
+  for (const char* name :
+       {"worldbody", "asset", "actuator", "contact", "keyframe", "sensor", "tendon", "equality"}) {
+    tinyxml2::XMLElement* first = root->FirstChildElement(name);
+    if (first == nullptr) continue;
+    for (tinyxml2::XMLElement* later = first->NextSiblingElement(name); later;) {
+      tinyxml2::XMLElement* after = later->NextSiblingElement(name);
+      while (tinyxml2::XMLNode* child = later->FirstChild()) first->InsertEndChild(child);
+      root->DeleteChild(later);
+      later = after;
+    }
+  }
+}
+
+// DART 6.12's MJCF reader asserts on a geom whose mesh asset has no name (MuJoCo names it after
+// its file, without folder and extension): each unnamed <mesh> gets that name; true when any did
+bool name_unnamed_meshes(tinyxml2::XMLElement* root) {
+  bool changed = false;
+  for (tinyxml2::XMLElement* asset = root->FirstChildElement("asset"); asset;
+       asset = asset->NextSiblingElement("asset"))
+    for (tinyxml2::XMLElement* mesh = asset->FirstChildElement("mesh"); mesh;
+         mesh = mesh->NextSiblingElement("mesh")) {
+      const char* file = mesh->Attribute("file");
+      if (mesh->Attribute("name") || file == nullptr) continue;
+      mesh->SetAttribute("name", std::filesystem::path(file).stem().string().c_str());
+      changed = true;
+    }
+  return changed;
+}
+
 }  // namespace
 
 // all model formats are XML: check well-formedness here, where the line number is known
@@ -330,7 +404,10 @@ MjcfPreflight preflight_mjcf(const std::string& shown_name, const std::string& f
     collect_inertials(shown_name, worldbody, out.inertials);
     check_bodies_have_joints(shown_name, worldbody, false);
   }
-  bool patched = false;
+  bool patched = inline_includes(shown_name, std::filesystem::path(file).parent_path(), doc,
+                                 doc.RootElement(), out.inertials);
+  if (patched) merge_repeated_sections(doc.RootElement());
+  patched = name_unnamed_meshes(doc.RootElement()) || patched;
   if (tinyxml2::XMLElement* worldbody = doc.RootElement()->FirstChildElement("worldbody")) {
     patched = name_unnamed_joints(worldbody);
     patched = name_unnamed_geoms(worldbody) || patched;
