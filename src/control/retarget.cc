@@ -151,6 +151,55 @@ void RetargetedMotion::find_lying_rest(Build& b) const {
   b.first_rot = std::move(turned);
 }
 
+namespace {
+
+// per point: whether it lies in the lowest quarter of their height span (where feet stand)
+std::vector<bool> in_lowest_quarter(const std::vector<Eigen::Vector3d>& points) {
+  double lowest = 1e300, highest = -1e300;
+  for (const Eigen::Vector3d& p : points) {
+    lowest = std::min(lowest, p.z());
+    highest = std::max(highest, p.z());
+  }
+  std::vector<bool> low(points.size());
+  for (size_t k = 0; k < points.size(); ++k)
+    low[k] = points[k].z() - lowest <= 0.25 * (highest - lowest);
+  return low;
+}
+
+// the model's leg length over the clip's where both legs are mapped (0 where not): each leg the
+// thigh to the shin to the foot, the foot a mapped body with no mapped body below it in the
+// lowest quarter of the clip's `posed` height, its two mapped ancestors the shin and the thigh.
+// Bone lengths do not change with the pose, as a height span does (a lean, a crouch, the head
+// a map puts on the model's head centre).
+double leg_length_ratio(const MotionSkeleton& sk, const std::vector<RetargetBody>& bodies,
+                        const std::vector<Eigen::Vector3d>& posed,
+                        const std::vector<RetargetModelBody>& model) {
+  const int n = static_cast<int>(bodies.size());
+  std::vector<int> mapped_of_segment(sk.segment_count(), -1), parent(n, -1);
+  for (int i = 0; i < n; ++i) mapped_of_segment[bodies[i].segment] = i;
+  std::vector<bool> has_child(n, false);
+  for (int i = 0; i < n; ++i)
+    for (int a = sk.segments[bodies[i].segment].parent; a >= 0 && parent[i] < 0;
+         a = sk.segments[a].parent)
+      if (mapped_of_segment[a] >= 0) has_child[parent[i] = mapped_of_segment[a]] = true;
+  const std::vector<bool> low = in_lowest_quarter(posed);
+  double clip_leg = 0, model_leg = 0;
+  int legs = 0;
+  for (int foot = 0; foot < n; ++foot) {
+    if (has_child[foot] || !low[bodies[foot].segment]) continue;
+    const int shin = parent[foot], thigh = shin >= 0 ? parent[shin] : -1;
+    if (thigh < 0) continue;
+    for (auto [from, to] : {std::pair{thigh, shin}, std::pair{shin, foot}}) {
+      clip_leg += (posed[bodies[to].segment] - posed[bodies[from].segment]).norm();
+      model_leg += (model[bodies[to].body].rest_pos - model[bodies[from].body].rest_pos).norm();
+    }
+    ++legs;
+  }
+  return legs == 2 && clip_leg > 1e-6 ? model_leg / clip_leg : 0.0;
+}
+
+}  // namespace
+
 void RetargetedMotion::fit_rest_skeletons(Build& b) {
   const JointMap& map = b.map;
   const std::vector<RetargetModelBody>& model = b.model;
@@ -195,6 +244,10 @@ void RetargetedMotion::fit_rest_skeletons(Build& b) {
                      : (clip_hi - clip_lo > 1e-6 && model_hi - model_lo > 1e-6
                             ? (model_hi - model_lo) / (clip_hi - clip_lo)
                             : 1.0);
+  // posed, the legs measure the scale where both are mapped
+  const double legs =
+      map.scale || clip_posed.empty() ? 0.0 : leg_length_ratio(b.sk, bodies_, clip_posed, model);
+  if (legs > 0) scale_ = legs;
   b.to_model = up_turn * Eigen::Quaterniond(Eigen::AngleAxisd(yaw_, Eigen::Vector3d::UnitZ()));
 }
 
@@ -269,19 +322,6 @@ Eigen::Vector3d end_model_bone(const std::vector<RetargetModelBody>& model, cons
     if (child.parent == body) sum += child.rest_pos - model[body].rest_pos;
   if (sum.norm() < 1e-6) sum = probe.body_com(body) - model[body].rest_pos;
   return sum.norm() < 1e-3 ? Eigen::Vector3d::Zero() : (to_model.conjugate() * sum).normalized();
-}
-
-// per point: whether it lies in the lowest quarter of their height span (where feet stand)
-std::vector<bool> in_lowest_quarter(const std::vector<Eigen::Vector3d>& points) {
-  double lowest = 1e300, highest = -1e300;
-  for (const Eigen::Vector3d& p : points) {
-    lowest = std::min(lowest, p.z());
-    highest = std::max(highest, p.z());
-  }
-  std::vector<bool> low(points.size());
-  for (size_t k = 0; k < points.size(); ++k)
-    low[k] = points[k].z() - lowest <= 0.25 * (highest - lowest);
-  return low;
 }
 
 // a segment's bone towards the mean of its bones' ends (its child joints, mapped or not, and its

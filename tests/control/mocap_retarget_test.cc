@@ -10,6 +10,7 @@
 #include <map>
 #include <numbers>
 
+#include "control/auto_joint_map.h"
 #include "control/retarget.h"
 #include "core/error.h"
 #include "engine/world_spec.h"
@@ -384,6 +385,31 @@ TEST(Retarget, EndBodiesOfARestPoseThatDoesNotStandTurnAsTheStandingClips) {
     ++checked;
   }
   EXPECT_EQ(checked, 5);
+}
+
+// a rest pose that does not stand takes `scale: auto` from the legs (thigh, shin, foot) where
+// both are mapped: bone lengths, which no pose changes. Before, the first frame's height span
+// gave it, which a map that puts the clip's neck on the model's head centre stretches: the Bandai
+// walk onto humanoid.xml got 1.196 where its legs give 0.99 (the found map's scale)
+TEST(Retarget, ScaleOfARestPoseThatDoesNotStandComesFromTheLegs) {
+  if (!std::filesystem::exists(test::kHumanoidXml)) GTEST_SKIP() << "no " << test::kHumanoidXml;
+  auto engine = engine_of("mujoco", test::kHumanoidXml);
+  auto check = [&](const std::string& bvh, const std::string& map_file) {
+    SCOPED_TRACE(bvh);
+    const BvhClip clip = read_bvh(bvh);
+    const ReferenceMotion reference(clip, make_motion_skeleton(clip, {}), {});
+    const JointMap map = read_joint_map(test::source_dir() + "/models/maps/" + map_file);
+    const RetargetedMotion got(reference, map, *engine, 0);
+    const AutoJointMap found = find_joint_map_of_files(bvh, test::kHumanoidXml, "mujoco");
+    EXPECT_NEAR(got.scale(), *found.map.scale, 0.005 * *found.map.scale);
+    return got.scale();
+  };
+  const BvhClip lying = test::with_bones_along_x(make_synthetic_walk_clip(), std::numbers::pi / 2);
+  check(test::write_temp_file("lying_walk.bvh", format_bvh(lying)),
+        "synthetic_walk_to_humanoid.yaml");  // 0.922 (before: 0.967)
+  const std::string bandai = test::shared_bvh("bandai/dataset-1_walk_active_001.bvh");
+  if (std::filesystem::exists(bandai))
+    EXPECT_NEAR(check(bandai, "bandai_to_humanoid.yaml"), 0.99, 0.01);
 }
 
 nlohmann::json run_humanoid(const std::string& mode, double seconds,
