@@ -13,8 +13,6 @@
 
 namespace stance {
 
-namespace {}
-
 namespace {
 // the offsets the planner may make (correction_dims), in this order
 enum Correction {
@@ -120,6 +118,8 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     ankle_corrections_ = std::min(ankle_corrections_, dofs);
   }
   if (mode_ == MocapRootMode::kFree && params.balance) {
+    if (params.weak_ankles)
+      weak_legs_ = find_weak_ankle_legs(engine, bodies, root_mapped_, foot_);
     // the walking direction in the root body's frame: the mean horizontal root velocity
     std::vector<Eigen::Quaterniond> world(bodies.size()), local(bodies.size());
     std::vector<Eigen::Vector3d> a(bodies.size()), b(bodies.size());
@@ -645,12 +645,14 @@ void MocapRetargetTracker::balance(State& s, const Engine& engine, double t,
     if (parent >= 0) base = engine.body_pose(parent).quat * base;
     motion_->set_body_local(i, (base.conjugate() * world).normalized(), s.q_ref);
   };
-  // the swing servo only while the swing foot is off the ground: a foot that is down is a
-  // second stance foot, and servoing its thigh would drag it
-  const bool swinging = !touch[swing];
+  // the swing servo while the swing foot is off the ground (a foot that is down is a second
+  // stance foot: servoing its thigh drags it) and, on weak ankles, while the clip swings it
+  const double clip_lift = height(s.bal_pos[foot_[swing]]) - height(s.bal_pos[foot_[s.stance]]);
+  const bool swinging = !touch[swing] || (weak_legs_.weak && clip_lift > kWeakSwingClearance);
   if (swinging) {
     set_world(hip_[swing], delta * yaw_fix * s.bal_world[hip_[swing]]);
     if (p.swing_foot_world) set_world(foot_[swing], yaw_fix * s.bal_world[foot_[swing]]);
+    if (weak_legs_.weak) lift_swing_foot(s, engine, swing, root);
   }
   // the stance hip (both hips when both feet are down): the joint rotation that puts the pelvis
   // at its reference over the thigh as it is, blended with the reference's own

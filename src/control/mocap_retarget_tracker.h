@@ -35,6 +35,7 @@
 
 #include "control/controller.h"
 #include "control/mocap_clip.h"
+#include "control/mocap_weak_ankles.h"
 #include "control/pose_tracking.h"
 #include "control/retarget.h"
 
@@ -197,12 +198,18 @@ class MocapRetargetTracker final
   static constexpr double kSuccessBodyError = 0.5;  // m: PHC's bound on the per-frame mean
   // s: the balance layer's reference root velocity is a forward difference over this step
   static constexpr double kRootVelocityStep = 0.01;
+  // m: on weak ankles, a clip's foot this far above its stance foot is swinging
+  static constexpr double kWeakSwingClearance = 0.02;
+  // m: ... and its swing foot is lifted by at most this
+  static constexpr double kWeakSwingMaxLift = 0.2;
 
   const MocapRetargetParams& params() const { return params_; }
   const RetargetedMotion& motion() const { return *motion_; }
   // the gains per dof, as the stable PD uses them (after kp_joints and limit_gain_error)
   const Eigen::VectorXd& kp() const { return kp_; }
   const Eigen::VectorXd& kd() const { return kd_; }
+  // free mode's weak-ankle legs (mocap_weak_ankles.h)
+  const WeakAnkleLegs& weak_ankle_legs() const { return weak_legs_; }
   // the simulated motion of a run so far, mapped back onto the clip's skeleton (file units, as
   // read)
   BvhClip recorded_clip(const State& state) const;
@@ -229,6 +236,9 @@ class MocapRetargetTracker final
   void init_gains(const MocapRetargetParams& params, const Engine& engine);
   void accumulate_metrics(State& s, const Engine& engine) const;
   void balance(State& s, const Engine& engine, double t, const double* correction) const;
+  // weak ankles (mocap_weak_ankles.cc): the swing foot lifted by as much as the root rides below
+  // the clip's
+  void lift_swing_foot(State& s, const Engine& engine, int swing, const BodyPose& root) const;
   // the fall rule at the engine's time: the cause and the body that touched (allocates nothing);
   // `horizon` (null: none) holds the reference's samples at some times
   MocapFallCause judge_fall(const Engine& engine, const MocapReferenceHorizon* horizon, int& body,
@@ -259,6 +269,8 @@ class MocapRetargetTracker final
   // the stance ankle's corrections (correction_dims): 2 (pitch, roll) or 1 (a one-axis ankle:
   // pitch); the hips' (swing pitch and roll, pelvis pitch and roll) are always there
   int ankle_corrections_ = 2;
+  // weak ankles: the swing leg servoed while the clip swings it, its foot lifted (free mode)
+  WeakAnkleLegs weak_legs_;
   // the fall rule: per engine body, the mapped body it moves with (-1: none), its COM and origin
   // in that body's frame, whether it belongs to a foot; the mass of the anchored bodies and the
   // reference's sole level along up
