@@ -152,5 +152,35 @@ TEST(SimbiconPitchAnkles, WalksWithoutHipYawAtTheGaitAndNearby) {
   }
 }
 
+// a robot of a model collection's kind (tests/models/pitch_ankle_robot*.xml: hips 0.34 m apart,
+// one-axis ankles, motors in N m) walks with docs/robots.md's gait: 20 s at the SIMBICON gains,
+// x0.8 and x1.2 (about 2 s of CPU); with the humanoid's cd_lateral (0.7, 2.2) it falls at once
+TEST(SimbiconPitchAnkles, WalksAWideHippedRobotWithTheGuidesGait) {
+  const std::string scenario = test::source_dir() + "/tests/models/pitch_ankle_robot_walk.yaml";
+  const std::string gains = "controllers.2.gait.gains.";
+  for (const double factor : {1.0, 0.8, 1.2}) {
+    SCOPED_TRACE("gains x" + std::to_string(factor));
+    std::vector<std::string> sets;
+    const LoadedScenario plain = load_scenario(scenario, {});
+    for (const char* servo :
+         {"torso", "swing_hip", "swing_knee", "swing_ankle", "stance_knee", "stance_ankle"})
+      for (const char* gain : {"kp", "kd"}) {
+        const std::string key = gains + servo + "." + gain;
+        sets.push_back(key + "=" + std::to_string(*yaml_number_at(plain.document, key) * factor));
+      }
+    const RunResult r = Simulation(load_scenario(scenario, sets), {.duration = 20.0}).run();
+    EXPECT_FALSE(r.fell) << "fell at " << r.fall_time.value_or(-1);
+    EXPECT_NEAR(r.sim_time, 20.0, 1e-6);
+    EXPECT_GT(r.metrics.at("mean_speed_mps").get<double>(), 0.05);
+  }
+  const std::string states = "controllers.2.gait.states.";
+  const RunResult wide =
+      Simulation(
+          load_scenario(scenario, {states + "0.cd_lateral=0.7", states + "1.cd_lateral=2.2"}),
+          {.duration = 5.0})
+          .run();
+  EXPECT_TRUE(wide.fell);
+}
+
 }  // namespace
 }  // namespace stance
