@@ -312,18 +312,6 @@ Eigen::Quaterniond best_fit_turn(const std::vector<Eigen::Vector3d>& from,
   return Eigen::Quaterniond(svd.matrixU() * d * svd.matrixV().transpose()).normalized();
 }
 
-// a body's bone where no mapped body is below it, in the clip's world at the model's rest (unit;
-// zero where it has none): towards the mean of its child bodies, else towards its centre of mass
-// (the probe posed at rest)
-Eigen::Vector3d end_model_bone(const std::vector<RetargetModelBody>& model, const Engine& probe,
-                               const Eigen::Quaterniond& to_model, int body) {
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (const RetargetModelBody& child : model)
-    if (child.parent == body) sum += child.rest_pos - model[body].rest_pos;
-  if (sum.norm() < 1e-6) sum = probe.body_com(body) - model[body].rest_pos;
-  return sum.norm() < 1e-3 ? Eigen::Vector3d::Zero() : (to_model.conjugate() * sum).normalized();
-}
-
 // a segment's bone towards the mean of its bones' ends (its child joints, mapped or not, and its
 // End Sites), posed by its clip-world rotation `posed` (unit; zero where it has none)
 Eigen::Vector3d end_clip_bone(const MotionSegment& segment, const Eigen::Quaterniond& posed) {
@@ -340,9 +328,10 @@ Eigen::Vector3d end_clip_bone(const MotionSegment& segment, const Eigen::Quatern
 // mapped children's directions (the hips and the spine) onto the clip's, so the pelvis stands
 // and faces the heading; each body below follows its mapped parent, swung onto the clip's bone
 // (its twist the parent's, as a standing rest pose has it). An end body (no mapped body below
-// it: forearm, head) is swung so too, by its own bones: the clip's towards its unmapped joints
-// or End Sites, the model's towards its child bodies or its mass; a foot, whose bone ends at the
-// toes below its sole, follows its shin. A_i = W_i(0)^T G_i.
+// it: forearm, head) bends against its parent from the model's rest as the clip's bends from
+// straight, which its rest pose is: the swing from the parent's bone onto its own (towards its
+// unmapped joints or End Sites); a foot, whose rest is no straight line, follows its shin.
+// A_i = W_i(0)^T G_i.
 void RetargetedMotion::fix_bones_from_first_frame(Build& b,
                                                   const std::vector<std::vector<int>>& children) {
   const int nmapped = static_cast<int>(bodies_.size());
@@ -363,7 +352,6 @@ void RetargetedMotion::fix_bones_from_first_frame(Build& b,
   for (int i = 0; i < nmapped; ++i) order[i] = i;
   std::stable_sort(order.begin(), order.end(), [&](int x, int y) { return depth[x] < depth[y]; });
   std::vector<Eigen::Quaterniond> turn(nmapped, Eigen::Quaterniond::Identity());
-  b.pose_at(b.q0);  // the model's masses at rest
   const std::vector<bool> feet = in_lowest_quarter(b.first_pos);
   for (int i : order) {
     const bool has_bone = children[i].size() == 1;
@@ -380,15 +368,14 @@ void RetargetedMotion::fix_bones_from_first_frame(Build& b,
         const Eigen::Vector3d bone = turn[i] * model_dir(i, children[i][0]);
         turn[i] = Eigen::Quaterniond::FromTwoVectors(bone, clip_dir(i, children[i][0])) * turn[i];
       } else if (children[i].empty() && !feet[bodies_[i].segment]) {
-        // an end body (forearm, head): its own bone, the clip's towards its unmapped child
-        // joints or End Sites, the model's towards its child bodies or its mass. Not a foot:
-        // its bone ends at the toes, below the sole a model's foot lies along
+        // an end body (forearm, head) bends against its parent from the model's rest as the
+        // clip's bends from straight (its rest pose's bend): its bone, towards its unmapped
+        // joints or End Sites, against its parent's. Not a foot: straight is no foot's rest
         const int s = bodies_[i].segment;
         const Eigen::Vector3d clip_bone = end_clip_bone(b.sk.segments[s], b.first_rot[s]);
-        const Eigen::Vector3d model_bone =
-            end_model_bone(b.model, b.probe, b.to_model, bodies_[i].body);
-        if (clip_bone.norm() > 0 && model_bone.norm() > 0)
-          turn[i] = Eigen::Quaterniond::FromTwoVectors(turn[i] * model_bone, clip_bone) * turn[i];
+        const Eigen::Vector3d parent_bone = b.first_pos[s] - b.first_pos[b.sk.segments[s].parent];
+        if (clip_bone.norm() > 0 && parent_bone.norm() > 1e-6)
+          turn[i] = Eigen::Quaterniond::FromTwoVectors(parent_bone, clip_bone) * turn[i];
       }
     }
     b.bone_fix[i] = (b.first_rot[bodies_[i].segment].conjugate() * turn[i]).normalized();

@@ -359,9 +359,10 @@ TEST(Retarget, RootOfARestPoseThatDoesNotStandTurnsAsTheStandingClipsRoot) {
 
 // the same lying walk onto fullbody1, whose rest pose stands as the clip's does (arms down,
 // elbows and neck straight): the end bodies, with no mapped body below them, turn as the
-// standing clip's. The forearms and the head are swung onto the clip's own bones, towards the
-// End Sites the map does not map (before: they followed their parents, the forearms 15 deg off
-// and the head 3); the feet, whose bone ends at the toes, still follow the shins
+// standing clip's. The forearms and the head bend against their parents as the clip's bend from
+// straight, towards the End Sites the map does not map (before: they followed their parents, the
+// forearms 15 deg off and the head 3); the feet, whose rest is no straight line, still follow the
+// shins
 TEST(Retarget, EndBodiesOfARestPoseThatDoesNotStandTurnAsTheStandingClips) {
   const std::string skel = "/usr/share/doc/dart/data/skel/fullbody1.skel";
   if (!std::filesystem::exists(skel)) GTEST_SKIP() << "no " << skel;
