@@ -8,6 +8,7 @@
 #include "core/error.h"
 #include "engine/engine.h"
 #include "engine/world_spec.h"
+#include "model/mjcf_newer.h"
 #include "test_support.h"
 
 namespace stance {
@@ -81,6 +82,33 @@ TEST(MjcfNewer, AnAttributeOfANewerMujocoIsNamedAtItsLine) {
       EXPECT_NE(what.find("needs a newer MuJoCo"), std::string::npos) << what;
     }
   }
+}
+
+// integrator="implicitfast" (current collections' robots) runs as 2.2.2's implicit, with a note;
+// 2.2.2's parser refused the keyword ("invalid keyword")
+TEST(MjcfNewer, ImplicitFastRunsAsImplicit) {
+  auto pendulum = [](const std::string& name, const std::string& integrator) {
+    return test::write_temp_file(
+        name, "<mujoco>\n<option integrator=\"" + integrator +
+                  "\"/>\n<worldbody>\n<body name=\"b\">\n"
+                  "<joint name=\"j\" axis=\"0 1 0\" damping=\"3\"/>\n"
+                  "<geom type=\"capsule\" fromto=\"0 0 0 0.3 0 0\" size=\"0.05\" mass=\"1\"/>\n"
+                  "</body>\n</worldbody>\n</mujoco>\n");
+  };
+  const std::string fast = pendulum("newer_implicitfast.xml", "implicitfast");
+  const std::string implicit = pendulum("newer_implicit.xml", "implicit");
+  EXPECT_NE(read_newer_mjcf(fast, fast).note.find("implicitfast"), std::string::npos);
+  WorldSpec a, b;
+  a.models.push_back({fast});
+  b.models.push_back({implicit});
+  std::unique_ptr<Engine> run_fast = make_engine("mujoco", a);
+  std::unique_ptr<Engine> run_implicit = make_engine("mujoco", b);
+  for (int k = 0; k < 200; ++k) {
+    run_fast->step();
+    run_implicit->step();
+  }
+  EXPECT_EQ(run_fast->dof_position(0), run_implicit->dof_position(0));
+  EXPECT_GT(std::abs(run_fast->dof_position(0)), 0.1);  // it swung down
 }
 
 }  // namespace
