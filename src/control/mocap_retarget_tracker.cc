@@ -176,6 +176,7 @@ void MocapRetargetTracker::init_fall_rule(const Engine& engine, const Engine& pr
     for (size_t i = 0; i < bodies.size(); ++i)
       sole_level_ = std::min(
           sole_level_, up_.dot(motion_->sample_body_pose(f * motion_->frame_time_s(), i).pos));
+  com_height_ = up_.dot(probe->com()) - sole_level_;
 }
 
 // kp_ and kd_ per dof (kp_joints, kd_joints, the limit cap, the root's)
@@ -211,6 +212,30 @@ void MocapRetargetTracker::init_gains(const MocapRetargetParams& params, const E
       kp_[d] *= scale;
       kd_[d] *= scale;
     }
+  // free mode: a leg softer than the body's gravity stiffness m g h lets the body topple about
+  // its stance foot (kp 1600 on a 150 kg robot is about m g h); the legs' dofs, from the feet
+  // up to the root body, get at least load_gain_margin x m g h, and then the cap above
+  if (mode_ == MocapRootMode::kFree && has_legs_ && params.load_gain_margin > 0) {
+    const double floor =
+        params.load_gain_margin * engine.total_mass() * engine.gravity().norm() * com_height_;
+    for (int side = 0; side < 2; ++side)
+      for (int b = motion_->bodies()[foot_[side]].body; b >= 0 && b != root_body_;
+           b = engine.body_parent(b))
+        for (int j = 0; j < engine.njoint(); ++j) {
+          const JointInfo& joint = engine.joint(j);
+          if (joint.body != b || joint.type == JointType::kFree) continue;
+          for (int d = joint.dof_adr; d < joint.dof_adr + joint.nv; ++d)
+            if (kp_[d] > 0 && kp_[d] < floor) {
+              const double cap = params.limit_gain_error > 0
+                                     ? joint.force_limit / params.limit_gain_error
+                                     : std::numeric_limits<double>::infinity();
+              const double raised = std::min(floor, cap);
+              if (raised <= kp_[d]) continue;
+              kd_[d] *= raised / kp_[d];
+              kp_[d] = raised;
+            }
+        }
+  }
   for (int i = root_dof_; i < root_dof_ + 6; ++i) {
     const bool translation = engine.dof_name(i).find("_pos_") != std::string::npos;
     root_translation_[i - root_dof_] = translation;

@@ -53,6 +53,9 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
   // free mode: a dof's kp is at most its torque limit / this (kd by the same factor), so that its
   // PD reaches the limit no sooner than at this error whatever kp is (0: off)
   double limit_gain_error = 0.1;  // rad
+  // free mode: a leg dof's kp is at least this x the body's gravity stiffness m g h (h: the COM
+  // over the ankles), kd by the same factor: a softer leg lets the body topple (0: off)
+  double load_gain_margin = 1.25;
 
   template <class V>
   void visit(V& v) {
@@ -68,6 +71,8 @@ struct MocapRetargetParams : MocapClipParams, MocapHelperParams, MocapBalancePar
     v("max_torque", max_torque, {.unit = "N m", .min = 0, .help = "0: none"});
     v("limit_gain_error", limit_gain_error,
       {.unit = "rad", .min = 0, .max = 10, .help = "free mode: kp at most limit / this; 0: off"});
+    v("load_gain_margin", load_gain_margin,
+      {.min = 0, .max = 10, .help = "free mode: a leg's kp at least this x m g h; 0: off"});
     MocapBalanceParams::visit(v);
   }
 };
@@ -282,6 +287,7 @@ class MocapRetargetTracker final
   std::vector<int> child_first_, children_;
   double anchored_mass_ = 0;
   double sole_level_ = 0;
+  double com_height_ = 0;  // m: the COM over the lowest foot origin at the first frame
   std::vector<std::string> body_names_;  // the engine's, for the metrics
   Eigen::Vector3d up_ = Eigen::Vector3d::UnitZ();
 };
