@@ -35,6 +35,7 @@ set(stance_label_patterns
   physics "^SimulationLoop\\.StopsOneSecondAfterAFall"
   physics "^PlannerStanding\\."
   physics "^PlannerTracking\\."
+  physics "^PlannerWeakAnkles\\."
   physics "^ExternalForces\\.PlannerKeeps"
   physics "^RobustnessMap\\."
   physics "^ShippedScenario/ScenarioExpectation\\.")
