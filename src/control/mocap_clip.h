@@ -98,7 +98,7 @@ struct MocapBalanceParams {
   // ankles under 0.6 N m/kg (control/mocap_weak_ankles.h): the clip's swing foot swung even where
   // it scuffs, and lifted by as much as the root rides below the clip's
   bool weak_ankles = true;
-  std::string left_hip, right_hip;  // thigh joints (clip names); empty: found from the feet
+  std::string left_hip, right_hip;    // thigh joints (clip names); empty: found from the feet
   std::string left_foot, right_foot;  // feet; empty: the first foot/toe/ankle segment per leg
 
   template <class V>

@@ -118,8 +118,7 @@ MocapRetargetTracker::MocapRetargetTracker(const MocapRetargetParams& params,
     ankle_corrections_ = std::min(ankle_corrections_, dofs);
   }
   if (mode_ == MocapRootMode::kFree && params.balance) {
-    if (params.weak_ankles)
-      weak_legs_ = find_weak_ankle_legs(engine, bodies, root_mapped_, foot_);
+    if (params.weak_ankles) weak_legs_ = find_weak_ankle_legs(engine, bodies, root_mapped_, foot_);
     // the walking direction in the root body's frame: the mean horizontal root velocity
     std::vector<Eigen::Quaterniond> world(bodies.size()), local(bodies.size());
     std::vector<Eigen::Vector3d> a(bodies.size()), b(bodies.size());
