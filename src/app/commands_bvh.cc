@@ -178,13 +178,18 @@ struct BvhTrackFiles {
   std::string scenario;
   std::string character;
   std::string map, map_report;  // --model without --map: the map found (auto_joint_map.h)
-  std::string ground;           // a URDF/SDF robot's floor, which it does not bring
+  std::string ground;           // a robot's floor, which its file does not bring
 };
 
-// true for a URDF/SDF robot with a floating base and no floor: alone it falls through at once
+// true for a URDF/SDF robot with a floating base (an MJCF free joint) and no floor: alone it
+// falls through at once
 bool model_needs_ground(const std::string& model) {
   const std::string path = resolve_model_path(model);
   const ModelFormat format = model_format(path);
+  if (format == ModelFormat::kMjcf) {
+    const MjcfGroundFacts facts = mjcf_ground_facts(path);
+    return facts.floats && !facts.has_floor;
+  }
   if (format != ModelFormat::kUrdf && format != ModelFormat::kSdf) return false;
   return robots_need_ground({read_robot(model, path, {})});
 }

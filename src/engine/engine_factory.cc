@@ -153,6 +153,47 @@ std::unique_ptr<Engine> checked_timestep(std::unique_ptr<Engine> engine, const W
   throw InputError(spec.models.front().path + ": timestep: " + problem);
 }
 
+// the one MJCF model of a world whose other models are URDF/SDF grounds (bvh track's
+// ground.urdf beside a collection's robot file, which brings no floor); null otherwise
+const ModelFile* mjcf_on_grounds(const WorldSpec& spec) {
+  const ModelFile* mjcf = nullptr;
+  std::vector<const ModelFile*> others;
+  for (const auto& mf : spec.models) {
+    const ModelFormat format = model_format(resolve_model_path(mf.path));
+    if (format == ModelFormat::kMjcf && mjcf == nullptr) {
+      mjcf = &mf;
+    } else if (is_robot_format(format)) {
+      others.push_back(&mf);
+    } else {
+      return nullptr;
+    }
+  }
+  if (mjcf == nullptr || others.empty()) return nullptr;
+  for (const ModelFile* mf : others)
+    if (!robot_is_ground(read_robot(mf->path, resolve_model_path(mf->path), mf->robot)))
+      return nullptr;
+  return mjcf;
+}
+
+// MuJoCo loads one MJCF per world: the grounds become a floor in the model's own text, the box
+// of models/ground.urdf (40 m x 40 m, its top at z = 0)
+void add_mjcf_floor(BackendModel& model) {
+  auto patched = std::find_if(model.patched_files.begin(), model.patched_files.end(),
+                              [&](const auto& f) { return f.first == model.file; });
+  if (patched == model.patched_files.end()) {
+    std::ifstream in(model.file, std::ios::binary);
+    model.patched_files.emplace_back(model.file, std::string(std::istreambuf_iterator<char>(in),
+                                                             std::istreambuf_iterator<char>()));
+    patched = std::prev(model.patched_files.end());
+  }
+  std::string& text = patched->second;
+  const size_t end = text.rfind("</mujoco>");
+  if (end == std::string::npos) return;  // not well-formed: MuJoCo's message says where
+  text.insert(end,
+              "<worldbody><geom name=\"stance_ground\" type=\"box\" size=\"20 20 0.5\" "
+              "pos=\"0 0 -0.5\" contype=\"1\" conaffinity=\"1\"/></worldbody>\n");
+}
+
 std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
   BackendWorld world = world_options(spec);
   std::vector<SkelInput> skel_inputs;
@@ -164,7 +205,8 @@ std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
     if (format == ModelFormat::kSkel) skel_inputs.push_back({path, mf.offset});
     if (is_robot_format(format)) robot_inputs.push_back({mf.path, path, mf.offset, mf.robot});
   }
-  if (!robot_inputs.empty()) {
+  const ModelFile* on_grounds = mjcf_on_grounds(spec);
+  if (!robot_inputs.empty() && on_grounds == nullptr) {
     // URDF and SDF through stance's translation, composed into one world
     if (robot_inputs.size() != spec.models.size())
       throw InputError(
@@ -193,14 +235,15 @@ std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
     world.start_keyframe = "init";
     return open_mujoco_engine(world);
   }
-  if (spec.models.size() != 1)
+  if (spec.models.size() != 1 && on_grounds == nullptr)
     throw InputError("MuJoCo loads one MJCF/URDF file per world; use <include> to compose");
-  const ModelFile& mf = spec.models.front();
+  const ModelFile& mf = on_grounds ? *on_grounds : spec.models.front();
   const std::string path = resolve_model_path(mf.path);
   check_mjcf_root(mf.path, path);
   world.models.push_back({path, path, "", model_format(path), mf.offset});
   const std::string note = apply_newer_mjcf(mf, world.models.back());
   lock_mjcf_joints(mf, world.models.back());
+  if (on_grounds) add_mjcf_floor(world.models.back());
   std::unique_ptr<Engine> engine = open_mujoco_engine(world);
   note_once(note);
   return engine;

@@ -117,6 +117,14 @@ bool robot_is_ground(const RobotModel& robot);
 // true when a world of these robots has no floor but a floating base that falls through at once
 bool robots_need_ground(const std::vector<RobotModel>& robots);
 
+// what an MJCF model (with the files it includes) brings toward a floor: a free joint, and a
+// colliding geom that never moves (in <worldbody>, or in a body welded to it)
+struct MjcfGroundFacts {
+  bool floats = false;
+  bool has_floor = false;
+};
+MjcfGroundFacts mjcf_ground_facts(const std::string& path);
+
 // the text of a Z-up ground for URDF/SDF robots, that of models/ground.urdf: a 40 m x 40 m box
 // whose top face is z = 0, welded to the world
 std::string ground_urdf_text();

@@ -121,8 +121,9 @@ std::string place_in(const LoadedScenario* loaded, const std::vector<std::string
 }  // namespace
 
 namespace {
-// a world of URDF/SDF robots with a floating base and no floor: the base falls through at once
-// (MJCF and SKEL files bring their own floors); checked and said once per process and model list
+// a world of URDF/SDF/MJCF robots with a floating base (an MJCF free joint) and no floor: the
+// base falls through at once (SKEL files bring their own floors); checked and said once per
+// process and model list
 void warn_when_no_ground(const Scenario& s) {
   static std::mutex mutex;
   static std::set<std::string> checked;
@@ -133,14 +134,23 @@ void warn_when_no_ground(const Scenario& s) {
     if (!checked.insert(key).second) return;
   }
   std::vector<RobotModel> robots;
+  MjcfGroundFacts mjcf;  // of the MJCF models, which may bring a floor or a free joint
   for (const auto& m : s.model) {
     const std::string path = resolve_model_path(m.file);
     const ModelFormat format = model_format(path);
+    if (format == ModelFormat::kMjcf) {
+      const MjcfGroundFacts f = mjcf_ground_facts(path);
+      mjcf.floats |= f.floats && !m.fixed_base;
+      mjcf.has_floor |= f.has_floor;
+      continue;
+    }
     if (format != ModelFormat::kUrdf && format != ModelFormat::kSdf) return;
     robots.push_back(
         read_robot(m.file, path, {m.fixed_base, m.package_path, m.mesh_collision, m.lock_joints}));
   }
-  if (robots_need_ground(robots))
+  const bool urdf_ground = std::any_of(robots.begin(), robots.end(), robot_is_ground);
+  if (mjcf.has_floor || urdf_ground) return;
+  if (mjcf.floats || robots_need_ground(robots))
     std::cerr << "warning: " << s.model.front().file
               << ": no model is a ground and the base floats: it falls through at once (add "
                  "models/ground.urdf under model:)\n";
