@@ -176,11 +176,20 @@ std::string body_list(const RestTree& t) {
   return out;
 }
 
+std::string lowered(const std::string& name) {
+  std::string low;
+  for (char c : name) low += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return low;
+}
+
+bool elbow_named(const std::string& name) {
+  return lowered(name).find("elbow") != std::string::npos;
+}
+
 bool girdle_named(const std::string& name) {
   // clavicle, scapula, collar; "LeftShoulder" and "Shoulder_L" (Bandai Namco's: a collar), not
   // "left_shoulder_pitch_link"
-  std::string low;
-  for (char c : name) low += static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const std::string low = lowered(name);
   for (const char* part : {"clav", "scap", "collar"})
     if (low.find(part) != std::string::npos) return true;
   const std::string tail = "shoulder";
@@ -286,6 +295,14 @@ void find_upper_body(const RestTree& t, Roles& r, bool model) {
             std::all_of(joints[0].begin(), joints[0].end(),
                         [&](int b) { return girdle_named(t.names[b]); })))
       joints.erase(joints.begin());
+    // a robot's shoulder may be three hinges apart, one of them a twist halfway down the upper
+    // arm (pitch, roll, yaw links): where a body is named an elbow, the upper arm is the joint
+    // above it
+    const auto elbow = std::find_if(joints.begin() + 1, joints.end(), [&](const auto& joint) {
+      return std::any_of(joint.begin(), joint.end(),
+                         [&](int b) { return elbow_named(t.names[b]); });
+    });
+    if (elbow != joints.end()) joints.erase(joints.begin(), elbow - 1);
     r.upper_arm[s] = joints[0].back();
     if (joints.size() > 1) r.lower_arm[s] = joints[1].back();
   }

@@ -143,6 +143,20 @@ TEST(AutoJointMap, AtlasHingeChainsGiveCompleteLegs) {
   EXPECT_EQ(pairs.count("Head"), 0u);
 }
 
+// a robot's shoulder as three hinges apart, the third a twist down the upper arm: the upper arm
+// is the body above the one named an elbow (before: the pitch link, 6 cm long, and the roll link
+// as the forearm)
+TEST(AutoJointMap, ShoulderHingesApartGiveTheUpperArmAboveTheElbow) {
+  auto model = load("mujoco", test::source_dir() + "/tests/models/hinge_arm_robot.xml");
+  AutoJointMap found = find_joint_map(synthetic_walk_skeleton(), "walk", *model, "robot");
+  auto pairs = pairs_of(found.map);
+  EXPECT_EQ(pairs["LeftArm"], "left_shoulder_yaw_link");
+  EXPECT_EQ(pairs["LeftForeArm"], "left_elbow_link");
+  EXPECT_EQ(pairs["RightArm"], "right_shoulder_yaw_link");
+  EXPECT_EQ(pairs["RightForeArm"], "right_elbow_link");
+  EXPECT_EQ(pairs["LeftUpLeg"], "left_thigh_link");
+}
+
 TEST(AutoJointMap, Fullbody1YUpGivesCompleteLegs) {
   if (!test::have_dart_data()) GTEST_SKIP() << "no dart-doc";
   auto model = load("dart", test::kFullbodySkel);
