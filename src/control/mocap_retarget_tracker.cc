@@ -7,6 +7,7 @@
 
 #include <fmt/format.h>
 
+#include "control/mocap_gains.h"
 #include "core/error.h"
 #include "engine/engine.h"
 #include "math/rotations.h"
@@ -185,55 +186,25 @@ void MocapRetargetTracker::init_gains(const MocapRetargetParams& params, const E
   const int nv = engine.nv();
   kp_ = Eigen::VectorXd::Constant(nv, params.kp);
   kd_ = Eigen::VectorXd::Constant(nv, params.kd);
-  auto set_gain = [&](Eigen::VectorXd& gains, const std::string& name, double value,
-                      const char* what) {
-    if (engine.dof_index(name) >= 0) {
-      gains[engine.dof_index(name)] = value;
-    } else if (const int j = engine.joint_index(name); j >= 0) {
-      gains.segment(engine.joint(j).dof_adr, engine.joint(j).nv).setConstant(value);
-    } else {
-      std::vector<std::string> names = engine.dof_names();
-      for (int k = 0; k < engine.njoint(); ++k) names.push_back(engine.joint(k).name);
-      throw InputError(fmt::format("{}: the model has no dof or joint '{}'{}", what, name,
-                                   did_you_mean(name, names)));
-    }
-  };
-  for (const auto& [name, value] : params.kp_joints) set_gain(kp_, name, value, "kp_joints");
-  for (const auto& [name, value] : params.kd_joints) set_gain(kd_, name, value, "kd_joints");
-  // free mode on a robot's motors: a weak dof's PD reaches its limit no sooner than at
-  // limit_gain_error (a clamped stable PD loses the damping its implicit step counts on, and
-  // chatters); a stiffer kp on it would only saturate sooner, a softer one is kept
+  for (const auto& [name, value] : params.kp_joints)
+    set_gain_by_name(engine, kp_, name, value, "kp_joints");
+  for (const auto& [name, value] : params.kd_joints)
+    set_gain_by_name(engine, kd_, name, value, "kd_joints");
   if (mode_ == MocapRootMode::kFree && params.limit_gain_error > 0)
-    for (int d = 0; d < nv; ++d) {
-      const double limit = engine.joint(engine.dof_joint(d)).force_limit;
-      if (!std::isfinite(limit) || kp_[d] <= 0) continue;
-      const double scale = std::min(1.0, limit / params.limit_gain_error / kp_[d]);
-      kp_[d] *= scale;
-      kd_[d] *= scale;
-    }
+    cap_gains_at_limits(engine, params.limit_gain_error, kp_, kd_);
   // free mode: a leg softer than the body's gravity stiffness m g h lets the body topple about
   // its stance foot (kp 1600 on a 150 kg robot is about m g h); the legs' dofs, from the feet
   // up to the root body, get at least load_gain_margin x m g h, and then the cap above
   if (mode_ == MocapRootMode::kFree && has_legs_ && params.load_gain_margin > 0) {
-    const double floor =
-        params.load_gain_margin * engine.total_mass() * engine.gravity().norm() * com_height_;
+    std::vector<int> leg_bodies;
     for (int side = 0; side < 2; ++side)
       for (int b = motion_->bodies()[foot_[side]].body; b >= 0 && b != root_body_;
            b = engine.body_parent(b))
-        for (int j = 0; j < engine.njoint(); ++j) {
-          const JointInfo& joint = engine.joint(j);
-          if (joint.body != b || joint.type == JointType::kFree) continue;
-          for (int d = joint.dof_adr; d < joint.dof_adr + joint.nv; ++d)
-            if (kp_[d] > 0 && kp_[d] < floor) {
-              const double cap = params.limit_gain_error > 0
-                                     ? joint.force_limit / params.limit_gain_error
-                                     : std::numeric_limits<double>::infinity();
-              const double raised = std::min(floor, cap);
-              if (raised <= kp_[d]) continue;
-              kd_[d] *= raised / kp_[d];
-              kp_[d] = raised;
-            }
-        }
+        leg_bodies.push_back(b);
+    raise_gains_to_floor(
+        engine, leg_bodies,
+        params.load_gain_margin * engine.total_mass() * engine.gravity().norm() * com_height_,
+        params.limit_gain_error, kp_, kd_);
   }
   for (int i = root_dof_; i < root_dof_ + 6; ++i) {
     const bool translation = engine.dof_name(i).find("_pos_") != std::string::npos;
