@@ -62,8 +62,8 @@ struct TrackRow {
   // the columns that are not reproducible: wall seconds and the run's own CPU seconds per
   // simulated second
   double compute_s_per_sim_s = kNoValue, cpu_s_per_sim_s = kNoValue;
-  std::string error;                      // not empty: the clip was not tracked, and why
-  bool internal_error = false;            // the error is a bug in stance, not the clip's
+  std::string error;            // not empty: the clip was not tracked, and why
+  bool internal_error = false;  // the error is a bug in stance, not the clip's
   // the body position error over time (m): the mean over each strip_bin_s from t = 0 (NaN: no
   // sample)
   double strip_bin_s = 0;

@@ -361,8 +361,7 @@ void write_track_results(const std::string& dir, const TrackBatchResult& result)
   for (const TrackRow& r : result.rows) {
     if (!r.error.empty()) {
       csv << csv_field(r.clip) << ",,,,,,0,,,,," << csv_field(r.error) << ",,\n";
-      md << "| " << md_text(r.clip) << " | | | | | no | | | | | | | " << md_text(r.error)
-         << " |\n";
+      md << "| " << md_text(r.clip) << " | | | | | no | | | | | | | " << md_text(r.error) << " |\n";
       continue;
     }
     csv << csv_field(r.clip) << ',' << r.frames << ',' << csv_number(r.clip_s) << ','

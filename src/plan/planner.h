@@ -49,9 +49,7 @@ class Planner : public CorrectionSource {
   // choose the plan from the simulation's current state; sets its CorrectionPlan
   void plan(Simulation& sim) override;
   // its rollout workers' CPU seconds besides the stepping thread (Executor's started threads)
-  double own_threads_cpu_seconds() const override {
-    return pool_->started_threads_cpu_seconds();
-  }
+  double own_threads_cpu_seconds() const override { return pool_->started_threads_cpu_seconds(); }
   // the chosen rollout's root path in the world, for drawing (empty before the first plan)
   const std::vector<Eigen::Vector3d>& best_path() const { return best_path_; }
   const PlannerModel& model() const { return *model_; }

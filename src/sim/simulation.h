@@ -359,7 +359,7 @@ class Simulation {
   std::vector<double>* controller_seconds_ = nullptr;
   Eigen::VectorXd correction_;                 // this step's correction, dim planner dimensions
   std::unique_ptr<CorrectionSource> planner_;  // made when the model plans
-  double retired_planners_cpu_s_ = 0;  // own threads' CPU of planners replaced by retuning
+  double retired_planners_cpu_s_ = 0;          // own threads' CPU of planners replaced by retuning
   // a rollout's steps that still hold out_ (planner.control_every)
   int held_steps_left_ = 0;
 };
