@@ -41,7 +41,10 @@ void lift_foot(const Engine& engine, int foot_body, const std::vector<int>& leg_
   engine.point_jacobian(foot_body, engine.body_pose(foot_body).pos, jac, none);
   // dq = J^T (J J^T + lambda I)^-1 (lift up), over the leg's dofs only
   Eigen::Matrix3d a = 1e-4 * Eigen::Matrix3d::Identity();
-  for (int d : leg_dofs) a += jac.col(d) * jac.col(d).transpose();
+  for (int d : leg_dofs) {
+    const Eigen::Vector3d column = jac.col(d);  // fixed size: the outer product allocates none
+    a += column * column.transpose();
+  }
   const Eigen::Vector3d w = a.ldlt().solve(lift * up);
   dv.setZero();
   for (int d : leg_dofs) dv[d] = jac.col(d).dot(w);
