@@ -327,6 +327,17 @@ fall: {{com_height_fraction: 0.8, allowed_contacts: [left_sole_link, right_sole_
   return load_scenario(test::write_temp_file("pitch_ankle_robot_lqr.yaml", yaml), sets);
 }
 
+// the defaults, the costs x0.8 and x1.2, and a 4 ms step: where a two-foot LQR must hold
+std::vector<std::vector<std::string>> two_foot_cost_cases() {
+  const std::string c = "controllers.0.";
+  return {
+      {},
+      {c + "balance_cost=8e5", c + "balance_joint_cost=2400", c + "other_joint_cost=240"},
+      {c + "balance_cost=1.2e6", c + "balance_joint_cost=3600", c + "other_joint_cost=360"},
+      {"timestep=0.004"},
+  };
+}
+
 TEST(LqrTwoFeet, PitchAnkleRobotNamingNoFootStandsOnEachSidesLowestBody) {
   LoadedScenario l = pitch_ankle_robot_lqr();
   auto engine = make_scenario_engine(l.scenario, "mujoco");
@@ -334,13 +345,7 @@ TEST(LqrTwoFeet, PitchAnkleRobotNamingNoFootStandsOnEachSidesLowestBody) {
   const int right = engine->body_index("right_sole_link");
   EXPECT_EQ(find_stance_feet("both", *engine), std::vector<int>({left, right}));
   EXPECT_EQ(find_stance_feet("right", *engine), std::vector<int>({right}));
-  const std::string c = "controllers.0.";
-  const std::vector<std::vector<std::string>> cases = {
-      {},
-      {c + "balance_cost=8e5", c + "balance_joint_cost=2400", c + "other_joint_cost=240"},
-      {c + "balance_cost=1.2e6", c + "balance_joint_cost=3600", c + "other_joint_cost=360"},
-      {"timestep=0.004"},
-  };
+  const std::vector<std::vector<std::string>> cases = two_foot_cost_cases();
   for (const auto& sets : cases) {
     RunResult r = Simulation(pitch_ankle_robot_lqr(sets), {.quiet = true}).run();
     const std::string what = fmt::format("{}", fmt::join(sets, " "));
@@ -463,13 +468,7 @@ TEST(LqrTwoFeet, KeyframeGivesTheSameDesignAsInitialPose) {
 // at +-20 % and at another timestep
 TEST(LqrTwoFeet, AtlasHoldsOnMujocoAtTheDefaultsAndNearby) {
   if (!test::have_atlas()) GTEST_SKIP() << "dart-doc not installed";
-  const std::string c = "controllers.0.";
-  const std::vector<std::vector<std::string>> cases = {
-      {},
-      {c + "balance_cost=8e5", c + "balance_joint_cost=2400", c + "other_joint_cost=240"},
-      {c + "balance_cost=1.2e6", c + "balance_joint_cost=3600", c + "other_joint_cost=360"},
-      {"timestep=0.004"},
-  };
+  const std::vector<std::vector<std::string>> cases = two_foot_cost_cases();
   for (const auto& sets : cases) {
     LoadedScenario l = load_scenario(test::scenario_path("lqr_two_feet_atlas.yaml"), sets);
     RunResult r = Simulation(l, {.quiet = true}).run();
