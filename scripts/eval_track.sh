@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # make eval-track: the planner's tracking matrix, as batches of `stance bvh track`. Every clip under
 # one parameter set: the defaults at planner seeds 1-5, then at seed 1 kp x0.8, kp x1.2, a 1 ms
-# and a 2 ms timestep. The clips, in groups that share their options (one batch per group and
+# and a 2 ms timestep (left out where it is the group's own model step: that is seed 1 again).
+# The clips, in groups that share their options (one batch per group and
 # setting; a group is a folder of links to its clips, named as the table names them):
 #   looped    the synthetic walk and run, and mass_walk, looped for 20 s
 #   dataset   every clip in ../shared/data/bvh (the Bandai Namco clips included), once each
@@ -107,9 +108,21 @@ forget_only() {
   done < <(find "$dir" -name summary.json)
 }
 
+# own_timestep GROUP OPTIONS: the model step of the group's runs (a 0.01 s probe of its first clip)
+own_timestep() {
+  local first
+  first=$(find "$OUT/groups/$1" -name '*.bvh' | LC_ALL=C sort | head -1)
+  # shellcheck disable=SC2001,SC2086
+  "$STANCE" bvh track "$first" --out "$probe" --quiet \
+    $(echo "$2" | sed 's/--loop//; s/--duration [0-9.]*//') --duration 0.01 >/dev/null
+  python3 -c 'import json, sys; j = json.load(open(sys.argv[1]))
+print(round(j["sim_time"] / j["steps"], 6))' "$probe/summary.json"
+}
+
 for g in "${groups[@]}"; do
   IFS='|' read -r group options <<<"$g"
   [ -d "$OUT/groups/$group" ] || continue
+  timestep=$(own_timestep "$group" "$options")
   if [ -n "$ONLY_SECONDS" ]; then
     # shellcheck disable=SC2001
     options="$(echo "$options" | sed 's/--duration [0-9.]*//') --duration $ONLY_SECONDS"
@@ -117,6 +130,11 @@ for g in "${groups[@]}"; do
   for s in "${settings[@]}"; do
     IFS='|' read -r setting sargs <<<"$s"
     in_list "$setting" "$EVAL_SETTINGS" || continue
+    # a timestep setting equal to the model's own step is the seed-1 run again
+    if [[ "$sargs" == *"timestep="* ]] && python3 -c 'import sys
+sys.exit(abs(float(sys.argv[1]) - float(sys.argv[2])) > 1e-9)' "${sargs##*timestep=}" "$timestep"; then
+      continue
+    fi
     dir="$OUT/$group/$setting"
     resume=()
     if [ -f "$dir/track_batch.json" ] && [ -n "$EVAL_ONLY$EVAL_RESUME" ]; then
