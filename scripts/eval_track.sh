@@ -153,60 +153,11 @@ sys.exit(abs(float(sys.argv[1]) - float(sys.argv[2])) > 1e-9)' "${sargs##*timest
   done
 done
 
-# the table: every batch's rows, clip by clip in the groups' order, then setting by setting
-table="$OUT/table.md"
-python3 - "$OUT" "$table" "${groups[@]%%|*}" -- "${settings[@]%%|*}" <<'PY'
-import csv, os, sys
-out, table = sys.argv[1:3]
-rest = sys.argv[3:]
-groups, settings = rest[:rest.index("--")], rest[rest.index("--") + 1:]
-def num(r, k, digits):
-    return "{:.{}f}".format(float(r[k]), digits) if r.get(k) else "-"
-lines = ["| clip | setting | sim s | fell | success | G-MPJPE m | root m | joint deg | skate m/s "
-         "| compute s/s | CPU s/s | holds |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-for group in groups:
-    rows = {}
-    for setting in settings:
-        path = os.path.join(out, group, setting, "results.csv")
-        if os.path.exists(path):
-            rows[setting] = {r["clip"]: r for r in csv.DictReader(open(path))}
-    clips = []
-    for by_clip in rows.values():
-        clips += [c for c in by_clip if c not in clips]
-    for clip in clips:
-        for setting in settings:
-            r = rows.get(setting, {}).get(clip)
-            if r is None:
-                continue
-            if r["error"]:
-                lines.append("| {} | {} | - | - | - | - | - | - | - | - | - | ERROR: {} |".format(
-                    clip, setting, r["error"].replace("|", "\\|")))
-                continue
-            fell, success = r["fell"] == "1" or r["diverged"] == "1", r["success"] == "1"
-            holds = (not fell and success and float(r["root_error_m"]) <= 0.2
-                     and float(r["joint_error_deg"]) <= 6)
-            lines.append("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |".format(
-                clip, setting, num(r, "sim_s", 1), "diverged" if r["diverged"] == "1" else
-                ("yes" if fell else "no"), "yes" if success else "no", num(r, "g_mpjpe_m", 3),
-                num(r, "root_error_m", 3), num(r, "joint_error_deg", 2),
-                num(r, "foot_skate_m_per_s", 3), num(r, "compute_s_per_sim_s", 1),
-                num(r, "cpu_s_per_sim_s", 1), "PASS" if holds else "FAIL"))
-open(table, "w").write("\n".join(lines) + "\n")
-PY
-cat "$table"
+# the tables: every run (OUT/table.md), and per clip (OUT/summary.md); the docs get both
+docs_args=()
+[ "$docs" = yes ] && docs_args=(--docs docs/results.md)
+python3 "$(dirname "$0")/eval_track_table.py" "$OUT" --groups "${groups[@]%%|*}" \
+  --settings "${settings[@]%%|*}" "${docs_args[@]}"
 if [ "$docs" = no ]; then
-  echo "eval-track: a candidate or a subset: table in $table; the docs keep the full matrix's" >&2
-  exit 0
+  echo "eval-track: a candidate or a subset: tables in $OUT; the docs keep the full matrix's" >&2
 fi
-
-# the table into the docs, between the markers
-python3 - "$table" docs/results.md <<'PY'
-import sys, re
-table = open(sys.argv[1]).read().strip()
-for path in sys.argv[2:]:
-    text = open(path).read()
-    new = re.sub(r"(<!-- EVAL-TRACK BEGIN -->\n).*?(\n<!-- EVAL-TRACK END -->)",
-                 lambda m: m.group(1) + table + m.group(2), text, flags=re.S)
-    if new != text:
-        open(path, "w").write(new)
-PY
