@@ -13,6 +13,7 @@
 
 #include "core/error.h"
 #include "engine/backend_world.h"
+#include "engine/mujoco/mujoco_inertia.h"
 #include "engine/mujoco/mujoco_pairs.h"
 
 namespace stance {
@@ -490,7 +491,7 @@ void MujocoEngine::forward() {
   if (forwarded_) return;
   // step1 computes everything that depends on positions and velocities; step2 finishes the step
   std::copy(d_->qpos, d_->qpos + m_->nq, qpos_before_forward_.data());
-  mj_step1(m_, d_);
+  step_positions_and_velocities(m_, d_);  // mj_step1, its inertia stages inlined
   if (constraint_restored_) {
     std::copy(restored_constraint_.data(), restored_constraint_.data() + m_->nv,
               d_->qfrc_constraint);
