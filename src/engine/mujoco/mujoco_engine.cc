@@ -602,16 +602,20 @@ void MujocoEngine::com_jacobian(Eigen::Ref<Eigen::MatrixXd> jac) const {
   jac.setZero();
   for (int b : mobile_bodies_) {
     const double weight = m_->body_mass[b] / total_mass_;
-    double offset[3], cross[3];
+    double offset[3];
     mju_sub3(offset, d_->xipos + 3 * b, d_->subtree_com + 3 * m_->body_rootid[b]);
     int moving = b;  // the first body up the chain with dofs of its own
     while (moving > 0 && m_->body_dofnum[moving] == 0) moving = m_->body_parentid[moving];
     if (moving <= 0) continue;
     const int last = m_->body_dofadr[moving] + m_->body_dofnum[moving] - 1;
     for (int i = last; i >= 0; i = m_->dof_parentid[i]) {
-      const double* cdof = d_->cdof + 6 * i;
-      mju_cross(cross, cdof, offset);
-      for (int r = 0; r < 3; ++r) jac(r, i) += weight * (cdof[3 + r] + cross[r]);
+      // cdof's rotation x offset, inline as mju_cross computes it (a call per dof cost a
+      // fifth of this function)
+      const double* w = d_->cdof + 6 * i;
+      const double cross[3] = {w[1] * offset[2] - w[2] * offset[1],
+                               w[2] * offset[0] - w[0] * offset[2],
+                               w[0] * offset[1] - w[1] * offset[0]};
+      for (int r = 0; r < 3; ++r) jac(r, i) += weight * (w[3 + r] + cross[r]);
     }
   }
 }
