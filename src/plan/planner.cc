@@ -135,8 +135,9 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound, const CostP
   const double change = w.change > 0 ? (c.knots - nominal_).squaredNorm() / size : 0.0;
   const double knots_cost = w.effort * effort + w.change * change;
   // at most one cost sample a step (a margin of two for the clock's rounding)
+  const double horizon_s = active_horizon_s_;
   const double sample_dt = std::max(p.cost_interval_s, sim.engine().timestep());
-  const double most_samples = std::floor(p.horizon_s / sample_dt) + 2;
+  const double most_samples = std::floor(horizon_s / sample_dt) + 2;
   c.stopped = false;
   c.profile.knots_cost = knots_cost;
   c.profile.stage_sums.clear();
@@ -151,11 +152,12 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound, const CostP
     return knots_cost;
   }
   sim.restore(*start_);
-  for (size_t i = 0; i < horizons_.size(); ++i)
+  const auto& horizons = *active_horizons_;
+  for (size_t i = 0; i < horizons.size(); ++i)
     if (const HorizonSampling* h = sim.controllers()[i]->as<HorizonSampling>())
-      h->use_reference_horizon(sim.controller_state(i), horizons_[i].get());
+      h->use_reference_horizon(sim.controller_state(i), horizons[i].get());
   CorrectionPlan& plan = sim.correction_plan();
-  const double t0 = plan.t0, t_end = t0 + p.horizon_s;
+  const double t0 = plan.t0, t_end = t0 + horizon_s;
   plan.knots = c.knots;
   plan.next_plan = std::numeric_limits<double>::infinity();
   c.path.clear();
@@ -173,7 +175,7 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound, const CostP
     }
     const double t = sim.time();
     if (sim.progress().fell) {
-      penalty = w.fall * (1 + std::max(0.0, t_end - t) / p.horizon_s);
+      penalty = w.fall * (1 + std::max(0.0, t_end - t) / horizon_s);
       fell = true;
       break;
     }
@@ -201,24 +203,43 @@ double Planner::rollout(Simulation& sim, Candidate& c, double bound, const CostP
     }
   }
   c.profile.complete = !fell;
+  c.end_error = !fell && p.calm_predicted_error_m > 0 ? objective_->balance_error(sim) : 0.0;
   return (samples ? stage / samples : 0.0) + penalty + knots_cost;
 }
 
-void Planner::sample_horizons() {
-  const Simulation& sim = *workers_[0];
+void Planner::sample_horizons(const std::vector<std::unique_ptr<Simulation>>& workers,
+                              std::vector<std::unique_ptr<ReferenceHorizon>>& horizons,
+                              double horizon_s) {
+  const Simulation& sim = *workers[0];
   const auto& controllers = sim.controllers();
-  if (horizons_.empty())
+  if (horizons.empty())
     for (const auto& c : controllers) {
       const HorizonSampling* h = c->as<HorizonSampling>();
-      horizons_.push_back(h ? h->make_reference_horizon() : nullptr);
+      horizons.push_back(h ? h->make_reference_horizon() : nullptr);
     }
   // every step a rollout may take, and one more for the rounding of its clock
   const Engine& e = sim.engine();
-  const int steps = static_cast<int>(std::ceil(correction_->params.horizon_s / e.timestep())) + 2;
+  const int steps = static_cast<int>(std::ceil(horizon_s / e.timestep())) + 2;
   for (size_t i = 0; i < controllers.size(); ++i)
-    if (horizons_[i])
-      controllers[i]->as<HorizonSampling>()->sample_reference_horizon(*horizons_[i], e,
+    if (horizons[i])
+      controllers[i]->as<HorizonSampling>()->sample_reference_horizon(*horizons[i], e,
                                                                       start_->engine.time, steps);
+}
+
+void Planner::use_rollouts(bool calm) {
+  const PlannerParams& p = correction_->params;
+  const bool coarse = calm && correction_->calm_rollout;
+  if (coarse && calm_workers_.empty())
+    for (int w = 0; w < pool_->size(); ++w)
+      calm_workers_.push_back(std::make_unique<Simulation>(correction_->calm_rollout));
+  active_workers_ = coarse ? &calm_workers_ : &workers_;
+  active_horizons_ = coarse ? &calm_horizons_ : &horizons_;
+  active_horizon_s_ = calm && p.calm_horizon_s > 0 ? p.calm_horizon_s : p.horizon_s;
+  // the full model's references span the whole horizon (their storage keeps one size)
+  if (coarse)
+    sample_horizons(calm_workers_, calm_horizons_, active_horizon_s_);
+  else
+    sample_horizons(workers_, horizons_, p.horizon_s);
 }
 
 void Planner::plan(Simulation& sim) {
@@ -239,6 +260,17 @@ void Planner::plan(Simulation& sim) {
     plan.knot_dt = knot_dt;
     return;
   }
+  const double balance_error = objective_->balance_error(sim);
+  const bool in_trouble = p.rescue_error_m > 0 && balance_error >= p.rescue_error_m;
+  // calm for long enough (and still now): the cheap budget, the full one at the first sign of
+  // trouble. It reads the run's state only, so it is the same for any thread count.
+  const bool calm = p.calm_plans > 0 && plan.calm_streak >= p.calm_plans &&
+                    balance_error < p.calm_error_m && !in_trouble;
+  // while calm, a new plan every calm_every-th interval; in between the plan is kept as it is
+  if (calm && p.calm_every > 1 && (plan.calm_streak - p.calm_plans) % p.calm_every != 0) {
+    ++plan.calm_streak;
+    return;
+  }
   plan.knots = nominal_;
   plan.t0 = now;
   plan.knot_dt = knot_dt;
@@ -248,24 +280,21 @@ void Planner::plan(Simulation& sim) {
       workers_.push_back(std::make_unique<Simulation>(correction_->rollout));
   if (!start_) start_ = std::make_unique<SimulationState>();
   sim.save(*start_);
-  sample_horizons();
+  use_rollouts(calm);
 
   // tracking on track, fewer candidates: the shifted plan mostly holds there
   TrackingError error;
   const bool steady =
       p.steady_error_m > 0 && tracking_error(sim, error) && error.body_m < p.steady_error_m;
-  const double balance_error = objective_->balance_error(sim);
-  const bool in_trouble = p.rescue_error_m > 0 && balance_error >= p.rescue_error_m;
-  // calm for long enough (and still now): the cheap budget, the full one at the first sign of
-  // trouble. It reads the run's state only, so it is the same for any thread count.
-  const bool calm = p.calm_plans > 0 && plan.calm_streak >= p.calm_plans &&
-                    balance_error < p.calm_error_m && !in_trouble;
   int k = steady ? std::clamp(p.steady_samples, 1, p.samples) : p.samples;
   if (calm) k = std::clamp(p.calm_samples, 1, p.samples);
   if (steady) ++plan.steady;
   if (calm) ++plan.calm;
   // racing rollouts is a bet: taken while the run is on track, not while it is in trouble
-  const double race_margin = calm ? p.calm_race_margin : in_trouble ? 0.0 : p.race_margin;
+  double race_margin = calm ? p.calm_race_margin : in_trouble ? 0.0 : p.race_margin;
+  // calm rollouts on a model of their own (coarser or shorter): their costs are not the full
+  // ones', so a calm draw that finds no plan that stays up is redone in full, not completed
+  bool calm_model = calm && (active_workers_ != &workers_ || active_horizon_s_ < p.horizon_s);
   const int rounds = p.method == "cem" ? p.iterations : 1;
   restart_cem(nominal_);
   best_ = nominal_;
@@ -295,7 +324,7 @@ void Planner::plan(Simulation& sim) {
       const double bound = stop_early ? best_cost : std::numeric_limits<double>::infinity();
       pool_->run(end - begin, [&](int worker, int task) {
         Candidate& c = candidates_[begin + task];
-        c.cost = rollout(*workers_[worker], c, bound, &best_profile_, margin);
+        c.cost = rollout(*(*active_workers_)[worker], c, bound, &best_profile_, margin);
       });
       // the cheapest, the lower index on a tie: the same for any thread count
       const double before = best_cost;
@@ -312,6 +341,7 @@ void Planner::plan(Simulation& sim) {
           best_profile_.stage_sums.assign(candidates_[i].profile.stage_sums.begin(),
                                           candidates_[i].profile.stage_sums.end());
           best_profile_.complete = candidates_[i].profile.complete;
+          best_end_error_ = candidates_[i].end_error;
         }
       }
       // sampling that stopped paying: a batch of 4 or more drew nothing clearly cheaper than the
@@ -326,7 +356,17 @@ void Planner::plan(Simulation& sim) {
     run_round(round, 0, k, race_margin);
     // calm, but the best of the cheap budget falls within the horizon: the rest of the full one
     int rolled = k;
-    if (calm && k < p.samples && !best_profile_.complete) {
+    if (calm_model && !best_profile_.complete) {
+      // the whole draw again on the full model, at the full budget from here on
+      use_rollouts(false);
+      calm_model = false;
+      best_cost = std::numeric_limits<double>::infinity();
+      best_ = nominal_;
+      k = p.samples;
+      race_margin = p.race_margin;
+      run_round(round, 0, k, race_margin);
+      rolled = k;
+    } else if (calm && k < p.samples && !best_profile_.complete) {
       run_round(round, k, p.samples, p.race_margin);
       rolled = p.samples;
     }
@@ -344,7 +384,11 @@ void Planner::plan(Simulation& sim) {
     }
   }
   // a calm step: no rescue round, under calm_error_m, and a plan that does not fall
-  const bool calm_step = !rescue && balance_error < p.calm_error_m && best_profile_.complete;
+  // and, when read, a chosen rollout that ends under calm_predicted_error_m: trouble it foresees
+  // ends the streak before the run is in it
+  const bool foreseen = p.calm_predicted_error_m > 0 && best_end_error_ >= p.calm_predicted_error_m;
+  const bool calm_step =
+      !rescue && balance_error < p.calm_error_m && best_profile_.complete && !foreseen;
   plan.calm_streak = calm_step ? plan.calm_streak + 1 : 0;
   plan.knots = best_;
   ++plan.plans;

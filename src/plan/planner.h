@@ -70,6 +70,8 @@ class Planner : public CorrectionSource {
     double cost = 0;
     long steps = 0;
     bool stopped = false;  // stopped early: `cost` is a lower bound above the best's, or infinite
+    double end_error = 0;  // the run's balance error where a complete rollout ended (m; read
+                           // only for planner.calm_predicted_error_m)
     std::vector<Eigen::Vector3d> path;
     CostProfile profile;
   };
@@ -84,8 +86,12 @@ class Planner : public CorrectionSource {
   // `bound`
   double rollout(Simulation& sim, Candidate& c, double bound, const CostProfile* leader,
                  double race_margin) const;
-  // the controllers' references over the horizon from the current start, once per planning step
-  void sample_horizons();
+  // the controllers' references over `horizon_s` from the current start for the rollouts of
+  // `workers`, once per planning step
+  void sample_horizons(const std::vector<std::unique_ptr<Simulation>>& workers,
+                       std::vector<std::unique_ptr<ReferenceHorizon>>& horizons, double horizon_s);
+  // the rollouts of this step: calm (at planner.calm_timestep and calm_horizon_s) or full
+  void use_rollouts(bool calm);
 
   std::shared_ptr<const CorrectionModel> correction_;
   std::shared_ptr<const PlannerModel> model_;
@@ -95,6 +101,13 @@ class Planner : public CorrectionSource {
   // per rollout controller: its reference over the horizon, sampled once per planning step for
   // every rollout of the step (null: the controller has none)
   std::vector<std::unique_ptr<ReferenceHorizon>> horizons_;
+  // calm steps' rollouts at planner.calm_timestep and their references (made at the first)
+  std::vector<std::unique_ptr<Simulation>> calm_workers_;
+  std::vector<std::unique_ptr<ReferenceHorizon>> calm_horizons_;
+  // what this step rolls out: one of the two, over this much of the horizon
+  std::vector<std::unique_ptr<Simulation>>* active_workers_ = &workers_;
+  const std::vector<std::unique_ptr<ReferenceHorizon>>* active_horizons_ = &horizons_;
+  double active_horizon_s_ = 0;
   std::unique_ptr<SimulationState> start_;
   std::vector<Candidate> candidates_;
   // the candidates' distribution (math/cem.h, flattened dims x knots, column-major); null when
@@ -105,6 +118,7 @@ class Planner : public CorrectionSource {
   Eigen::MatrixXd nominal_, best_;
   std::vector<Eigen::Vector3d> best_path_;
   CostProfile best_profile_;
+  double best_end_error_ = 0;
   uint64_t seed_ = 0;
   long rollout_steps_ = 0;
   double plan_seconds_ = 0;

@@ -57,6 +57,9 @@ void check_planner_params(const PlannerParams& params, const std::string& where)
   if (params.interval_s > params.horizon_s)
     fail(fmt::format("planner.interval_s: {} s is longer than planner.horizon_s ({} s)",
                      params.interval_s, params.horizon_s));
+  if (params.calm_horizon_s > params.horizon_s)
+    fail(fmt::format("planner.calm_horizon_s: {} s is longer than planner.horizon_s ({} s)",
+                     params.calm_horizon_s, params.horizon_s));
 }
 
 void resolve_correction_dims(const SimulationModel& model, const Engine& e,

@@ -61,6 +61,8 @@ struct CorrectionModel {
   std::vector<PlanDimension> dimensions;
   std::vector<int> controller_first;  // per controller: its first dimension, or -1
   std::shared_ptr<const SimulationModel> rollout;
+  // the model calm steps roll out at planner.calm_timestep; null when that is off
+  std::shared_ptr<const SimulationModel> calm_rollout;
 };
 
 // what chooses a run's correction plan (the planner): the step loop calls plan() before a

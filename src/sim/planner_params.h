@@ -103,6 +103,14 @@ struct PlannerParams {
   double calm_error_m = 0.1;  // m
   int calm_samples = 32;
   double calm_race_margin = 0.1;
+  // while calm, cheaper still (each off at its default): rollouts at a coarser step
+  // (`calm_timestep`, s; 0: the rollouts' own), over the first `calm_horizon_s` of the horizon
+  // (0: all of it), a new plan every `calm_every`-th interval (the plan kept in between); and a
+  // step is not calm once its chosen rollout ends `calm_predicted_error_m` off (0: not read)
+  double calm_timestep = 0;
+  double calm_horizon_s = 0;
+  int calm_every = 1;
+  double calm_predicted_error_m = 0;
   // where no controller offers a correction: residual torques on these dofs (empty: every dof
   // of a hinge, slide or ball joint), `residual_torque` N m per unit
   std::vector<std::string> residual_dofs;
@@ -152,6 +160,17 @@ struct PlannerParams {
       {.min = 1, .max = 4096, .help = "candidates per planning step while calm"});
     v("calm_race_margin", calm_race_margin,
       {.min = 0, .max = 100, .help = "while calm, stop a rollout trailing the best by this"});
+    v("calm_timestep", calm_timestep,
+      {.unit = "s", .min = 0, .max = 1, .help = "while calm, the rollouts' step; 0: theirs"});
+    v("calm_horizon_s", calm_horizon_s,
+      {.unit = "s", .min = 0, .max = 10, .help = "while calm, the rollouts' length; 0: horizon"});
+    v("calm_every", calm_every,
+      {.min = 1, .max = 100, .help = "while calm, plan every n-th interval, the plan kept"});
+    v("calm_predicted_error_m", calm_predicted_error_m,
+      {.unit = "m",
+       .min = 0,
+       .max = 10,
+       .help = "not calm once the chosen rollout ends this far off; 0: not read"});
     v("residual_dofs", residual_dofs, {.help = "dofs of residual torques; empty: all joints"});
     v("residual_torque", residual_torque,
       {.unit = "N m", .min = 0, .max = 1e5, .help = "residual torque per unit of noise"});

@@ -18,7 +18,9 @@ void check_timesteps(const Scenario& s, const YAML::Node& doc, const std::string
   const std::tuple<const char*, double, YAML::Node, const char*> steps[] = {
       {"timestep", s.timestep, doc["timestep"], "the model file's own"},
       {"planner.timestep", s.planner.timestep,
-       planner && planner.IsMap() ? planner["timestep"] : YAML::Node(), "the scenario's"}};
+       planner && planner.IsMap() ? planner["timestep"] : YAML::Node(), "the scenario's"},
+      {"planner.calm_timestep", s.planner.calm_timestep,
+       planner && planner.IsMap() ? planner["calm_timestep"] : YAML::Node(), "the rollouts'"}};
   for (const auto& [name, dt, node, zero] : steps) {
     if (dt == 0) continue;
     const std::string problem = timestep_problem(dt);

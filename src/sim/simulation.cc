@@ -138,6 +138,9 @@ void Simulation::set_planner_params(const PlannerParams& params) {
   const CorrectionModel& old = *model_->planner;
   if (params.timestep != old.params.timestep)
     throw InputError("planner.timestep: the rollouts' step is fixed when the run is made");
+  if (params.calm_timestep != old.params.calm_timestep)
+    throw InputError(
+        "planner.calm_timestep: the calm rollouts' step is fixed when the run is made");
   if (params.control_every != old.params.control_every)
     throw InputError("planner.control_every: fixed when the run is made");
   if (params.residual_dofs != old.params.residual_dofs)

@@ -406,6 +406,7 @@ void add_planner(const LoadedScenario& loaded, const RunOptions& options, Simula
   LoadedScenario r = loaded;
   r.scenario.planner.enabled = false;
   r.scenario.perturbations.clear();
+  const double rollout_step = std::max(p.timestep, timestep);
   if (p.timestep > timestep) r.scenario.timestep = p.timestep;
   for (YAML::Node& node : r.controllers) {
     node = YAML::Clone(node);
@@ -420,6 +421,14 @@ void add_planner(const LoadedScenario& loaded, const RunOptions& options, Simula
   auto correction = std::make_shared<CorrectionModel>();
   correction->params = p;
   correction->rollout = rollout;
+  // calm steps' model: the same at a coarser step (only ever coarser than the rollouts')
+  std::shared_ptr<SimulationModel> calm_rollout;
+  if (p.calm_timestep > rollout_step) {
+    r.scenario.timestep = p.calm_timestep;
+    calm_rollout = build_model(r, ro, scratch, true);
+    calm_rollout->solver = planner_solver_settings(p.solver, *scratch, loaded.source);
+    correction->calm_rollout = calm_rollout;
+  }
   check_planner_params(p, m.source);
   std::unique_ptr<Engine> start = m.make_engine();
   start->restore_state(m.initial);
@@ -433,6 +442,11 @@ void add_planner(const LoadedScenario& loaded, const RunOptions& options, Simula
   m.plans = true;
   auto dimensions = std::make_shared<CorrectionModel>(*correction);
   dimensions->rollout = nullptr;  // a rollout plans nothing
+  dimensions->calm_rollout = nullptr;
+  if (calm_rollout) {
+    calm_rollout->planner = dimensions;
+    calm_rollout->plans = false;
+  }
   rollout->planner = std::move(dimensions);
   rollout->plans = false;
 }

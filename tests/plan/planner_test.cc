@@ -195,16 +195,22 @@ TEST(Planner, CalmStepsKeepAPlanBetweenTheFullDrawAndTheWarmStart) {
 
 // biped_stand planned with 8 samples and pushed at 0.3 s: calm after `calm_plans` quiet planning
 // steps (its capture point within 4 cm; 0: never calm)
-std::unique_ptr<Simulation> calm_run(int threads, int calm_plans) {
-  return std::make_unique<Simulation>(
-      load_scenario(test::scenario_path("biped_stand.yaml"),
-                    {"planner.enabled=true", "planner.samples=8", "planner.horizon_s=0.2",
-                     "planner.interval_s=0.05", "planner.threads=" + std::to_string(threads),
-                     "planner.rescue_error_m=0", "planner.calm_error_m=0.04",
-                     "planner.calm_plans=" + std::to_string(calm_plans), "planner.calm_samples=3",
-                     "perturbations=[{body: h_spine, force: [120, 0, 0], start: 0.3, "
-                     "duration: 0.1}]"}),
-      test::quiet());
+std::unique_ptr<Simulation> calm_run(int threads, int calm_plans,
+                                     const std::vector<std::string>& extra = {}) {
+  std::vector<std::string> sets = {
+      "planner.enabled=true",
+      "planner.samples=8",
+      "planner.horizon_s=0.2",
+      "planner.interval_s=0.05",
+      "planner.threads=" + std::to_string(threads),
+      "planner.rescue_error_m=0",
+      "planner.calm_error_m=0.04",
+      "planner.calm_plans=" + std::to_string(calm_plans),
+      "planner.calm_samples=3",
+      "perturbations=[{body: h_spine, force: [120, 0, 0], start: 0.3, duration: 0.1}]"};
+  sets.insert(sets.end(), extra.begin(), extra.end());
+  return std::make_unique<Simulation>(load_scenario(test::scenario_path("biped_stand.yaml"), sets),
+                                      test::quiet());
 }
 
 // positions from the run's time on to t
@@ -251,6 +257,87 @@ TEST(Planner, CalmRunsPlanCheaplyUntilTroubleAndTheSameOnAnyThreadCount) {
   trace_to(*full, 0.7);
   EXPECT_EQ(full->progress().plan.calm, 0);
   EXPECT_LT(plan.rollout_steps, full->progress().plan.rollout_steps);
+}
+
+// calm steps roll out the calm model (planner.calm_timestep 4 ms against the run's 1 ms, over
+// calm_horizon_s 0.1 of the 0.2 s horizon): at most calm_samples (3) rollouts of 25 steps. A step
+// that is not calm rolls out the full model over the whole horizon: its warm start and "no
+// correction" at least, 200 steps each. The same plans on any thread count.
+TEST(Planner, CalmStepsRollOutTheCoarserShorterModelAndOtherStepsTheFullOne) {
+  const std::vector<std::string> cheap = {"planner.calm_timestep=0.004",
+                                          "planner.calm_horizon_s=0.1"};
+  std::unique_ptr<Simulation> one = calm_run(1, 3, cheap);
+  const CorrectionPlan& plan = one->progress().plan;
+  int calm_steps = 0, full_steps = 0;
+  std::vector<double> trace;
+  while (one->time() < 0.7 - 1e-9) {
+    const long plans = plan.plans, calm = plan.calm, steps = plan.rollout_steps;
+    while (plan.plans == plans && one->time() < 0.7 - 1e-9) {
+      const std::vector<double> q = trace_to(*one, one->time() + 0.001);
+      trace.insert(trace.end(), q.begin(), q.end());
+    }
+    if (plan.plans == plans) break;
+    const long spent = plan.rollout_steps - steps;
+    if (plan.calm > calm) {
+      ++calm_steps;
+      EXPECT_LE(spent, 3 * 27) << "a calm step at " << one->time();
+    } else {
+      ++full_steps;
+      EXPECT_GE(spent, 2 * 200) << "a full step at " << one->time();
+    }
+  }
+  EXPECT_GE(calm_steps, 2);
+  EXPECT_GE(full_steps, 4);
+  EXPECT_EQ(plan.calm_streak, 0) << "the push did not end the calm streak";
+  // the same run on 2 threads
+  std::unique_ptr<Simulation> two = calm_run(2, 3, cheap);
+  EXPECT_EQ(trace_to(*two, 0.7), trace);
+  EXPECT_EQ(two->progress().plan.rollout_steps, plan.rollout_steps);
+  EXPECT_EQ(two->progress().plan.cost_sum, plan.cost_sum);
+}
+
+// while calm, a new plan every calm_every-th interval (the plan kept in between); the push
+// ends the streak as without it. The skips read the streak, which the state file carries.
+TEST(Planner, CalmRunsPlanEveryNthIntervalUntilTrouble) {
+  std::unique_ptr<Simulation> every = calm_run(1, 3),
+                              second = calm_run(1, 3, {"planner.calm_every=2"});
+  trace_to(*every, 0.3);
+  trace_to(*second, 0.3);
+  const CorrectionPlan& a = every->progress().plan;
+  const CorrectionPlan& b = second->progress().plan;
+  // 3 full steps, then calm ones: every interval against every second
+  EXPECT_GE(a.calm, 2);
+  EXPECT_LT(b.plans, a.plans);
+  EXPECT_LT(b.rollout_steps, a.rollout_steps);
+  EXPECT_EQ(b.plans - 3, (a.plans - 3 + 1) / 2);
+  const std::string file = test::write_temp_file("planner_calm_every.state", "");
+  second->write_state(file);
+  std::vector<double> after = trace_to(*second, 0.45);
+  EXPECT_EQ(b.calm_streak, 0) << "the push did not end the calm streak";
+  const std::vector<double> rest = trace_to(*second, 0.7);
+  after.insert(after.end(), rest.begin(), rest.end());
+  // read back from the state file, on 2 threads
+  std::unique_ptr<Simulation> resumed = calm_run(2, 3, {"planner.calm_every=2"});
+  resumed->read_state(file);
+  EXPECT_EQ(trace_to(*resumed, 0.7), after);
+  EXPECT_EQ(resumed->progress().plan.plans, b.plans);
+}
+
+// a step whose chosen rollout ends at least calm_predicted_error_m off is not calm: with a
+// threshold no rollout ends under, the run never turns calm; with a wide one it turns calm as
+// without it
+TEST(Planner, ForeseenTroubleKeepsTheFullBudget) {
+  auto calm_steps = [](const std::string& predicted) {
+    std::unique_ptr<Simulation> run =
+        calm_run(2, 3, {"planner.calm_predicted_error_m=" + predicted});
+    trace_to(*run, 0.3);
+    return run->progress().plan.calm;
+  };
+  std::unique_ptr<Simulation> plain = calm_run(2, 3);
+  trace_to(*plain, 0.3);
+  EXPECT_GE(plain->progress().plan.calm, 2);
+  EXPECT_EQ(calm_steps("1e-9"), 0);
+  EXPECT_EQ(calm_steps("10"), plain->progress().plan.calm);
 }
 
 // rollouts stop once they cannot beat the cheapest known: the plans are those of rollouts run
