@@ -95,7 +95,7 @@ struct MocapBalanceParams {
   double root_force_kp = 0;         // N/m: virtual force holding the root over the stance foot
   double root_force_kd = 150;       // N s/m: the clip root's speed, held through the stance leg
   double root_force_kd_z = 0;       // N s/m, along up
-  // ankles under 0.6 N m/kg (control/mocap_weak_ankles.h): the clip's swing foot swung even where
+  // ankles under 1 N m/kg (control/mocap_weak_ankles.h): the clip's swing foot swung even where
   // it scuffs, and lifted by as much as the root rides below the clip's
   bool weak_ankles = true;
   std::string left_hip, right_hip;    // thigh joints (clip names); empty: found from the feet
@@ -131,7 +131,7 @@ struct MocapBalanceParams {
     v("root_force_kd", root_force_kd, {.unit = "N s/m", .min = 0, .max = 1e6});
     v("root_force_kd_z", root_force_kd_z, {.unit = "N s/m", .min = 0, .max = 1e6});
     v("weak_ankles", weak_ankles,
-      {.help = "free mode: on ankles under 0.6 N m/kg, swing the clip's swing foot, lifted"});
+      {.help = "free mode: on ankles under 1 N m/kg, swing the clip's swing foot, lifted"});
     v("left_hip", left_hip);
     v("right_hip", right_hip);
     v("left_foot", left_foot);

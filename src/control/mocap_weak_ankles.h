@@ -1,5 +1,5 @@
 // The tracker's balance layer on legs with weak ankles (docs/robots.md, "Within the robot's
-// motors"): an ankle whose strongest dof is under 0.6 N m per kg of the model cannot lift the heel
+// motors"): an ankle whose strongest dof is under 1 N m per kg of the model cannot lift the heel
 // under the body's weight, so the stance foot stays flat where the clip rises onto its toes, the
 // pelvis rides lower than the clip's, and a swing foot at the clip's joint angles scuffs. There
 // the swing leg is servoed while the clip swings it (a scuffing foot is no second stance foot)
@@ -15,10 +15,11 @@
 
 namespace stance {
 
-// N m per kg of the model: an ankle whose strongest dof is limited below this is weak. Between
-// humanoid.xml's 0.49, which needs the rules below, and Unitree H1's 0.78, which tracks as well
-// or better without them (docs/robots.md)
-inline constexpr double kWeakAnkleTorquePerKg = 0.6;
+// N m per kg of the model: an ankle whose strongest dof is limited below this is weak. Lifting
+// the heel under the body takes m g times the toe's lever, about 1.5 N m/kg on a 15 cm foot:
+// humanoid.xml's 0.49 and a Unitree H1's 0.78 N m/kg cannot, and both hold the looped walks more
+// often with the rules (docs/robots.md); Atlas's 4.7 can
+inline constexpr double kWeakAnkleTorquePerKg = 1.0;
 
 struct WeakAnkleLegs {
   bool weak = false;
