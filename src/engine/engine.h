@@ -233,6 +233,8 @@ class Engine {
   // checks after a step: false when the state has a NaN/Inf or the engine reported instability
   virtual bool state_is_finite() const = 0;
   virtual std::string last_warning() const { return {}; }
+  // what the backend changed in the model as it loaded it, for one note line; empty: nothing
+  virtual std::string load_note() const { return {}; }
 
   // drawing (src/viz), after forward(). MuJoCo: its own model and data. Other engines (DART): a
   // MuJoCo copy of the same world that only draws, posed body by body on each call; the first

@@ -246,6 +246,7 @@ std::unique_ptr<Engine> open_mujoco_world(const WorldSpec& spec) {
   if (on_grounds) add_mjcf_floor(world.models.back());
   std::unique_ptr<Engine> engine = open_mujoco_engine(world);
   note_once(note);
+  note_once(engine->load_note());
   return engine;
 }
 

@@ -234,6 +234,41 @@ bool has_implicit_fast(const std::string& text) {
   return text.find("implicitfast") != std::string::npos && std::regex_search(text, kImplicitFast);
 }
 
+// a <position>'s kv (damping) and inheritrange (ctrlrange from the joint's range), a newer
+// MuJoCo's (T1's files have both): 2.2.2 refuses them; stance makes every servo a torque motor
+// (engine/mujoco/mujoco_engine.cc), which needs neither
+const std::regex kPositionTag(R"(<position\b[^>]*>)");
+const std::regex kServoAttribute(R"(\s+(kv|inheritrange)\s*=\s*("[^"]*"|'[^']*'))");
+
+bool has_servo_attributes(const std::string& text) {
+  if (text.find("<position") == std::string::npos) return false;
+  for (std::sregex_iterator it(text.begin(), text.end(), kPositionTag), end; it != end; ++it)
+    if (std::regex_search(it->str(), kServoAttribute)) return true;
+  return false;
+}
+
+// the text without them in <position> tags; its line breaks kept
+std::string without_servo_attributes(const std::string& text) {
+  std::string out;
+  auto last = text.cbegin();
+  for (std::sregex_iterator it(text.begin(), text.end(), kPositionTag), end; it != end; ++it) {
+    out.append(last, (*it)[0].first);
+    const std::string tag = it->str();
+    auto tag_last = tag.cbegin();
+    for (std::sregex_iterator a(tag.begin(), tag.end(), kServoAttribute); a != end; ++a) {
+      out.append(tag_last, (*a)[0].first);
+      out.push_back(' ');
+      for (auto c = (*a)[0].first; c != (*a)[0].second; ++c)
+        if (*c == '\n') out.push_back('\n');
+      tag_last = (*a)[0].second;
+    }
+    out.append(tag_last, tag.cend());
+    last = (*it)[0].second;
+  }
+  out.append(last, text.cend());
+  return out;
+}
+
 }  // namespace
 
 NewerMjcf read_newer_mjcf(const std::string& shown_name, const std::string& path) {
@@ -243,18 +278,22 @@ NewerMjcf read_newer_mjcf(const std::string& shown_name, const std::string& path
   std::stringstream buffer;
   buffer << in.rdbuf();
   bool any = has_force_range(buffer.str()) || has_implicit_fast(buffer.str()) ||
+             has_servo_attributes(buffer.str()) ||
              buffer.str().find("<include") != std::string::npos;
   if (!any) return out;
   NewerMjcfReader reader(std::filesystem::path(path).parent_path().string());
   if (!reader.read(shown_name, path)) return out;
-  bool ranges = false, implicit_fast = false;
+  bool ranges = false, implicit_fast = false, servo_attributes = false;
   for (const auto& f : reader.files()) {
     const bool range = has_force_range(f->text), fast = has_implicit_fast(f->text);
-    if (!range && !fast) continue;
+    const bool servo = has_servo_attributes(f->text);
+    if (!range && !fast && !servo) continue;
     ranges = ranges || range;
     implicit_fast = implicit_fast || fast;
-    out.patched.push_back({f->path, std::regex_replace(without_force_ranges(f->text), kImplicitFast,
-                                                       "$1implicit$2")});
+    servo_attributes = servo_attributes || servo;
+    const std::string text = servo ? without_servo_attributes(f->text) : f->text;
+    out.patched.push_back(
+        {f->path, std::regex_replace(without_force_ranges(text), kImplicitFast, "$1implicit$2")});
   }
   if (out.patched.empty()) return out;
   for (const JointEntry& j : reader.joints())
@@ -271,6 +310,10 @@ NewerMjcf read_newer_mjcf(const std::string& shown_name, const std::string& path
     done.push_back(
         "integrator implicitfast (a newer MuJoCo's) run as 2.2.2's implicit, which also "
         "integrates the Coriolis terms implicitly");
+  if (servo_attributes)
+    done.push_back(
+        "kv and inheritrange of <position> (a newer MuJoCo's) removed: stance makes position "
+        "servos torque motors, which need neither");
   out.note = fmt::format("{}: {}", shown_name, fmt::join(done, "; "));
   return out;
 }

@@ -15,6 +15,7 @@
 #include "engine/backend_world.h"
 #include "engine/mujoco/mujoco_inertia.h"
 #include "engine/mujoco/mujoco_pairs.h"
+#include "engine/mujoco/mujoco_servos.h"
 
 namespace stance {
 
@@ -213,7 +214,7 @@ MjcfLayout mjcf_layout(const BackendModel& model) {
   return layout;
 }
 
-mjModel* load_mujoco_model(const BackendWorld& world) {
+mjModel* load_mujoco_model(const BackendWorld& world, int* servos_made_motors) {
   if (world.models.size() != 1)
     throw InputError("MuJoCo loads one MJCF/URDF file per world; use <include> to compose");
   const BackendModel& model = world.models.front();
@@ -245,13 +246,17 @@ mjModel* load_mujoco_model(const BackendWorld& world) {
   if (world.timestep) m->opt.timestep = *world.timestep;
   if (world.gravity)
     for (int k = 0; k < 3; ++k) m->opt.gravity[k] = (*world.gravity)[k];
+  const int servos = servos_as_torque_motors(m);
+  if (servos_made_motors) *servos_made_motors = servos;
   return m;
 }
 
 std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world) {
-  mjModel* m = load_mujoco_model(world);
+  int servos = 0;
+  mjModel* m = load_mujoco_model(world, &servos);
   auto engine = std::make_unique<MujocoEngine>(m, world.models.front().name);
   engine->tighten_force_limits(joint_force_limits(m, world.models.front()));
+  engine->set_load_note(servo_note(world.models.front().name, servos));
   // the start keyframe, when the model has it
   if (!world.start_keyframe.empty() &&
       mj_name2id(m, mjOBJ_KEY, world.start_keyframe.c_str()) >= 0) {

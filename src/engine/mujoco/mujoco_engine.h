@@ -109,6 +109,8 @@ class MujocoEngine final : public Engine {
   void step() override;
   bool state_is_finite() const override;
   std::string last_warning() const override { return last_warning_; }
+  std::string load_note() const override { return load_note_; }
+  void set_load_note(std::string note) { load_note_ = std::move(note); }
   RenderModel render_model() override { return {m_, d_, &mobile_bodies_}; }
   bool applied_joint_forces(Eigen::Ref<Eigen::VectorXd> tau) const override;
 
@@ -156,10 +158,12 @@ class MujocoEngine final : public Engine {
   int warnings_seen_ = 0;
   bool diverged_ = false;
   std::string last_warning_;
+  std::string load_note_;
 };
 
 // load the backend's input (one MJCF/URDF file, or MJCF text) into a MuJoCo model. Throws
-// InputError with the file (and line, when MuJoCo reports one).
-mjModel* load_mujoco_model(const BackendWorld& world);
+// InputError with the file (and line, when MuJoCo reports one). Servo actuators (biastype affine on
+// a joint) become torque motors within their forcerange; their count goes to *servos_made_motors.
+mjModel* load_mujoco_model(const BackendWorld& world, int* servos_made_motors = nullptr);
 
 }  // namespace stance
