@@ -166,15 +166,31 @@ void Simulation::set_planner_params(const PlannerParams& params) {
 }
 
 // the one place torques meet the model's limits: the peak of |requested| / limit is measured,
-// and the torques are clamped to the limits when the model says so
+// and the torques are clamped to the limits when the model says so. A controller that drives
+// actuators (LQR) asks for moment^T ctrl besides: measured with the torques; MuJoCo clamps the
+// controls to the actuators' ranges.
 void Simulation::limit_torques() {
   const Eigen::VectorXd& limit = model_->force_limit;
   RunProgress& s = progress_;
+  bool controls = out_.ctrl_used && engine_->nu() > 0 && ctrl_measurable_;
+  if (controls) {
+    ctrl_moment_.resize(engine_->nu(), engine_->nv());  // allocates on the first call only
+    try {
+      engine_->actuator_moment(ctrl_moment_);
+    } catch (const InputError&) {  // an actuator without a fixed gain (a muscle): not measured
+      ctrl_measurable_ = controls = false;
+    }
+  }
+  if (controls) {
+    ctrl_request_.resize(engine_->nv());
+    ctrl_request_.noalias() = ctrl_moment_.transpose() * out_.ctrl;
+  }
   bool clamped = false, at_limit = false;
   for (int i = 0; i < out_.tau.size(); ++i) {
     if (std::isinf(limit[i])) continue;
     const double tau = out_.tau[i];
-    const double ratio = std::abs(tau) / std::max(limit[i], 1e-12);
+    const double request = controls ? tau + ctrl_request_[i] : tau;
+    const double ratio = std::abs(request) / std::max(limit[i], 1e-12);
     at_limit = at_limit || ratio >= 1;
     if (ratio >= 1) ++s.dof_steps_at_limit[i];
     s.dof_peak_limit_ratio[i] = std::max(s.dof_peak_limit_ratio[i], ratio);
@@ -182,7 +198,8 @@ void Simulation::limit_torques() {
       s.peak_limit_ratio = ratio;
       s.peak_limit_dof = i;
     }
-    if (model_->clamp_torques && ratio > 1) {
+    const double tau_ratio = controls ? std::abs(tau) / std::max(limit[i], 1e-12) : ratio;
+    if (model_->clamp_torques && tau_ratio > 1) {
       out_.tau[i] = std::clamp(tau, -limit[i], limit[i]);
       clamped = true;
     }

@@ -362,6 +362,11 @@ class Simulation {
   double retired_planners_cpu_s_ = 0;          // own threads' CPU of planners replaced by retuning
   // a rollout's steps that still hold out_ (planner.control_every)
   int held_steps_left_ = 0;
+  // the generalised force the controls ask for (actuators' moment^T ctrl), when a controller
+  // drives actuators (LQR): its request counts against the limits as torques do
+  Eigen::MatrixXd ctrl_moment_;
+  Eigen::VectorXd ctrl_request_;
+  bool ctrl_measurable_ = true;
 };
 
 // build the engine of a scenario with its initial pose applied (no controllers)

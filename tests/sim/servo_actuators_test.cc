@@ -83,6 +83,28 @@ TEST(ServoActuators, TheLimitsAreTheForcerangesOnBothEnginesAndKeyTargetsNoTorqu
   EXPECT_EQ(ctrl.cwiseAbs().maxCoeff(), 0.0);
 }
 
+// LQR designs on the controls: on the servo robot they are its joints' torques, as on the motor
+// robot, and its request (moment^T ctrl) is measured against the limits (it read 0 before)
+TEST(ServoActuators, LqrHoldsTheServoRobotOnTwoFeetAndItsRequestIsMeasured) {
+  const std::string yaml =
+      "name: servo_lqr\nmodel: " + robot_file("pitch_ankle_robot_servo_scene.xml") +
+      "\nkeyframe: home\ntimestep: 0.002\nduration: 2\ncontrollers:\n"
+      "  - {type: lqr, root_body: base, stance_foot: both, "
+      "balance_cost: 1.0e+6, balance_joint_cost: 3000, other_joint_cost: 300,"
+      " balance_dofs: [\"waist_yaw\", \"(left|right)_(hip_.*|knee|ankle)\"]}\n"
+      "fall: {com_height_fraction: 0.8, "
+      "allowed_contacts: [left_sole_link, right_sole_link]}\n";
+  RunOptions options;
+  options.engine = "mujoco";
+  const RunResult r = Simulation(parse_scenario(YAML::Load(yaml), "lqr.yaml", ""), options).run();
+  EXPECT_FALSE(r.fell) << r.fall_reason;
+  EXPECT_LT(r.metrics["com_displacement_m"].get<double>(), 0.02);
+  const nlohmann::json& limit = r.metrics["torque_limit"];
+  EXPECT_GT(limit["peak_ratio"].get<double>(), 0.05) << limit;  // the ankles hold the lean
+  EXPECT_LT(limit["peak_ratio"].get<double>(), 1.0) << limit;
+  EXPECT_EQ(limit["limit"].get<double>(), 35) << limit;  // an ankle's forcerange
+}
+
 // four arms, each on its own hinge to the world, no gravity: a servo of each kind and a motor
 constexpr const char* kServoKinds = R"(<mujoco model="servo_kinds">
   <compiler autolimits="true"/>
