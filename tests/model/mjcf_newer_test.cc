@@ -85,6 +85,35 @@ TEST(MjcfNewer, ModelWithoutThemIsLeftAlone) {
   EXPECT_TRUE(n.note.empty());
 }
 
+// a <position>'s kv and inheritrange (T1's class default) go, its line breaks kept; a
+// <velocity>'s kv is its gain, known to 2.2.2, and stays
+TEST(MjcfNewer, PositionKvAndInheritrangeAreRemovedAndVelocityKvStays) {
+  constexpr const char* kServos = R"(<mujoco>
+  <default>
+    <position kp="75" kv="5"
+              inheritrange="1"/>
+  </default>
+  <worldbody><body><joint name="a"/><joint name="b"/></body></worldbody>
+  <actuator>
+    <position joint="a" kv='2'/>
+    <velocity joint="b" kv="10"/>
+  </actuator>
+</mujoco>
+)";
+  const std::string xml = test::write_temp_file("newer_servos.xml", kServos);
+  const NewerMjcf n = read_newer_mjcf("servos.xml", xml);
+  ASSERT_EQ(n.patched.size(), 1u);
+  const std::string& text = n.patched[0].text;
+  EXPECT_EQ(text.find("inheritrange"), std::string::npos) << text;
+  EXPECT_NE(text.find("<position kp=\"75\""), std::string::npos) << text;
+  EXPECT_NE(text.find("<position joint=\"a\" />"), std::string::npos) << text;
+  EXPECT_NE(text.find("<velocity joint=\"b\" kv=\"10\"/>"), std::string::npos) << text;
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'),
+            std::count(kServos, kServos + std::char_traits<char>::length(kServos), '\n'));
+  EXPECT_NE(n.note.find("kv and inheritrange of <position>"), std::string::npos) << n.note;
+  EXPECT_TRUE(n.joint_force_limits.empty());
+}
+
 TEST(MjcfNewer, MalformedRangeIsRefusedAtItsLine) {
   const std::string xml = test::write_temp_file(
       "newer_bad_range.xml",
