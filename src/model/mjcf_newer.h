@@ -1,6 +1,8 @@
 // MJCF written for a MuJoCo newer than the 2.2.2 that stance links: the attributes of newer
 // releases that stance applies itself are read here and removed before MuJoCo's parser sees the
-// file (which would refuse them). Others stay, and MuJoCo's refusal names them, located, as
+// file (which would refuse them): joints' actuatorfrcrange, integrator implicitfast, and a
+// <position>'s kv and inheritrange (its servo becomes a torque motor, engine/mujoco/
+// mujoco_servos.h). Others stay, and MuJoCo's refusal names them, located, as
 // attributes of a newer MuJoCo (engine/mujoco).
 #pragma once
 
