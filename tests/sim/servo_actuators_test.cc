@@ -161,6 +161,39 @@ TEST(ServoActuators, EveryKindOfServoPullsNoMoreAtCtrlZeroAndMotorsStayAsCompile
   mj_deleteModel(raw);
 }
 
+// T1's pattern: servos without forcerange, each joint bounded by its actuatorfrcrange (a newer
+// MuJoCo's); a motor whose ctrlrange reaches past it. Controls (LQR's) are held to the joint's
+// bound, as MuJoCo 3 holds them.
+constexpr const char* kJointBounded = R"(<mujoco model="joint_bounded">
+  <compiler autolimits="true"/>
+  <option gravity="0 0 0" timestep="0.001"/>
+  <worldbody>
+    <body pos="0 0 0"><joint name="servo" axis="0 1 0" actuatorfrcrange="-3 3"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="1"/></body>
+    <body pos="0 1 0"><joint name="motor" axis="0 1 0" actuatorfrcrange="-4 4"/>
+      <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.02" mass="1"/></body>
+  </worldbody>
+  <actuator>
+    <position joint="servo" kp="100"/>
+    <motor joint="motor" gear="2" ctrlrange="-10 10"/>
+  </actuator>
+</mujoco>
+)";
+
+TEST(ServoActuators, ControlsAreHeldToTheJointsActuatorfrcrange) {
+  const std::string xml = test::write_temp_file("joint_bounded.xml", kJointBounded);
+  std::unique_ptr<Engine> e = make_mujoco_engine(WorldSpec{{{xml}}, {}, {}});
+  EXPECT_EQ(e->joint(e->require_joint("servo")).force_limit, 3);
+  EXPECT_EQ(e->joint(e->require_joint("motor")).force_limit, 4);
+  e->set_controls(Eigen::Vector2d(50, -10));
+  e->forward();
+  e->step();
+  Eigen::VectorXd applied(2);
+  ASSERT_TRUE(e->applied_joint_forces(applied));
+  EXPECT_NEAR(applied[0], 3, 1e-12);
+  EXPECT_NEAR(applied[1], -4, 1e-12);
+}
+
 // a model with motors only (the pitch-ankle robot's scene) compiles as MuJoCo compiles it
 TEST(ServoActuators, AMotorRobotsActuatorsAndKeyframesAreMuJoCosToTheBit) {
   const std::string xml = robot_file("pitch_ankle_robot_scene.xml");

@@ -164,6 +164,27 @@ std::vector<double> joint_force_limits(const mjModel* m, const BackendModel& mod
   return limits;
 }
 
+// a joint's limit tighter than its one actuator's own (a newer MuJoCo's actuatorfrcrange) bounds
+// that motor's force as well, as MuJoCo 3 bounds it: controls (LQR's) are held to it. With the
+// controls at 0 (torque-driven runs) nothing changes.
+void bound_lone_motors(mjModel* m, const std::vector<double>& joint_limits) {
+  std::vector<int> actuators(m->njnt, 0);
+  for (int i = 0; i < m->nu; ++i)
+    if (m->actuator_trntype[i] == mjTRN_JOINT) ++actuators[m->actuator_trnid[2 * i]];
+  for (int i = 0; i < m->nu; ++i) {
+    const int j = m->actuator_trnid[2 * i];
+    const double gear = std::abs(m->actuator_gear[6 * i]);
+    if (m->actuator_trntype[i] != mjTRN_JOINT || actuators[j] != 1 || gear == 0) continue;
+    if (!(joint_limits[j] < actuator_joint_limit(m, i))) continue;
+    const double force = joint_limits[j] / gear;
+    double* range = m->actuator_forcerange + 2 * i;
+    const bool limited = m->actuator_forcelimited[i];
+    range[0] = limited ? std::max(range[0], -force) : -force;
+    range[1] = limited ? std::min(range[1], force) : force;
+    m->actuator_forcelimited[i] = 1;
+  }
+}
+
 // with_predefined_pairs's reload: the texts compiled as `name`
 mjModel* reload_texts(const std::vector<std::pair<std::string, std::string>>& files,
                       const std::string& name) {
@@ -255,7 +276,9 @@ std::unique_ptr<Engine> open_mujoco_engine(const BackendWorld& world) {
   int servos = 0;
   mjModel* m = load_mujoco_model(world, &servos);
   auto engine = std::make_unique<MujocoEngine>(m, world.models.front().name);
-  engine->tighten_force_limits(joint_force_limits(m, world.models.front()));
+  const std::vector<double> joint_limits = joint_force_limits(m, world.models.front());
+  engine->tighten_force_limits(joint_limits);
+  bound_lone_motors(m, joint_limits);
   engine->set_load_note(servo_note(world.models.front().name, servos));
   // the start keyframe, when the model has it
   if (!world.start_keyframe.empty() &&
