@@ -2,7 +2,7 @@
 // releases that stance applies itself are read here and removed before MuJoCo's parser sees the
 // file (which would refuse them): joints' actuatorfrcrange, integrator implicitfast, and a
 // <position>'s kv and inheritrange (its servo becomes a torque motor, engine/mujoco/
-// mujoco_servos.h). Others stay, and MuJoCo's refusal names them, located, as
+// mujoco_actuators.h). Others stay, and MuJoCo's refusal names them, located, as
 // attributes of a newer MuJoCo (engine/mujoco).
 #pragma once
 

@@ -13,9 +13,9 @@
 
 #include "core/error.h"
 #include "engine/backend_world.h"
+#include "engine/mujoco/mujoco_actuators.h"
 #include "engine/mujoco/mujoco_inertia.h"
 #include "engine/mujoco/mujoco_pairs.h"
-#include "engine/mujoco/mujoco_servos.h"
 
 namespace stance {
 
@@ -115,74 +115,6 @@ mjModel* load_from_texts(const std::vector<std::pair<std::string, std::string>>&
 mjModel* load_from_text(const std::string& text, const std::string& source) {
   const char* vname = "stance_model.xml";
   return load_from_texts({{vname, text}}, vname, source + " (translated to MJCF)");
-}
-
-// the largest |torque| actuator i puts on its joint, infinite when the file bounds it not: its
-// forcerange when forcelimited, and for a motor (fixed gain, no bias) gain x its ctrlrange's reach
-double actuator_joint_limit(const mjModel* m, int i) {
-  double force = std::numeric_limits<double>::infinity();
-  if (m->actuator_forcelimited[i])
-    force = std::max(std::abs(m->actuator_forcerange[2 * i]),
-                     std::abs(m->actuator_forcerange[2 * i + 1]));
-  const bool motor =
-      m->actuator_biastype[i] == mjBIAS_NONE && m->actuator_gaintype[i] == mjGAIN_FIXED;
-  if (motor && m->actuator_ctrllimited[i]) {
-    const double reach = std::max(std::abs(m->actuator_ctrlrange[2 * i]),
-                                  std::abs(m->actuator_ctrlrange[2 * i + 1]));
-    force = std::min(force, std::abs(m->actuator_gainprm[mjNGAIN * i]) * reach);
-  }
-  return std::abs(m->actuator_gear[6 * i]) * force;
-}
-
-// per joint index: the sum of its actuators' limits; infinite when one of them is unbounded
-std::vector<double> joint_force_limits(const mjModel* m) {
-  std::vector<double> limits(m->njnt, std::numeric_limits<double>::infinity());
-  std::vector<int> bounded(m->njnt, 0), driven(m->njnt, 0);
-  std::vector<double> sum(m->njnt, 0.0);
-  for (int i = 0; i < m->nu; ++i) {
-    if (m->actuator_trntype[i] != mjTRN_JOINT) continue;
-    const int j = m->actuator_trnid[2 * i];
-    const double limit = actuator_joint_limit(m, i);
-    ++driven[j];
-    if (std::isfinite(limit)) {
-      ++bounded[j];
-      sum[j] += limit;
-    }
-  }
-  for (int j = 0; j < m->njnt; ++j)
-    if (driven[j] > 0 && bounded[j] == driven[j]) limits[j] = sum[j];
-  return limits;
-}
-
-// the joints' limits, each the tighter of the actuators' and the model's own by joint name
-std::vector<double> joint_force_limits(const mjModel* m, const BackendModel& model) {
-  std::vector<double> limits = joint_force_limits(m);
-  for (const auto& [name, limit] : model.effort_limits) {
-    const int j = mj_name2id(m, mjOBJ_JOINT, name.c_str());
-    if (j >= 0) limits[j] = std::min(limits[j], limit);
-  }
-  return limits;
-}
-
-// a joint's limit tighter than its one actuator's own (a newer MuJoCo's actuatorfrcrange) bounds
-// that motor's force as well, as MuJoCo 3 bounds it: controls (LQR's) are held to it. With the
-// controls at 0 (torque-driven runs) nothing changes.
-void bound_lone_motors(mjModel* m, const std::vector<double>& joint_limits) {
-  std::vector<int> actuators(m->njnt, 0);
-  for (int i = 0; i < m->nu; ++i)
-    if (m->actuator_trntype[i] == mjTRN_JOINT) ++actuators[m->actuator_trnid[2 * i]];
-  for (int i = 0; i < m->nu; ++i) {
-    const int j = m->actuator_trnid[2 * i];
-    const double gear = std::abs(m->actuator_gear[6 * i]);
-    if (m->actuator_trntype[i] != mjTRN_JOINT || actuators[j] != 1 || gear == 0) continue;
-    if (!(joint_limits[j] < actuator_joint_limit(m, i))) continue;
-    const double force = joint_limits[j] / gear;
-    double* range = m->actuator_forcerange + 2 * i;
-    const bool limited = m->actuator_forcelimited[i];
-    range[0] = limited ? std::max(range[0], -force) : -force;
-    range[1] = limited ? std::min(range[1], force) : force;
-    m->actuator_forcelimited[i] = 1;
-  }
 }
 
 // with_predefined_pairs's reload: the texts compiled as `name`
