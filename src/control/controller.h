@@ -15,6 +15,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <typeinfo>
 #include <vector>
 
 #include "control/marker.h"
@@ -82,6 +83,11 @@ class ControllerState {
   virtual void write(std::string& out) const = 0;
   virtual void read(const std::string& in, size_t& offset) = 0;
 };
+
+// `a` and `b` are states of the same controller type (so `a.assign(b)` copies in place)
+inline bool same_state_type(const ControllerState& a, const ControllerState& b) {
+  return typeid(a) == typeid(b);
+}
 
 // what a controller's planner rollouts need at each step of a planning horizon that depends on
 // the time only (a tracked reference's samples): made by the controller, filled once per

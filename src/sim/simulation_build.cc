@@ -492,7 +492,7 @@ SimulationState& SimulationState::operator=(const SimulationState& other) {
   controllers.resize(other.controllers.size());
   for (size_t i = 0; i < other.controllers.size(); ++i) {
     const ControllerState& src = *other.controllers[i];
-    if (controllers[i] && typeid(*controllers[i]) == typeid(src))
+    if (controllers[i] && same_state_type(*controllers[i], src))
       controllers[i]->assign(src);
     else
       controllers[i] = src.clone();

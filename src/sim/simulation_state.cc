@@ -33,7 +33,7 @@ void Simulation::save(SimulationState& state) const {
   state.progress = progress_;
   state.controllers.resize(states_.size());
   for (size_t i = 0; i < states_.size(); ++i) {
-    if (state.controllers[i] && typeid(*state.controllers[i]) == typeid(*states_[i]))
+    if (state.controllers[i] && same_state_type(*state.controllers[i], *states_[i]))
       state.controllers[i]->assign(*states_[i]);
     else
       state.controllers[i] = states_[i]->clone();
@@ -47,7 +47,7 @@ void Simulation::restore(const SimulationState& state) {
   engine_->forward();
   held_steps_left_ = 0;  // the restored state's controls are computed, not held
   for (size_t i = 0; i < states_.size(); ++i) {
-    if (typeid(*states_[i]) == typeid(*state.controllers[i]))
+    if (same_state_type(*states_[i], *state.controllers[i]))
       states_[i]->assign(*state.controllers[i]);
     else
       states_[i] = state.controllers[i]->clone();
