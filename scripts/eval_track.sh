@@ -156,7 +156,7 @@ done
 # the tables: every run (OUT/table.md), and per clip (OUT/summary.md); the docs get both
 docs_args=()
 [ "$docs" = yes ] && docs_args=(--docs docs/results.md)
-python3 "$(dirname "$0")/eval_track_table.py" "$OUT" --groups "${groups[@]%%|*}" \
+python3 scripts/eval_track_table.py "$OUT" --groups "${groups[@]%%|*}" \
   --settings "${settings[@]%%|*}" "${docs_args[@]}"
 if [ "$docs" = no ]; then
   echo "eval-track: a candidate or a subset: tables in $OUT; the docs keep the full matrix's" >&2
