@@ -205,6 +205,15 @@ std::optional<double> force_limit(const JointEntry& j,
   return std::max(std::abs(low), std::abs(high));
 }
 
+// `out` gets a space for the removed text [first, last), and its line breaks, so that the
+// lines after it keep their numbers
+template <class Iterator>
+void append_removed(std::string& out, Iterator first, Iterator last) {
+  out.push_back(' ');
+  for (auto c = first; c != last; ++c)
+    if (*c == '\n') out.push_back('\n');
+}
+
 // the text without the force-range attributes; its line breaks kept
 std::string without_force_ranges(const std::string& text) {
   static const std::regex kAttribute(R"(\s+actuatorfrc(range|limited)\s*=\s*("[^"]*"|'[^']*'))");
@@ -212,9 +221,7 @@ std::string without_force_ranges(const std::string& text) {
   auto last = text.cbegin();
   for (std::sregex_iterator it(text.begin(), text.end(), kAttribute), end; it != end; ++it) {
     out.append(last, (*it)[0].first);
-    out.push_back(' ');
-    for (auto c = (*it)[0].first; c != (*it)[0].second; ++c)
-      if (*c == '\n') out.push_back('\n');
+    append_removed(out, (*it)[0].first, (*it)[0].second);
     last = (*it)[0].second;
   }
   out.append(last, text.cend());
@@ -257,9 +264,7 @@ std::string without_servo_attributes(const std::string& text) {
     auto tag_last = tag.cbegin();
     for (std::sregex_iterator a(tag.begin(), tag.end(), kServoAttribute); a != end; ++a) {
       out.append(tag_last, (*a)[0].first);
-      out.push_back(' ');
-      for (auto c = (*a)[0].first; c != (*a)[0].second; ++c)
-        if (*c == '\n') out.push_back('\n');
+      append_removed(out, (*a)[0].first, (*a)[0].second);
       tag_last = (*a)[0].second;
     }
     out.append(tag_last, tag.cend());
